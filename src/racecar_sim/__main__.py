@@ -1,0 +1,5 @@
+"""`python -m racecar_sim` is the `racecar-sim` command."""
+
+from racecar_sim.cli.main import main
+
+raise SystemExit(main())

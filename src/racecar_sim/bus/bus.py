@@ -1,0 +1,99 @@
+"""A synchronous, deterministic publish/subscribe bus with ROS topic names.
+
+publish() delivers to every subscriber of the topic, in subscription order, before it returns; a
+callback that publishes in turn is served depth-first. There are no threads and no queues, so a run
+is a pure function of its inputs.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+Callback = Callable[[Any], None]
+Tap = Callable[[str, Any], None]
+
+
+@dataclass
+class Subscription:
+    """Handle of one subscription; call unsubscribe() to stop receiving."""
+
+    bus: Bus
+    topic: str
+    callback: Callback
+
+    def unsubscribe(self) -> None:
+        self.bus._unsubscribe(self)
+
+
+@dataclass
+class _Topic:
+    msgtype: type | None = None
+    subscribers: list[Subscription] = field(default_factory=list)
+    latched: bool = False
+    last: Any = None
+    count: int = 0
+
+
+class Bus:
+    """Topics by name; latched topics (like /tf_static) hand their last message to late subscribers."""
+
+    def __init__(self) -> None:
+        self._topics: dict[str, _Topic] = {}
+        self._taps: list[Tap] = []
+
+    def _topic(self, name: str) -> _Topic:
+        if not name.startswith("/"):
+            raise ValueError(f"topic '{name}' must be absolute (start with '/')")
+        return self._topics.setdefault(name, _Topic())
+
+    def latch(self, topic: str) -> None:
+        """Mark a topic latched (ROS 1 latch / ROS 2 transient-local)."""
+        self._topic(topic).latched = True
+
+    def publish(self, topic: str, msg: Any) -> None:
+        """Deliver `msg` to the topic's subscribers and taps now."""
+        t = self._topic(topic)
+        if t.msgtype is None:
+            t.msgtype = type(msg)
+        elif type(msg) is not t.msgtype:
+            raise TypeError(f"topic {topic} carries {t.msgtype.__name__}, got {type(msg).__name__}")
+        t.count += 1
+        if t.latched:
+            t.last = msg
+        for tap in self._taps:
+            tap(topic, msg)
+        for sub in list(t.subscribers):
+            sub.callback(msg)
+
+    def subscribe(self, topic: str, callback: Callback) -> Subscription:
+        """Call `callback(msg)` for every message on `topic`; a latched topic's last message is delivered at once."""
+        t = self._topic(topic)
+        sub = Subscription(self, topic, callback)
+        t.subscribers.append(sub)
+        if t.latched and t.last is not None:
+            callback(t.last)
+        return sub
+
+    def tap(self, callback: Tap) -> Callable[[], None]:
+        """Call `callback(topic, msg)` for every message on every topic (recorders, bridges); returns a remover."""
+        self._taps.append(callback)
+        return lambda: self._taps.remove(callback)
+
+    def _unsubscribe(self, sub: Subscription) -> None:
+        subs = self._topics[sub.topic].subscribers
+        if sub in subs:
+            subs.remove(sub)
+
+    def topics(self) -> dict[str, type | None]:
+        """Every topic seen so far and its message class."""
+        return {name: t.msgtype for name, t in sorted(self._topics.items())}
+
+    def count(self, topic: str) -> int:
+        """How many messages have been published on `topic`."""
+        return self._topics[topic].count if topic in self._topics else 0
+
+    def latched_messages(self) -> dict[str, object]:
+        """The last message of every latched topic that has one (what a late recorder must write first)."""
+        return {name: t.last for name, t in sorted(self._topics.items()) if t.latched and t.last is not None}

@@ -1,0 +1,1 @@
+"""The `racecar-sim` command line: run, describe, bench."""

@@ -1,0 +1,46 @@
+"""argparse types that reject bad values with a one-line message (argparse exits 2)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from racecar_sim.worlds import Spawn
+
+
+def finite_float(text: str) -> float:
+    """A float that is not NaN or infinite."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"'{text}' is not a finite number")
+    return value
+
+
+def positive_float(text: str) -> float:
+    """A finite float > 0."""
+    value = finite_float(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"'{text}' must be positive")
+    return value
+
+
+def spawn_pose(text: str) -> Spawn:
+    """'x,y,yaw' (or 'x,y,z,yaw')."""
+    parts = text.split(",")
+    if len(parts) not in (3, 4):
+        raise argparse.ArgumentTypeError(f"'{text}' is not x,y,yaw")
+    values = [finite_float(p) for p in parts]
+    if len(values) == 3:
+        return Spawn(values[0], values[1], Spawn().z, values[2])
+    return Spawn(*values)
+
+
+def xacro_arg(text: str) -> tuple[str, str]:
+    """'name:=value', as on the xacro command line."""
+    if ":=" not in text:
+        raise argparse.ArgumentTypeError(f"'{text}' is not name:=value")
+    name, value = text.split(":=", 1)
+    return name, value

@@ -1,0 +1,71 @@
+"""`racecar-sim bench`: real-time factor of the full pipeline, against bare MuJoCo stepping of the same model.
+
+Figures are ratios from one run on this machine: sim seconds per wall second (real-time factor) and the
+share of wall time that MuJoCo itself takes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import mujoco
+
+from racecar_sim.cli.args import positive_float
+from racecar_sim.drivers import ConstantCommand
+from racecar_sim.physics import preset_names
+from racecar_sim.runtime import Simulator
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("bench", help="measure the real-time factor of the full pipeline (sensors off)")
+    p.add_argument("--world", default="empty")
+    p.add_argument("--physics", default="default", choices=preset_names())
+    p.add_argument("--duration", type=positive_float, default=30.0, help="sim seconds per measurement (default 30)")
+    p.add_argument("--repeat", type=int, default=3, help="measurements; the best is reported (default 3)")
+
+
+def pipeline_rtf(world: str, physics: str, duration: float) -> tuple[float, float]:
+    """(real-time factor, physics share) of the full pipeline driving a 1 m/s, 0.2 rad circle."""
+    sim = Simulator(world=world, physics=physics)
+    ConstantCommand(sim.bus, sim.scheduler, 1.0, 0.2)
+    physics_wall = 0.0
+    step = mujoco.mj_step
+
+    def timed_step(m: mujoco.MjModel, d: mujoco.MjData, nstep: int = 1) -> None:
+        nonlocal physics_wall
+        t = time.perf_counter()
+        step(m, d, nstep=nstep)
+        physics_wall += time.perf_counter() - t
+
+    start = time.perf_counter()
+    mujoco.mj_step = timed_step  # measure, without changing, what the simulator spends inside MuJoCo
+    try:
+        sim.run_until(duration)
+    finally:
+        mujoco.mj_step = step
+    wall = time.perf_counter() - start
+    return duration / wall, physics_wall / wall
+
+
+def bare_rtf(world: str, physics: str, duration: float) -> float:
+    """Real-time factor of mj_step alone on the same model (wheels commanded, no Python per step)."""
+    sim = Simulator(world=world, physics=physics)
+    for c in sim.controllers.controllers:
+        sim.state.set_command(c.name, 20.0 if "wheel" in c.joint else 0.1)
+    steps = int(duration / sim.model.opt.timestep)
+    start = time.perf_counter()
+    mujoco.mj_step(sim.model, sim.data, nstep=steps)
+    return duration / (time.perf_counter() - start)
+
+
+def main(args: argparse.Namespace) -> int:
+    results = [pipeline_rtf(args.world, args.physics, args.duration) for _ in range(args.repeat)]
+    rtf, share = max(results)
+    bare = max(bare_rtf(args.world, args.physics, args.duration) for _ in range(args.repeat))
+    print(f"world {args.world}, physics preset {args.physics}, {args.duration:g} sim s x {args.repeat}, lidar and camera off")
+    print(f"full pipeline      real-time factor {rtf:7.1f}x  (MuJoCo {share * 100:.0f}% of wall time, "
+          f"Python nodes and bus {100 - share * 100:.0f}%)")
+    print(f"bare mj_step       real-time factor {bare:7.1f}x")
+    print(f"pipeline / bare    {rtf / bare:.2f}")
+    return 0

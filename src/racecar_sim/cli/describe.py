@@ -1,0 +1,50 @@
+"""`racecar-sim describe`: the expanded URDF, or a table of links, joints and key dimensions."""
+
+from __future__ import annotations
+
+import argparse
+
+from racecar_sim.cli.args import xacro_arg
+from racecar_sim.control.profiles import load_profile, profile_names
+from racecar_sim.description import DEFAULT_XACRO, VehicleGeometry, load_robot
+from racecar_sim.description.urdf import Robot
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("describe", help="print the robot description (a table, or --urdf for the expanded URDF)")
+    p.add_argument("--urdf", action="store_true", help="print the expanded URDF instead of the table")
+    p.add_argument("--profile", default="seed", choices=profile_names(), help="driving profile (sets xacro arguments)")
+    p.add_argument("--xacro", default=str(DEFAULT_XACRO), help="xacro or URDF file (default: the shipped racecar.xacro)")
+    p.add_argument("--arg", dest="xacro_args", type=xacro_arg, action="append", default=[], metavar="NAME:=VALUE",
+                   help="xacro argument, repeatable")
+
+
+def table(robot: Robot) -> str:
+    """A plain-text table of the robot: links, joints, limits and derived dimensions."""
+    lines = [f"robot {robot.name}: {len(robot.links)} links, {len(robot.joints)} joints, "
+             f"{len(robot.transmissions)} transmissions", "", "LINK                     MASS (kg)  COLLISION"]
+    for link in robot.links.values():
+        mass = f"{link.inertial.mass:.5g}" if link.inertial else "-"
+        shapes = ", ".join(f"{c.geometry.kind} {' '.join(f'{v:g}' for v in c.geometry.size if v)}" for c in link.collisions)
+        lines.append(f"{link.name:<24} {mass:>9}  {shapes or '-'}")
+    lines += ["", "JOINT                        TYPE        PARENT -> CHILD                          LIMITS"]
+    for j in robot.joints.values():
+        limits = "-"
+        if j.limit:
+            bounds = f"[{j.limit.lower:g}, {j.limit.upper:g}] rad, " if j.type == "revolute" else ""
+            limits = f"{bounds}effort {j.limit.effort:g} N m, velocity {j.limit.velocity:g} rad/s"
+        lines.append(f"{j.name:<28} {j.type:<11} {j.parent + ' -> ' + j.child:<40} {limits}")
+    g = VehicleGeometry.from_robot(robot)
+    lines += ["", f"wheelbase {g.wheelbase:.4f} m   kingpin track {g.kingpin_track:.4f} m   "
+                  f"tyre track {g.tyre_track:.4f} m", f"wheel radius {g.wheel_radius:g} m   width {g.wheel_width:g} m   "
+                  f"total mass {g.total_mass:.5f} kg"]
+    for s in robot.sensors:
+        lines.append(f"sensor {s.name} ({s.type}) on {s.link}, {s.update_rate:g} Hz")
+    return "\n".join(lines)
+
+
+def main(args: argparse.Namespace) -> int:
+    xacro_args = {**load_profile(args.profile).xacro_args, **dict(args.xacro_args)}
+    robot = load_robot(args.xacro, xacro_args)
+    print(robot.urdf if args.urdf else table(robot))
+    return 0

@@ -1,0 +1,40 @@
+"""The controller manager's command side: /racecar/<controller>/command (Float64) -> actuator setpoints."""
+
+from __future__ import annotations
+
+import logging
+import math
+from functools import partial
+
+from racecar_sim.bus import Bus
+from racecar_sim.control.controllers import VELOCITY, ControllerConfig, JointController
+from racecar_sim.description.urdf import Robot
+from racecar_sim.msgs import Float64
+from racecar_sim.physics.state import CarState
+
+log = logging.getLogger("racecar_sim.controller_manager")
+
+
+class ControllerCommands:
+    """Holds each controller's last command, as ros_control does, and writes it to the actuator."""
+
+    def __init__(self, bus: Bus, state: CarState, config: ControllerConfig, robot: Robot) -> None:
+        self.state = state
+        self.limits: dict[str, tuple[float, float]] = {}
+        for c in config.controllers:
+            limit = robot.joints[c.joint].limit
+            if c.type == VELOCITY and limit and limit.velocity > 0:
+                # Gazebo zeroes effort that would push a joint past its velocity limit; asking for no more
+                # than the limit has the same effect on a P controller.
+                self.limits[c.name] = (-limit.velocity, limit.velocity)
+            elif c.type != VELOCITY and robot.joints[c.joint].type == "revolute":
+                self.limits[c.name] = (limit.lower, limit.upper)  # JointPositionController enforces joint limits
+            bus.subscribe(c.command_topic, partial(self._on_command, c))
+
+    def _on_command(self, controller: JointController, msg: Float64) -> None:
+        value = msg.data
+        if not math.isfinite(value):
+            log.warning("%s: ignored command %s (not a finite number)", controller.command_topic, value)
+            return
+        lo, hi = self.limits.get(controller.name, (-math.inf, math.inf))
+        self.state.set_command(controller.name, min(max(value, lo), hi))

@@ -1,0 +1,134 @@
+"""ros_control joint controllers from racecar_control.yaml, realised as MuJoCo actuators.
+
+The 1 kHz controller loop of gazebo_ros_control runs inside MuJoCo, not in Python:
+  JointVelocityController   effort = p (w_cmd - w)           -> pid actuator, velocity setpoint input, kv = p
+  JointPositionController   effort = p e - d w  (+ i int e)  -> pid actuator, position input, kp = p, kv = d, ki = i
+and the URDF effort limit clamps the total on the joint (actfrcrange), as EffortJointSaturationHandle does.
+An I-term on a velocity controller integrates (w_cmd - w), i.e. (integral of w_cmd) - q: a second actuator
+with an integrator state on the command gives exactly i * (act - q), clamped to +-i_clamp.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import yaml
+
+from racecar_sim.core.errors import ConfigError
+from racecar_sim.description.urdf import Robot
+
+VELOCITY = "effort_controllers/JointVelocityController"
+POSITION = "effort_controllers/JointPositionController"
+JOINT_STATE = "joint_state_controller/JointStateController"
+_EFFORT_INTERFACES = {"EffortJointInterface", "hardware_interface/EffortJointInterface"}
+
+
+@dataclass(frozen=True)
+class Gains:
+    """PID gains of one controller (ros_control's `pid` block)."""
+
+    p: float
+    i: float = 0.0
+    d: float = 0.0
+    i_clamp: float = 0.0
+
+
+@dataclass(frozen=True)
+class JointController:
+    """One effort controller: its name (= its command topic's namespace), type, joint and gains."""
+
+    name: str
+    type: str
+    joint: str
+    gains: Gains
+
+    @property
+    def command_topic(self) -> str:
+        return f"{self.namespace}/{self.name}/command"
+
+    namespace: str = "/racecar"
+
+
+@dataclass(frozen=True)
+class ControllerConfig:
+    """Everything racecar_control.yaml says: the joint controllers and the joint-state publish rate."""
+
+    namespace: str
+    controllers: tuple[JointController, ...]
+    joint_state_rate: float
+
+    def controller(self, joint: str) -> JointController:
+        return next(c for c in self.controllers if c.joint == joint)
+
+
+def load_controller_config(path: str | Path, robot: Robot) -> ControllerConfig:
+    """Parse and check a ros_control YAML against the robot's joints and transmissions."""
+    path = Path(path)
+    try:
+        data = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError) as exc:
+        raise ConfigError(f"{path}: cannot read controller config: {' '.join(str(exc).split())}") from None
+    if not isinstance(data, dict) or len(data) != 1:
+        raise ConfigError(f"{path}: expected one top-level namespace (e.g. 'racecar:')")
+    namespace, entries = next(iter(data.items()))
+    effort_joints = {t.joint for t in robot.transmissions if t.hardware_interface in _EFFORT_INTERFACES}
+    controllers, rate = [], 0.0
+    for name, entry in entries.items():
+        where = f"{path}: {namespace}/{name}"
+        kind = entry.get("type")
+        if kind == JOINT_STATE:
+            rate = float(entry.get("publish_rate", 50))
+            continue
+        if kind not in (VELOCITY, POSITION):
+            raise ConfigError(f"{where}: controller type '{kind}' is not supported")
+        joint = entry.get("joint")
+        if joint not in robot.joints:
+            raise ConfigError(f"{where}: joint '{joint}' is not in the robot description")
+        if joint not in effort_joints:
+            raise ConfigError(f"{where}: joint '{joint}' has no EffortJointInterface transmission")
+        pid = entry.get("pid") or {}
+        try:
+            gains = Gains(*(float(pid.get(k, 0.0)) for k in ("p", "i", "d", "i_clamp")))
+        except (TypeError, ValueError):
+            raise ConfigError(f"{where}: pid gains must be numbers, got {pid}") from None
+        if kind == VELOCITY and gains.d != 0.0:
+            raise ConfigError(f"{where}: a d gain on a JointVelocityController (acceleration feedback) is not supported")
+        controllers.append(JointController(name, kind, joint, gains, f"/{namespace}"))
+    return ControllerConfig(f"/{namespace}", tuple(controllers), rate)
+
+
+def add_actuators(spec: mujoco.MjSpec, config: ControllerConfig, robot: Robot) -> None:
+    """Add one actuator per controller (two for a velocity controller with an I-term) to the spec."""
+    for c in config.controllers:
+        limit = robot.joints[c.joint].limit
+        effort = limit.effort if limit and limit.effort > 0 else 0.0
+        act = spec.add_actuator(name=c.name, target=c.joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        if c.type == VELOCITY:
+            act.set_to_pid(kp=0.0, kv=c.gains.p, ctrlspec=_input_mask("vel"))
+            if c.gains.i:
+                _add_velocity_integral(spec, c)
+        else:
+            act.set_to_pid(kp=c.gains.p, kv=c.gains.d, ki=c.gains.i, ctrlspec=_input_mask("pos"),
+                           imax=c.gains.i_clamp / c.gains.i if c.gains.i and c.gains.i_clamp else 0.0)
+        if effort:
+            act.forcerange = [-effort, effort]
+            act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+
+
+def _input_mask(*inputs: str) -> int:
+    bits = {"pos": 1, "vel": 2, "ff": 4}
+    return sum(bits[i] for i in inputs)
+
+
+def _add_velocity_integral(spec: mujoco.MjSpec, c: JointController) -> None:
+    act = spec.add_actuator(name=f"{c.name}/i_term", target=c.joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    act.dyntype = mujoco.mjtDyn.mjDYN_INTEGRATOR  # act = integral of w_cmd
+    act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+    act.gainprm[0] = c.gains.i
+    act.biastype = mujoco.mjtBias.mjBIAS_AFFINE
+    act.biasprm[1] = -c.gains.i  # force = i (act - q)
+    if c.gains.i_clamp:  # ros_control (kinetic) clamps the I-term, not the integral
+        act.forcerange = [-c.gains.i_clamp, c.gains.i_clamp]
+        act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE

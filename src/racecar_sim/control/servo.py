@@ -1,0 +1,119 @@
+"""servo_commands: turn the mux output (AckermannDriveStamped) into the six joint controller commands.
+
+Profiles (profiles.yaml):
+  ackermann  the seed: hinge angles from formula (2) and one speed per wheel so that no wheel slips,
+             `speed` being the ground speed of base_link (the rear-axle centre).
+  parallel   the original servo_commands.py: every wheel gets speed * wheel_rate_per_speed rad/s and both
+             hinges get the same angle.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from racecar_sim.bus import Bus
+from racecar_sim.control.controllers import ControllerConfig
+from racecar_sim.description.urdf import Robot
+from racecar_sim.description.vehicle import VehicleGeometry
+from racecar_sim.msgs import AckermannDriveStamped, Float64
+
+log = logging.getLogger("racecar_sim.servo_commands")
+
+
+@dataclass(frozen=True)
+class WheelCommand:
+    """Where one wheel's command goes, and what the ackermann law needs to know about the wheel."""
+
+    topic: str
+    centre: np.ndarray  # tyre centre in base_link (x, y), zero steer
+    hinge_topic: str | None
+    hinge: np.ndarray | None  # steering axis (x, y)
+    hinge_limits: tuple[float, float] | None
+
+
+class ServoCommands:
+    """The servo_commands node for one profile."""
+
+    def __init__(self, bus: Bus, robot: Robot, controllers: ControllerConfig, mode: str, input_topic: str,
+                 wheel_rate_per_speed: float | None = None) -> None:
+        if mode not in ("ackermann", "parallel"):
+            raise ValueError(f"servo mode '{mode}' is not ackermann or parallel")
+        self.bus, self.mode = bus, mode
+        self.geometry = VehicleGeometry.from_robot(robot)
+        self.rate_per_speed = wheel_rate_per_speed or 1.0 / self.geometry.wheel_radius
+        self.wheels = []
+        for w in self.geometry.wheels:
+            hinge_topic = hinge_limits = None
+            if w.hinge_joint:
+                hinge_topic = controllers.controller(w.hinge_joint).command_topic
+                joint = robot.joints[w.hinge_joint]
+                if joint.type == "revolute":
+                    hinge_limits = (joint.limit.lower, joint.limit.upper)
+            self.wheels.append(WheelCommand(controllers.controller(w.joint).command_topic, np.array(w.centre[:2]),
+                                            hinge_topic, np.array(w.hinge_axis_point) if w.hinge_axis_point else None,
+                                            hinge_limits))
+        self.max_curvature = self._max_curvature()
+        self._warned = False
+        bus.subscribe(input_topic, self._on_drive)
+
+    def _max_curvature(self) -> float:
+        """The tightest turn whose inner hinge angle stays within its joint limit (formula (2) solved for 1/R)."""
+        limit = math.inf
+        for w in self.wheels:
+            if w.hinge is not None and w.hinge_limits is not None:
+                for bound in w.hinge_limits:
+                    t = abs(math.tan(bound))
+                    limit = min(limit, t / (w.hinge[0] + abs(w.hinge[1]) * t))
+        return limit
+
+    def _on_drive(self, msg: AckermannDriveStamped) -> None:
+        speed, steer = msg.drive.speed, msg.drive.steering_angle
+        for name, value in (("drive.speed", speed), ("drive.steering_angle", steer)):
+            if not math.isfinite(value):
+                log.warning("servo_commands: ignored a command with %s = %s (not a finite number)", name, value)
+                return
+        commands = self.parallel(speed, steer) if self.mode == "parallel" else self.ackermann(speed, steer)
+        for topic, value in commands:
+            self.bus.publish(topic, Float64(float(value)))
+
+    def parallel(self, speed: float, steer: float) -> list[tuple[str, float]]:
+        """The original: one wheel rate for all, one angle for both hinges."""
+        out = [(w.topic, speed * self.rate_per_speed) for w in self.wheels]
+        out += [(w.hinge_topic, steer) for w in self.wheels if w.hinge_topic]
+        return out
+
+    def ackermann(self, speed: float, steer: float) -> list[tuple[str, float]]:
+        """Formula (2) for each hinge; each wheel turns at the rate its contact point moves over the ground."""
+        kappa = math.tan(steer) / self.geometry.wheelbase  # path curvature of base_link, 1/R
+        if abs(kappa) > self.max_curvature:
+            if not self._warned:
+                self._warned = True
+                log.warning("servo_commands: steering_angle %.3f rad needs a hinge past its limit; "
+                            "turning as tight as the limits allow", steer)
+            kappa = math.copysign(self.max_curvature, kappa)
+        yaw_rate = speed * kappa
+        out = []
+        for w in self.wheels:
+            heading = 0.0
+            centre = w.centre
+            if w.hinge is not None:
+                # atan(L / (R - y_hinge)), written with curvature so that straight ahead needs no special case
+                heading = math.atan2(w.hinge[0] * kappa, 1.0 - kappa * w.hinge[1])
+                if heading > math.pi / 2:
+                    heading -= math.pi
+                elif heading < -math.pi / 2:
+                    heading += math.pi
+                if w.hinge_limits:
+                    heading = min(max(heading, w.hinge_limits[0]), w.hinge_limits[1])
+                c, s = math.cos(heading), math.sin(heading)
+                offset = w.centre - w.hinge
+                centre = w.hinge + np.array([c * offset[0] - s * offset[1], s * offset[0] + c * offset[1]])
+                out.append((w.hinge_topic, heading))
+            # velocity of the tyre's ground point, projected on the wheel's heading
+            vx, vy = speed - yaw_rate * centre[1], yaw_rate * centre[0]
+            out.append((w.topic, (vx * math.cos(heading) + vy * math.sin(heading)) / self.geometry.wheel_radius))
+        return out

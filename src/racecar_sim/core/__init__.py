@@ -1,0 +1,1 @@
+"""Core helpers shared by every layer: sim time, seeded randomness, errors."""

@@ -1,0 +1,23 @@
+"""Errors with a one-line message naming the file or field at fault."""
+
+from __future__ import annotations
+
+
+class RacecarSimError(Exception):
+    """Base class of every error the simulator raises on bad input."""
+
+
+class DescriptionError(RacecarSimError):
+    """A robot description (xacro, URDF, gazebo tag) is malformed."""
+
+
+class ConfigError(RacecarSimError):
+    """A configuration file (controllers, mux, profile, physics preset) is malformed."""
+
+
+class WorldError(RacecarSimError):
+    """A world file is malformed or names something that does not exist."""
+
+
+class CommandError(RacecarSimError):
+    """A command message carries a NaN, an infinity or an out-of-range value."""

@@ -1,0 +1,69 @@
+"""The car's key dimensions, derived from the description (nothing here is typed in by hand)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from racecar_sim.core.errors import DescriptionError
+from racecar_sim.core.transforms import quat_rotate
+from racecar_sim.description.kinematics import link_pose
+from racecar_sim.description.urdf import Robot
+
+
+@dataclass(frozen=True)
+class WheelGeometry:
+    """One wheel: its joint, where its tyre centre sits (base_link frame, zero steer) and its steering hinge."""
+
+    link: str
+    joint: str
+    centre: tuple[float, float, float]
+    hinge_joint: str | None  # None for a rear (unsteered) wheel
+    hinge_axis_point: tuple[float, float] | None  # (x, y) where the steering axis meets the ground plane
+
+
+@dataclass(frozen=True)
+class VehicleGeometry:
+    """Wheelbase, tracks, wheel size and mass of an Ackermann car, read off its URDF."""
+
+    wheelbase: float  # rear axle -> steering axes, m
+    kingpin_track: float  # distance between the two steering axes, m
+    tyre_track: float  # distance between the rear tyre centre planes, m
+    wheel_radius: float
+    wheel_width: float
+    total_mass: float
+    wheels: tuple[WheelGeometry, ...]
+
+    @classmethod
+    def from_robot(cls, robot: Robot) -> VehicleGeometry:
+        wheels = []
+        radius = width = None
+        for joint in robot.joints.values():
+            link = robot.links[joint.child]
+            cylinders = [c for c in link.collisions if c.geometry.kind == "cylinder"]
+            if joint.type != "continuous" or not cylinders:
+                continue
+            shape = cylinders[0]
+            radius, width = shape.geometry.size[0], shape.geometry.size[1]
+            pos, quat = link_pose(robot, link.name)
+            centre = pos + quat_rotate(quat, shape.origin.xyz)
+            parent_joint = robot.joint_to(joint.parent)
+            steered = parent_joint is not None and parent_joint.type in ("revolute", "continuous")
+            hinge_point = tuple(float(c) for c in link_pose(robot, parent_joint.child)[0][:2]) if steered else None
+            wheels.append(WheelGeometry(link.name, joint.name, tuple(float(c) for c in centre), parent_joint.name if steered else None,
+                                        hinge_point))
+        front = [w for w in wheels if w.hinge_joint]
+        rear = [w for w in wheels if not w.hinge_joint]
+        if len(front) != 2 or len(rear) != 2 or radius is None:
+            raise DescriptionError(f"robot '{robot.name}': expected 2 steered and 2 rear wheels with cylinder collisions, "
+                                   f"found {len(front)} and {len(rear)}")
+        rear_x = np.mean([w.centre[0] for w in rear])
+        hinge_x = np.mean([w.hinge_axis_point[0] for w in front])
+        kingpin = abs(front[0].hinge_axis_point[1] - front[1].hinge_axis_point[1])
+        mass = sum(link.inertial.mass for link in robot.links.values() if link.inertial)
+        return cls(float(hinge_x - rear_x), float(kingpin), float(abs(rear[0].centre[1] - rear[1].centre[1])),
+                   float(radius), float(width), float(mass), tuple(wheels))
+
+    def wheel(self, link: str) -> WheelGeometry:
+        return next(w for w in self.wheels if w.link == link)

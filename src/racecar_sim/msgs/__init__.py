@@ -1,0 +1,63 @@
+"""ROS 2-shaped message classes, their ``.msg`` definitions and CDR serialization.
+
+Field names follow ROS 2 exactly (``msg.header.stamp.sec``, ``scan.ranges``,
+``cmd.drive.steering_angle``), numeric arrays are numpy arrays, and
+``serialize``/``deserialize`` produce and read the bytes rosbag2 stores.
+"""
+
+from racecar_sim.msgs.ackermann_msgs import AckermannDrive, AckermannDriveStamped
+from racecar_sim.msgs.builtin_interfaces import Duration, Time
+from racecar_sim.msgs.cdr import deserialize, serialize
+from racecar_sim.msgs.geometry_msgs import (
+    Point,
+    Pose,
+    PoseStamped,
+    PoseWithCovariance,
+    Quaternion,
+    Transform,
+    TransformStamped,
+    Twist,
+    TwistWithCovariance,
+    Vector3,
+)
+from racecar_sim.msgs.idl import schema_text
+from racecar_sim.msgs.nav_msgs import Odometry
+from racecar_sim.msgs.registry import message_class, msgtype_of
+from racecar_sim.msgs.rosgraph_msgs import Clock
+from racecar_sim.msgs.sensor_msgs import CameraInfo, Image, JointState, LaserScan, RegionOfInterest
+from racecar_sim.msgs.std_msgs import Float64, Header, Int8, String
+from racecar_sim.msgs.tf2_msgs import TFMessage
+
+__all__ = [
+    "AckermannDrive",
+    "AckermannDriveStamped",
+    "CameraInfo",
+    "Clock",
+    "Duration",
+    "Float64",
+    "Header",
+    "Image",
+    "Int8",
+    "JointState",
+    "LaserScan",
+    "Odometry",
+    "Point",
+    "Pose",
+    "PoseStamped",
+    "PoseWithCovariance",
+    "Quaternion",
+    "RegionOfInterest",
+    "String",
+    "TFMessage",
+    "Time",
+    "Transform",
+    "TransformStamped",
+    "Twist",
+    "TwistWithCovariance",
+    "Vector3",
+    "deserialize",
+    "message_class",
+    "msgtype_of",
+    "schema_text",
+    "serialize",
+]

@@ -1,0 +1,370 @@
+"""ROS 2 CDR (little-endian XCDR1, as rosbag2 and rosbags write it) for the message classes.
+
+The encoder of each type is compiled once from its parsed ``.msg`` definition into a
+flat tuple of small closures ("ops"). Nested message fields are flattened into dotted
+attribute paths, consecutive scalar fields become one precompiled ``struct`` per
+alignment state, and numeric arrays go out through numpy without per-element Python work.
+Alignment is counted from the end of the 4-byte encapsulation header.
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Callable, Iterator
+from functools import cache
+from operator import attrgetter
+from typing import Any
+
+import numpy as np
+
+from racecar_sim.msgs.idl import FieldSpec, get_spec, normalize_msgtype
+from racecar_sim.msgs.registry import message_class, msgtype_of
+
+CDR_LE_HEADER = b"\x00\x01\x00\x00"
+
+# ROS 2 maps byte and char to an 8-bit unsigned integer.
+_SCALARS: dict[str, tuple[str, int]] = {
+    "bool": ("?", 1), "byte": ("B", 1), "char": ("B", 1),
+    "int8": ("b", 1), "uint8": ("B", 1), "int16": ("h", 2), "uint16": ("H", 2),
+    "int32": ("i", 4), "uint32": ("I", 4), "int64": ("q", 8), "uint64": ("Q", 8),
+    "float32": ("f", 4), "float64": ("d", 8),
+}  # fmt: skip
+_DTYPES: dict[str, np.dtype[Any]] = {
+    name: np.dtype(np.bool_ if code == "?" else f"<{code}") for name, (code, _) in _SCALARS.items()
+}
+_BYTE_TYPES = frozenset({"uint8", "byte", "char"})
+_U32 = struct.Struct("<I")
+_PAD = tuple(b"\0" * n for n in range(8))
+
+Encoder = Callable[[Any, list[Any], int], int]
+"""``encode(msg, out, pos) -> pos``: append byte chunks to ``out``; ``pos`` is the body offset."""
+
+
+def serialize(msg: object) -> bytes:
+    """Serialize a message instance to CDR bytes, encapsulation header included.
+
+    Raises:
+        TypeError: A field has the wrong type (the message names type and field).
+        ValueError: A value is out of range or a fixed-size array has the wrong length.
+    """
+    try:
+        encode = _ENCODERS[type(msg)]
+    except KeyError:
+        encode = _ENCODERS.setdefault(type(msg), _encoder(msgtype_of(msg)))
+    out: list[Any] = [CDR_LE_HEADER]
+    encode(msg, out, 0)
+    return b"".join(out)
+
+
+_ENCODERS: dict[type, Encoder] = {}
+
+
+def _error(kind: type[Exception], msgtype: str, path: str, detail: str) -> Exception:
+    return kind(f"{msgtype}: field '{path}': {detail}")
+
+
+def _leaves(msgtype: str, prefix: str = "") -> Iterator[tuple[str, FieldSpec]]:
+    """Fields in wire order with nested (non-array) messages flattened to dotted paths."""
+    for spec in get_spec(msgtype).fields:
+        path = prefix + spec.name
+        if spec.is_primitive or spec.is_array:
+            yield path, spec
+        else:
+            yield from _leaves(spec.type, path + ".")
+
+
+@cache
+def _encoder(msgtype: str) -> Encoder:
+    msgtype = normalize_msgtype(msgtype)
+    ops: list[Encoder] = []
+    run: list[tuple[str, str]] = []
+    for path, spec in _leaves(msgtype):
+        if not spec.is_array and spec.type in _SCALARS:
+            run.append((path, spec.type))
+            continue
+        if run:
+            ops.append(_scalar_run_op(msgtype, run))
+            run = []
+        ops.append(_field_op(msgtype, path, spec))
+    if run:
+        ops.append(_scalar_run_op(msgtype, run))
+    op_tuple = tuple(ops)
+
+    def encode(msg: Any, out: list[Any], pos: int) -> int:
+        for op in op_tuple:
+            pos = op(msg, out, pos)
+        return pos
+
+    return encode
+
+
+def _field_op(msgtype: str, path: str, spec: FieldSpec) -> Encoder:
+    if not spec.is_array:
+        return _string_op(msgtype, path)
+    if spec.type in _BYTE_TYPES:
+        return _bytes_op(msgtype, path, spec.size)
+    if spec.type in _SCALARS:
+        return _numeric_array_op(msgtype, path, spec.type, spec.size)
+    if spec.type == "string":
+        return _string_array_op(msgtype, path, spec.size)
+    return _message_array_op(msgtype, path, spec.type, spec.size)
+
+
+def _run_struct(types: list[str], start: int) -> struct.Struct:
+    fmt, pos = "<", start
+    for name in types:
+        code, size = _SCALARS[name]
+        pad = -pos % size
+        fmt += "x" * pad + code
+        pos += pad + size
+    return struct.Struct(fmt)
+
+
+def _scalar_run_op(msgtype: str, run: list[tuple[str, str]]) -> Encoder:
+    paths = [p for p, _ in run]
+    types = [t for _, t in run]
+    getter = attrgetter(*paths)
+    # The padding inside the run depends only on the start offset modulo 8.
+    structs = tuple(_run_struct(types, start) for start in range(8))
+    single = len(run) == 1
+
+    def op(msg: Any, out: list[Any], pos: int) -> int:
+        packer = structs[pos & 7]
+        try:
+            out.append(packer.pack(getter(msg)) if single else packer.pack(*getter(msg)))
+        except (struct.error, TypeError, AttributeError, OverflowError):
+            raise _diagnose_scalars(msgtype, msg, run) from None
+        return pos + packer.size
+
+    return op
+
+
+def _diagnose_scalars(msgtype: str, msg: Any, run: list[tuple[str, str]]) -> Exception:
+    for path, type_name in run:
+        try:
+            value = attrgetter(path)(msg)
+        except AttributeError:
+            return _error(TypeError, msgtype, path, f"missing on {type(msg).__name__}")
+        try:
+            struct.pack("<" + _SCALARS[type_name][0], value)
+        except (struct.error, TypeError, OverflowError) as exc:
+            kind = ValueError if isinstance(value, (int, float, np.number)) else TypeError
+            return _error(kind, msgtype, path, f"cannot encode {value!r} as {type_name} ({exc})")
+    return _error(TypeError, msgtype, ", ".join(p for p, _ in run), "cannot encode")
+
+
+def _get(msgtype: str, path: str) -> Callable[[Any], Any]:
+    getter = attrgetter(path)
+
+    def get(msg: Any) -> Any:
+        try:
+            return getter(msg)
+        except AttributeError:
+            raise _error(TypeError, msgtype, path, f"missing on {type(msg).__name__}") from None
+
+    return get
+
+
+def _encode_str(msgtype: str, path: str, value: Any, out: list[Any], pos: int) -> int:
+    if not isinstance(value, str):
+        raise _error(TypeError, msgtype, path, f"expected str, got {type(value).__name__}")
+    data = value.encode()
+    pad = -pos & 3
+    out.append(_PAD[pad] + _U32.pack(len(data) + 1) + data + b"\0")
+    return pos + pad + 5 + len(data)
+
+
+def _string_op(msgtype: str, path: str) -> Encoder:
+    get = _get(msgtype, path)
+
+    def op(msg: Any, out: list[Any], pos: int) -> int:
+        return _encode_str(msgtype, path, get(msg), out, pos)
+
+    return op
+
+
+def _length_prefix(pos: int, count: int, size: int | None) -> tuple[bytes, int]:
+    """Alignment and uint32 count of a sequence (nothing for a fixed-size array)."""
+    if size is not None:
+        return b"", pos
+    pad = -pos & 3
+    return _PAD[pad] + _U32.pack(count), pos + pad + 4
+
+
+def _check_size(msgtype: str, path: str, count: int, size: int | None) -> None:
+    if size is not None and count != size:
+        raise _error(ValueError, msgtype, path, f"expected {size} elements, got {count}")
+
+
+def _as_bytes(msgtype: str, path: str, value: Any) -> Any:
+    """A contiguous byte buffer for a ``uint8[]`` field, without copying when possible."""
+    if isinstance(value, (bytes, bytearray)):
+        return value
+    if isinstance(value, np.ndarray):
+        if value.dtype != np.uint8:
+            raise _error(TypeError, msgtype, path, f"expected uint8 data, got dtype {value.dtype}")
+        return np.ascontiguousarray(value).reshape(-1)
+    if isinstance(value, memoryview):
+        return value if value.c_contiguous else value.tobytes()
+    if isinstance(value, (list, tuple)):
+        try:
+            return bytes(value)
+        except (TypeError, ValueError) as exc:
+            raise _error(ValueError, msgtype, path, str(exc)) from None
+    raise _error(TypeError, msgtype, path, f"expected bytes-like, got {type(value).__name__}")
+
+
+def _bytes_op(msgtype: str, path: str, size: int | None) -> Encoder:
+    get = _get(msgtype, path)
+
+    def op(msg: Any, out: list[Any], pos: int) -> int:
+        data = _as_bytes(msgtype, path, get(msg))
+        count = data.nbytes if isinstance(data, (np.ndarray, memoryview)) else len(data)
+        _check_size(msgtype, path, count, size)
+        prefix, pos = _length_prefix(pos, count, size)
+        out.append(prefix)
+        out.append(data)
+        return pos + count
+
+    return op
+
+
+def _as_array(msgtype: str, path: str, value: Any, dtype: np.dtype[Any]) -> np.ndarray:
+    if type(value) is not np.ndarray and (
+        value is None or isinstance(value, (str, bytes)) or np.ndim(value) == 0
+    ):
+        raise _error(TypeError, msgtype, path, f"expected an array, got {type(value).__name__}")
+    try:
+        array = np.ascontiguousarray(value, dtype=dtype)
+    except (TypeError, ValueError) as exc:
+        raise _error(TypeError, msgtype, path, f"cannot convert to {dtype}: {exc}") from None
+    return array if array.ndim == 1 else array.reshape(-1)
+
+
+def _numeric_array_op(msgtype: str, path: str, type_name: str, size: int | None) -> Encoder:
+    get = _get(msgtype, path)
+    dtype = _DTYPES[type_name]
+    itemsize = dtype.itemsize
+
+    def op(msg: Any, out: list[Any], pos: int) -> int:
+        array = _as_array(msgtype, path, get(msg), dtype)
+        count = array.size
+        _check_size(msgtype, path, count, size)
+        prefix, pos = _length_prefix(pos, count, size)
+        pad = -pos % itemsize if count else 0  # rosbags does not align an empty sequence
+        out.append(prefix + _PAD[pad])
+        out.append(array)
+        return pos + pad + count * itemsize
+
+    return op
+
+
+def _sequence(msgtype: str, path: str, value: Any, size: int | None) -> Any:
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
+        raise _error(TypeError, msgtype, path, f"expected a list, got {type(value).__name__}")
+    _check_size(msgtype, path, len(value), size)
+    return value
+
+
+def _string_array_op(msgtype: str, path: str, size: int | None) -> Encoder:
+    get = _get(msgtype, path)
+
+    def op(msg: Any, out: list[Any], pos: int) -> int:
+        items = _sequence(msgtype, path, get(msg), size)
+        prefix, pos = _length_prefix(pos, len(items), size)
+        out.append(prefix)
+        for index, item in enumerate(items):
+            pos = _encode_str(msgtype, f"{path}[{index}]", item, out, pos)
+        return pos
+
+    return op
+
+
+def _message_array_op(msgtype: str, path: str, element_type: str, size: int | None) -> Encoder:
+    get = _get(msgtype, path)
+    encode = _encoder(element_type)
+
+    def op(msg: Any, out: list[Any], pos: int) -> int:
+        items = _sequence(msgtype, path, get(msg), size)
+        prefix, pos = _length_prefix(pos, len(items), size)
+        out.append(prefix)
+        for index, item in enumerate(items):
+            try:
+                pos = encode(item, out, pos)
+            except (TypeError, ValueError) as exc:
+                raise _error(type(exc), msgtype, f"{path}[{index}]", str(exc)) from None
+        return pos
+
+    return op
+
+
+# --- decoding (straightforward, not performance critical) -----------------------------
+
+
+def deserialize(data: bytes | bytearray | memoryview, msgtype: str) -> Any:
+    """Decode CDR bytes (with encapsulation header) into an instance of ``msgtype``'s class.
+
+    Raises:
+        ValueError: The data is not little-endian CDR or is truncated.
+        KeyError: There is no message class for ``msgtype``.
+    """
+    view = memoryview(data).cast("B")
+    msgtype = normalize_msgtype(msgtype)
+    if len(view) < 4 or bytes(view[:2]) != CDR_LE_HEADER[:2]:
+        raise ValueError(f"{msgtype}: not little-endian CDR (header {bytes(view[:4])!r})")
+    message, _ = _decode(msgtype, view[4:], 0)
+    return message
+
+
+def _decode(msgtype: str, buf: memoryview, pos: int) -> tuple[Any, int]:
+    values: dict[str, Any] = {}
+    for spec in get_spec(msgtype).fields:
+        try:
+            values[spec.name], pos = _decode_field(spec, buf, pos)
+        except (struct.error, ValueError, UnicodeDecodeError) as exc:
+            detail = f"malformed CDR data ({exc})"
+            raise ValueError(f"{msgtype}: field '{spec.name}': {detail}") from None
+    return message_class(msgtype)(**values), pos
+
+
+def _decode_scalar(type_name: str, buf: memoryview, pos: int) -> tuple[Any, int]:
+    if type_name == "string":
+        pos += -pos & 3
+        (length,) = _U32.unpack_from(buf, pos)
+        end = pos + 4 + length
+        if length < 1 or end > len(buf):
+            raise ValueError(f"bad string length {length}")
+        return bytes(buf[pos + 4 : end - 1]).decode(), end
+    code, size = _SCALARS[type_name]
+    pos += -pos % size
+    return struct.unpack_from("<" + code, buf, pos)[0], pos + size
+
+
+def _decode_field(spec: FieldSpec, buf: memoryview, pos: int) -> tuple[Any, int]:
+    if not spec.is_array:
+        if spec.is_primitive:
+            return _decode_scalar(spec.type, buf, pos)
+        return _decode(spec.type, buf, pos)
+    count = spec.size
+    if count is None:
+        pos += -pos & 3
+        (count,) = _U32.unpack_from(buf, pos)
+        pos += 4
+    if spec.type in _BYTE_TYPES:
+        if pos + count > len(buf):
+            raise ValueError(f"{count} bytes past the end of the data")
+        return bytes(buf[pos : pos + count]), pos + count
+    if spec.type in _SCALARS:
+        dtype = _DTYPES[spec.type]
+        if count:
+            pos += -pos % dtype.itemsize
+        array = np.frombuffer(buf, dtype=dtype, count=count, offset=pos)
+        return array.astype(dtype.newbyteorder("=")), pos + count * dtype.itemsize
+    items = []
+    for _ in range(count):
+        if spec.type == "string":
+            item, pos = _decode_scalar("string", buf, pos)
+        else:
+            item, pos = _decode(spec.type, buf, pos)
+        items.append(item)
+    return items, pos

@@ -1,0 +1,106 @@
+"""ROS 2 ``sensor_msgs`` messages: JointState, LaserScan, Image, CameraInfo, RegionOfInterest."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+import numpy.typing as npt
+
+from racecar_sim.msgs._base import Message
+from racecar_sim.msgs.std_msgs import Header
+
+
+def _f32() -> npt.NDArray[np.float32]:
+    return np.zeros(0, dtype=np.float32)
+
+
+def _f64() -> npt.NDArray[np.float64]:
+    return np.zeros(0, dtype=np.float64)
+
+
+@dataclass(eq=False, repr=False, slots=True)
+class JointState(Message):
+    """Per-joint position (rad or m), velocity (rad/s or m/s) and effort (N·m or N)."""
+
+    __msgtype__: ClassVar[str] = "sensor_msgs/msg/JointState"
+
+    header: Header = field(default_factory=Header)
+    name: list[str] = field(default_factory=list)
+    position: npt.NDArray[np.float64] = field(default_factory=_f64)
+    velocity: npt.NDArray[np.float64] = field(default_factory=_f64)
+    effort: npt.NDArray[np.float64] = field(default_factory=_f64)
+
+
+@dataclass(eq=False, repr=False, slots=True)
+class LaserScan(Message):
+    """One sweep of a planar range finder: angles in rad, times in s, ranges in m."""
+
+    __msgtype__: ClassVar[str] = "sensor_msgs/msg/LaserScan"
+
+    header: Header = field(default_factory=Header)
+    angle_min: float = 0.0
+    angle_max: float = 0.0
+    angle_increment: float = 0.0
+    time_increment: float = 0.0
+    scan_time: float = 0.0
+    range_min: float = 0.0
+    range_max: float = 0.0
+    ranges: npt.NDArray[np.float32] = field(default_factory=_f32)
+    intensities: npt.NDArray[np.float32] = field(default_factory=_f32)
+
+
+@dataclass(eq=False, repr=False, slots=True)
+class Image(Message):
+    """An uncompressed image; ``data`` holds ``height * step`` bytes."""
+
+    __msgtype__: ClassVar[str] = "sensor_msgs/msg/Image"
+
+    header: Header = field(default_factory=Header)
+    height: int = 0
+    width: int = 0
+    encoding: str = ""
+    is_bigendian: int = 0
+    step: int = 0
+    data: bytes = b""
+
+
+@dataclass(eq=False, repr=False, slots=True)
+class RegionOfInterest(Message):
+    """A rectangular sub-window of an image, in pixels."""
+
+    __msgtype__: ClassVar[str] = "sensor_msgs/msg/RegionOfInterest"
+
+    x_offset: int = 0
+    y_offset: int = 0
+    height: int = 0
+    width: int = 0
+    do_rectify: bool = False
+
+
+def _k() -> npt.NDArray[np.float64]:
+    return np.zeros(9, dtype=np.float64)
+
+
+def _p() -> npt.NDArray[np.float64]:
+    return np.zeros(12, dtype=np.float64)
+
+
+@dataclass(eq=False, repr=False, slots=True)
+class CameraInfo(Message):
+    """Pinhole calibration: distortion ``d``, row-major ``k`` (3x3), ``r`` (3x3), ``p`` (3x4)."""
+
+    __msgtype__: ClassVar[str] = "sensor_msgs/msg/CameraInfo"
+
+    header: Header = field(default_factory=Header)
+    height: int = 0
+    width: int = 0
+    distortion_model: str = ""
+    d: npt.NDArray[np.float64] = field(default_factory=_f64)
+    k: npt.NDArray[np.float64] = field(default_factory=_k)
+    r: npt.NDArray[np.float64] = field(default_factory=_k)
+    p: npt.NDArray[np.float64] = field(default_factory=_p)
+    binning_x: int = 0
+    binning_y: int = 0
+    roi: RegionOfInterest = field(default_factory=RegionOfInterest)

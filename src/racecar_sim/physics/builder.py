@@ -1,0 +1,197 @@
+"""Build the MuJoCo model (through mujoco.MjSpec) from the parsed URDF and a loaded world.
+
+Gazebo merges links joined by fixed joints into their parent; MuJoCo's `fusestatic` does the same
+(masses and inertias combined exactly), and a site per link keeps every URDF frame addressable.
+"""
+
+from __future__ import annotations
+
+import itertools
+import warnings
+
+import mujoco
+import numpy as np
+
+from racecar_sim.core.errors import DescriptionError
+from racecar_sim.core.transforms import compose, quat_from_axis_angle, quat_from_rpy
+from racecar_sim.description.urdf import Link, Robot, Shape
+from racecar_sim.physics.contact import solref_solimp
+from racecar_sim.physics.presets import PhysicsPreset
+from racecar_sim.worlds.materials import gazebo_material_rgba
+from racecar_sim.worlds.world import World, WorldGeom
+
+VISUAL_GROUP = 1  # rendered by the camera and viewer
+COLLISION_GROUP = 3  # hidden, but seen by contacts and ray casts
+ROOT_JOINT = "root"
+
+_INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+                "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT, "rk4": mujoco.mjtIntegrator.mjINT_RK4}
+_SOLVERS = {"newton": mujoco.mjtSolver.mjSOL_NEWTON, "cg": mujoco.mjtSolver.mjSOL_CG, "pgs": mujoco.mjtSolver.mjSOL_PGS}
+_CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
+_GEOM = {"box": mujoco.mjtGeom.mjGEOM_BOX, "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
+         "sphere": mujoco.mjtGeom.mjGEOM_SPHERE, "plane": mujoco.mjtGeom.mjGEOM_PLANE}
+
+
+def _mj_size(kind: str, size: tuple[float, ...]) -> list[float]:
+    if kind == "box":
+        return [0.5 * s for s in size[:3]]
+    if kind == "cylinder":
+        return [size[0], 0.5 * size[1], 0.0]
+    if kind == "sphere":
+        return [size[0], 0.0, 0.0]
+    return [0.5 * size[0], 0.5 * size[1], 1.0]  # plane: half extents, grid spacing
+
+
+def build_spec(robot: Robot, world: World, preset: PhysicsPreset) -> mujoco.MjSpec:
+    """The full scene: options, the world's geoms and lights, and the car at the world's spawn pose."""
+    spec = mujoco.MjSpec()
+    spec.modelname = robot.name
+    _options(spec, world, preset)
+    _add_world(spec, world)
+    _add_robot(spec, robot, world, preset)
+    _friction_min_rule(spec)
+    return spec
+
+
+def _options(spec: mujoco.MjSpec, world: World, preset: PhysicsPreset) -> None:
+    opt = spec.option
+    opt.timestep = world.physics.max_step_size or preset.timestep
+    opt.gravity = list(world.physics.gravity)
+    opt.integrator = _INTEGRATORS[preset.integrator]
+    opt.solver = _SOLVERS[preset.solver]
+    opt.iterations = world.physics.iterations or preset.iterations
+    opt.cone = _CONES[preset.cone]
+    spec.compiler.fusestatic = True
+    spec.compiler.discardvisual = False
+    spec.compiler.autolimits = True
+    spec.compiler.degree = False  # URDF and SDF angles are radians
+    spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+    spec.visual.quality.offsamples = 0  # software GL: MSAA costs 2x per frame
+
+
+def _add_world_geom(body: mujoco.MjsBody, geom: WorldGeom, pos: np.ndarray, quat: np.ndarray) -> None:
+    g = body.add_geom(name=geom.name, type=_GEOM[geom.kind], size=_mj_size(geom.kind, geom.size),
+                      pos=list(pos), quat=list(quat))
+    if geom.collides:
+        g.group, g.contype, g.conaffinity, g.condim = COLLISION_GROUP, 1, 1, 3
+        g.friction = [geom.mu, 0.0, 0.0]
+        g.rgba = [0.5, 0.5, 0.5, 1.0]
+    else:
+        g.group, g.contype, g.conaffinity = VISUAL_GROUP, 0, 0
+        g.rgba = list(geom.rgba)
+
+
+def _add_world(spec: mujoco.MjSpec, world: World) -> None:
+    for wb in world.bodies:
+        if wb.static:
+            for geom in wb.geoms:
+                _add_world_geom(spec.worldbody, geom, *compose(wb.pos, wb.quat, geom.pos, geom.quat))
+        else:
+            body = spec.worldbody.add_body(name=wb.name, pos=list(wb.pos), quat=list(wb.quat), mass=wb.mass,
+                                           inertia=list(wb.inertia), explicitinertial=True)
+            body.add_freejoint(name=f"{wb.name}::free")
+            for geom in wb.geoms:
+                _add_world_geom(body, geom, geom.pos, geom.quat)
+    for light in world.lights:
+        spec.worldbody.add_light(name=light.name, pos=list(light.pos), dir=list(light.direction),
+                                 diffuse=list(light.diffuse), castshadow=light.cast_shadows,
+                                 type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL if light.directional
+                                 else mujoco.mjtLightType.mjLIGHT_SPOT)
+
+
+def _sprung_mass(robot: Robot) -> float:
+    """Mass each contact carries at rest: the car's mass shared by the links with contact surfaces."""
+    total = sum(link.inertial.mass for link in robot.links.values() if link.inertial)
+    contacts = sum(len(link.collisions) for link in robot.links.values() if link.surface.kp is not None)
+    return total / max(contacts, 1)
+
+
+def _link_rgba(link: Link, shape: Shape) -> list[float]:
+    if link.surface.material:  # a <gazebo><material> overrides the URDF colour, as in Gazebo
+        return list(gazebo_material_rgba(link.surface.material))
+    return list(shape.rgba or (0.7, 0.7, 0.7, 1.0))
+
+
+def _collision_type(shape: Shape, is_wheel: bool, preset: PhysicsPreset) -> tuple[mujoco.mjtGeom, list[float]]:
+    kind, size = shape.geometry.kind, shape.geometry.size
+    if is_wheel and kind == "cylinder" and preset.wheel_contact == "ellipsoid":
+        return mujoco.mjtGeom.mjGEOM_ELLIPSOID, [size[0], size[0], 0.5 * size[1]]
+    return _GEOM[kind], _mj_size(kind, size)
+
+
+def _add_shapes(body: mujoco.MjsBody, link: Link, robot: Robot, preset: PhysicsPreset, is_wheel: bool) -> None:
+    for i, shape in enumerate(link.collisions):
+        if shape.geometry.kind == "mesh":
+            raise DescriptionError(f"link {link.name}: mesh collisions are not supported yet")
+        geom_type, geom_size = _collision_type(shape, is_wheel, preset)
+        surface = link.surface
+        mu = surface.mu1 if surface.mu1 is not None else 1.0  # SDF default friction
+        solref, solimp = solref_solimp(surface.kp, _sprung_mass(robot), preset.contact_timeconst)
+        body.add_geom(name=f"{link.name}_collision{'' if i == 0 else i}", type=geom_type, size=geom_size,
+                      pos=list(shape.origin.xyz),
+                      quat=list(quat_from_rpy(shape.origin.rpy)), group=COLLISION_GROUP, contype=1, conaffinity=1,
+                      condim=3, friction=[mu, 0.0, 0.0], solref=solref, solimp=solimp, rgba=[0.9, 0.3, 0.3, 0.4])
+    for i, shape in enumerate(link.visuals):
+        if shape.geometry.kind == "mesh":
+            warnings.warn(f"link {link.name}: mesh visual {shape.geometry.filename} is not rendered", stacklevel=3)
+            continue
+        body.add_geom(name=f"{link.name}_visual{'' if i == 0 else i}", type=_GEOM[shape.geometry.kind],
+                      size=_mj_size(shape.geometry.kind, shape.geometry.size), pos=list(shape.origin.xyz),
+                      quat=list(quat_from_rpy(shape.origin.rpy)), group=VISUAL_GROUP, contype=0, conaffinity=0,
+                      rgba=_link_rgba(link, shape), mass=0.0)
+
+
+def _add_link(spec: mujoco.MjSpec, parent: mujoco.MjsBody, robot: Robot, name: str, preset: PhysicsPreset) -> None:
+    link = robot.links[name]
+    joint = robot.joint_to(name)
+    pos, quat = (joint.origin.xyz, quat_from_rpy(joint.origin.rpy)) if joint else ((0.0, 0.0, 0.0), np.array([1.0, 0, 0, 0]))
+    body = parent.add_body(name=name, pos=list(pos), quat=list(quat))
+    if link.inertial:
+        i = link.inertial
+        body.explicitinertial = True
+        body.mass = i.mass
+        body.ipos = list(i.origin.xyz)
+        body.iquat = list(quat_from_rpy(i.origin.rpy))
+        body.fullinertia = [i.inertia[0], i.inertia[1], i.inertia[2], i.inertia[3], i.inertia[4], i.inertia[5]]
+    body.add_site(name=name, size=[0.005, 0.005, 0.005], group=4)  # the URDF frame, kept through fusion
+    if joint and joint.moves:
+        mj_joint = body.add_joint(name=joint.name, axis=list(joint.axis),
+                                  type=mujoco.mjtJoint.mjJNT_HINGE if joint.type != "prismatic" else mujoco.mjtJoint.mjJNT_SLIDE)
+        if joint.type in ("revolute", "prismatic"):
+            mj_joint.range = [joint.limit.lower, joint.limit.upper]
+            mj_joint.limited = mujoco.mjtLimited.mjLIMITED_TRUE
+            # a hard stop, as ODE's joint stop (MuJoCo's default limit is a soft 20 ms spring)
+            mj_joint.solref_limit = [2 * spec.option.timestep, 1.0]
+            mj_joint.solimp_limit = [0.99, 0.999, 0.001, 0.5, 2.0]
+        if joint.limit and joint.limit.effort > 0:
+            mj_joint.actfrcrange = [-joint.limit.effort, joint.limit.effort]
+            mj_joint.actfrclimited = mujoco.mjtLimited.mjLIMITED_TRUE
+    _add_shapes(body, link, robot, preset, is_wheel=joint is not None and joint.type == "continuous")
+    for child in (j.child for j in robot.joints.values() if j.parent == name):
+        _add_link(spec, body, robot, child, preset)
+
+
+def _add_robot(spec: mujoco.MjSpec, robot: Robot, world: World, preset: PhysicsPreset) -> None:
+    root = robot.root
+    _add_link(spec, spec.worldbody, robot, root, preset)
+    base = spec.body(root)
+    s = world.spawn
+    base.pos = [s.x, s.y, s.z]
+    base.quat = list(quat_from_axis_angle((0.0, 0.0, 1.0), s.yaw))
+    base.add_freejoint(name=ROOT_JOINT)
+    # MuJoCo only filters parent/child contacts; the car's own parts never touch each other in Gazebo either.
+    moving = [root] + [j.child for j in robot.joints.values() if j.moves]
+    for a, b in itertools.combinations(moving, 2):
+        spec.add_exclude(bodyname1=a, bodyname2=b)
+
+
+def _friction_min_rule(spec: mujoco.MjSpec) -> None:
+    """Gazebo combines friction with min(mu_a, mu_b); MuJoCo takes the max unless priorities differ.
+
+    Ranking geoms so that lower friction wins the priority reproduces the min rule for every pair
+    (and the winner's solref/solimp are used, as Gazebo uses the softer surface's kp).
+    """
+    colliding = [g for g in spec.geoms if g.contype or g.conaffinity]
+    levels = sorted({g.friction[0] for g in colliding}, reverse=True)
+    for g in colliding:
+        g.priority = levels.index(g.friction[0])

@@ -1,0 +1,296 @@
+"""MCAP recorder: ROS 2 CDR messages with embedded ``.msg`` schemas, stamped in sim time."""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+from collections.abc import Iterable
+from importlib import metadata
+from types import FrameType, TracebackType
+from typing import Any
+
+from mcap.writer import CompressionType, Writer
+
+from racecar_sim.msgs import msgtype_of, schema_text, serialize
+
+_COMPRESSION = {
+    "zstd": CompressionType.ZSTD,
+    "lz4": CompressionType.LZ4,
+    "none": CompressionType.NONE,
+}
+_UINT64_MAX = 2**64 - 1
+
+
+def _qos_profiles_v8(durability: int, depth: int) -> str:
+    """``offered_qos_profiles`` YAML in rosbag2's metadata version 8 form, as rosbags writes it.
+
+    Version 8 writes the policies as rmw enum integers (history KEEP_LAST = 1,
+    reliability RELIABLE = 1, durability TRANSIENT_LOCAL = 1 / VOLATILE = 2,
+    liveliness AUTOMATIC = 1); version 9 (Jazzy) writes lower-case names instead.
+    Humble reads only the integers; Jazzy and later read them when the file says it is
+    version 8, which the ``rosbag2`` metadata record written by the recorder does.
+    """
+    zero = "{nsec: 0, sec: 0}"
+    return (
+        "- avoid_ros_namespace_conventions: false\n"
+        f"  deadline: {zero}\n"
+        f"  depth: {depth}\n"
+        f"  durability: {durability}\n"
+        "  history: 1\n"
+        f"  lifespan: {zero}\n"
+        "  liveliness: 1\n"
+        f"  liveliness_lease_duration: {zero}\n"
+        "  reliability: 1"
+    )
+
+
+LATCHED_QOS = _qos_profiles_v8(durability=1, depth=1)
+"""Reliable, transient-local (latched), keep-last 1: what a static tf broadcaster offers."""
+VOLATILE_QOS = _qos_profiles_v8(durability=2, depth=10)
+"""Reliable, volatile, keep-last 10: rclcpp's default publisher QoS."""
+
+
+class _DeferredInterrupt:
+    """Holds SIGINT back while the MCAP writer's in-memory state is half-updated.
+
+    A KeyboardInterrupt raised inside ``mcap.writer.Writer`` (for example right after a
+    chunk was compressed but before it was written) would leave indexes pointing at lost
+    data. While ``hold()`` is active on the main thread the Python-level handler only
+    notes the signal; ``release()`` then delivers it to the previously installed handler.
+    Installed only from the main thread and only over a callable handler.
+    """
+
+    def __init__(self) -> None:
+        self._main = threading.main_thread().ident
+        self._holding = False
+        self._pending: tuple[int, FrameType | None] | None = None
+        self._previous: Any = None
+        if threading.get_ident() == self._main:
+            previous = signal.getsignal(signal.SIGINT)
+            if callable(previous):
+                self._previous = previous
+                signal.signal(signal.SIGINT, self._handle)
+
+    def _handle(self, signum: int, frame: FrameType | None) -> None:
+        if self._holding:
+            self._pending = (signum, frame)
+        else:
+            self._previous(signum, frame)
+
+    def hold(self) -> None:
+        """Start deferring SIGINT (no-op off the main thread, where it is never raised)."""
+        self._holding = self._previous is not None and threading.get_ident() == self._main
+
+    def release(self) -> None:
+        """Stop deferring and deliver a SIGINT that arrived meanwhile."""
+        self._holding = False
+        if self._pending is not None:
+            pending, self._pending = self._pending, None
+            self._previous(*pending)
+
+    def uninstall(self) -> None:
+        """Restore the previous handler if ours is still the installed one."""
+        if self._previous is None or threading.get_ident() != self._main:
+            return
+        if signal.getsignal(signal.SIGINT) == self._handle:
+            signal.signal(signal.SIGINT, self._previous)
+
+
+class McapRecorder:
+    """Writes messages to an MCAP file that ``ros2 bag``, rosbags, Foxglove and PlotJuggler read.
+
+    Each message is serialized to ROS 2 CDR by :func:`racecar_sim.msgs.serialize`. The
+    schema (``ros2msg``, the concatenated ``.msg`` text) and the channel (encoding
+    ``cdr``) of a topic are registered the first time the topic is written. The header
+    profile is ``ros2`` and chunks are compressed (zstd by default). Times are the
+    caller's integer nanoseconds, normally sim time, never the wall clock.
+
+    Every channel carries ``offered_qos_profiles`` metadata. Topics in
+    ``latched_topics`` (default ``/tf_static``) declare TRANSIENT_LOCAL durability, so
+    ``ros2 bag play`` republishes them latched; the others declare rclcpp's default
+    reliable, volatile QoS.
+
+    Interruption: use it as a context manager. An exception or KeyboardInterrupt inside
+    the ``with`` block still closes the file with its summary and footer, and SIGINT
+    arriving during ``write()`` or ``close()`` is delivered once the writer is consistent
+    again. Each completed chunk is flushed to the OS at once, so a SIGKILL (or a crash
+    of the interpreter) loses only the chunk in progress. Such a file has no summary
+    or footer: readers that seek to the footer (rosbags, ``ros2 bag``) reject it, while
+    a streaming reader gets every completed chunk and then fails at the cut, e.g.
+    ``make_reader(stream).iter_messages(log_time_order=False)`` on a non-seekable
+    stream, or ``mcap recover`` to rewrite it as a complete file.
+
+    Args:
+        path: Output file; it is created or truncated.
+        compression: ``"zstd"``, ``"lz4"`` or ``"none"``.
+        chunk_size: Uncompressed bytes per chunk before it is compressed and written.
+        latched_topics: Topics recorded with TRANSIENT_LOCAL durability.
+
+    Raises:
+        OSError: The file cannot be created; the message names the path.
+        ValueError: Unknown compression.
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        *,
+        compression: str = "zstd",
+        chunk_size: int = 1024 * 1024,
+        latched_topics: Iterable[str] = ("/tf_static",),
+    ) -> None:
+        if compression not in _COMPRESSION:
+            choices = ", ".join(_COMPRESSION)
+            raise ValueError(f"compression must be one of {choices}; got {compression!r}")
+        self.path = os.fspath(path)
+        self.latched_topics = frozenset(latched_topics)
+        try:
+            self._stream = open(self.path, "wb")  # noqa: SIM115  # closed in close()
+        except OSError as exc:
+            reason = f"cannot create MCAP file: {exc.strerror}"
+            raise OSError(exc.errno, reason, self.path) from None
+        self._writer = Writer(
+            self._stream, chunk_size=chunk_size, compression=_COMPRESSION[compression]
+        )
+        self._lock = threading.Lock()
+        self._interrupt = _DeferredInterrupt()
+        self._closed = False
+        self._schemas: dict[str, int] = {}
+        self._channels: dict[str, tuple[int, str]] = {}
+        self._counts: dict[str, int] = {}
+        self._flushed = 0
+        try:
+            self._critical(self._start)
+        except BaseException:
+            self._stream.close()
+            self._interrupt.uninstall()
+            raise
+
+    def _start(self) -> None:
+        self._writer.start(profile="ros2", library=_library())
+        # With a 'rosbag2' record lacking 'serialized_metadata', rosbag2 (Jazzy and later)
+        # decodes offered_qos_profiles as metadata version 8, the integer form we write.
+        self._writer.add_metadata("rosbag2", {"ROS_DISTRO": "racecar_sim"})
+
+    def _critical(self, func: Any, *args: Any) -> Any:
+        self._interrupt.hold()
+        try:
+            return func(*args)
+        finally:
+            self._interrupt.release()
+
+    @property
+    def message_count(self) -> dict[str, int]:
+        """Messages written so far, per topic."""
+        with self._lock:
+            return dict(self._counts)
+
+    @property
+    def closed(self) -> bool:
+        """Whether :meth:`close` has run."""
+        return self._closed
+
+    def write(
+        self, topic: str, msg: Any, log_time_ns: int, publish_time_ns: int | None = None
+    ) -> None:
+        """Serialize ``msg`` and append it to ``topic``.
+
+        Args:
+            topic: Topic name, e.g. ``/scan``.
+            msg: A message instance from :mod:`racecar_sim.msgs`.
+            log_time_ns: Record time in integer nanoseconds (sim time).
+            publish_time_ns: Publish time; defaults to ``log_time_ns``.
+
+        Raises:
+            ValueError: The recorder is closed, a time is not in [0, 2**64), or the topic
+                was already recorded with another message type.
+            TypeError: ``msg`` is not a message or has a badly typed field.
+        """
+        msgtype = msgtype_of(msg)
+        data = serialize(msg)
+        log_time = _timestamp(log_time_ns, "log_time_ns")
+        publish_time = (
+            log_time if publish_time_ns is None else _timestamp(publish_time_ns, "publish_time_ns")
+        )
+        with self._lock:
+            if self._closed:
+                raise ValueError(f"write to a closed recorder ({self.path})")
+            channel = self._channels.get(topic)
+            if channel is None or channel[1] != msgtype:
+                channel = self._channel(topic, msgtype)
+            count = self._counts[topic] + 1
+            sequence = count & 0xFFFFFFFF
+            self._critical(
+                self._writer.add_message, channel[0], log_time, data, publish_time, sequence
+            )
+            self._counts[topic] = count
+            if self._stream.tell() != self._flushed:
+                # A chunk was completed: hand it to the OS so that a SIGKILL cannot lose it.
+                self._stream.flush()
+                self._flushed = self._stream.tell()
+
+    def _channel(self, topic: str, msgtype: str) -> tuple[int, str]:
+        if topic in self._channels:
+            recorded = self._channels[topic][1]
+            raise ValueError(
+                f"topic {topic!r} is recorded as {recorded}; cannot also record {msgtype} on it"
+            )
+        schema_id = self._schemas.get(msgtype)
+        if schema_id is None:
+            schema = schema_text(msgtype).encode()
+            schema_id = self._critical(self._writer.register_schema, msgtype, "ros2msg", schema)
+            self._schemas[msgtype] = schema_id
+        qos = LATCHED_QOS if topic in self.latched_topics else VOLATILE_QOS
+        metadata = {"offered_qos_profiles": qos}
+        register = self._writer.register_channel
+        channel_id = self._critical(register, topic, "cdr", schema_id, metadata)
+        self._channels[topic] = (channel_id, msgtype)
+        self._counts[topic] = 0
+        return self._channels[topic]
+
+    def close(self) -> None:
+        """Write the last chunk, the summary and the footer, and close the file. Idempotent."""
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True
+            self._interrupt.hold()
+            try:
+                self._writer.finish()  # type: ignore[no-untyped-call]
+            finally:
+                self._stream.close()
+                self._interrupt.uninstall()
+                self._interrupt.release()
+
+    def __enter__(self) -> McapRecorder:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        state = "closed" if self._closed else f"{sum(self._counts.values())} messages"
+        return f"McapRecorder({self.path!r}, {state})"
+
+
+def _library() -> str:
+    try:
+        return f"racecar-sim {metadata.version('racecar-sim')}"
+    except metadata.PackageNotFoundError:
+        return "racecar-sim"
+
+
+def _timestamp(value: int, name: str) -> int:
+    try:
+        ns = int(value.__index__())
+    except (AttributeError, TypeError):
+        raise TypeError(f"{name} must be an integer number of nanoseconds, got {value!r}") from None
+    if not 0 <= ns <= _UINT64_MAX:
+        raise ValueError(f"{name} must be in [0, 2**64), got {ns}")
+    return ns

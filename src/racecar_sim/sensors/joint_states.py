@@ -1,0 +1,23 @@
+"""joint_state_controller: /racecar/joint_states at the rate racecar_control.yaml gives (50 Hz)."""
+
+from __future__ import annotations
+
+from racecar_sim.bus import Bus
+from racecar_sim.msgs import Header, JointState
+from racecar_sim.physics.state import CarState
+from racecar_sim.runtime.scheduler import Scheduler
+
+
+class JointStatePublisher:
+    """Position, velocity and effort of every joint that has a controller transmission."""
+
+    def __init__(self, bus: Bus, scheduler: Scheduler, state: CarState, joints: list[str], rate: float,
+                 topic: str = "/racecar/joint_states") -> None:
+        self.bus, self.state, self.topic = bus, state, topic
+        self.names = list(joints)
+        self._adr = state.joint_indices(self.names)
+        scheduler.every(rate, self.publish, "joint_state_controller")
+
+    def publish(self, now_ns: int) -> None:
+        position, velocity, effort = self.state.joint_state(*self._adr)
+        self.bus.publish(self.topic, JointState(Header.at(now_ns), list(self.names), position, velocity, effort))

@@ -1,0 +1,45 @@
+"""gazebo_odometry.py: ground-truth odometry on /vesc/odom at 20 Hz, the map->odom TF, relay to /pf/pose/odom.
+
+mode "original": frame map, child odom, world-frame twist, TF map->odom (what the original sim did).
+mode "ros":      frame odom, child base_link, body-frame twist, TF odom->base_link (REP 105 convention).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from racecar_sim.bus import Bus
+from racecar_sim.msgs import (Header, Odometry, Point, Pose, PoseWithCovariance, Quaternion, TFMessage, Twist,
+                              TwistWithCovariance, Vector3)
+from racecar_sim.physics.state import CarState
+from racecar_sim.runtime.scheduler import Scheduler
+from racecar_sim.sensors.robot_state import transform_msg
+
+FRAMES = {"original": ("map", "odom"), "ros": ("odom", "base_link")}
+
+
+class OdometryPublisher:
+    """The odometry node; `rate` 20 Hz as the original timer."""
+
+    def __init__(self, bus: Bus, scheduler: Scheduler, state: CarState, mode: str = "original", rate: float = 20.0,
+                 topic: str = "/vesc/odom", relay_topic: str | None = "/pf/pose/odom") -> None:
+        if mode not in FRAMES:
+            raise ValueError(f"odometry mode '{mode}' is not one of {', '.join(FRAMES)}")
+        self.bus, self.state, self.mode, self.topic = bus, state, mode, topic
+        self.frame, self.child = FRAMES[mode]
+        if relay_topic:
+            bus.subscribe(topic, lambda msg: bus.publish(relay_topic, msg))
+        scheduler.every(rate, self.publish, "gazebo_odometry_node")
+
+    def publish(self, now_ns: int) -> None:
+        pos, quat = self.state.base_pose()
+        linear, angular = self.state.base_velocity(local=self.mode == "ros")
+        w, x, y, z = (float(v) for v in quat)
+        msg = Odometry(
+            Header.at(now_ns, self.frame), self.child,
+            PoseWithCovariance(Pose(Point(*(float(v) for v in pos)), Quaternion(x, y, z, w)), np.zeros(36)),
+            TwistWithCovariance(Twist(Vector3(*(float(v) for v in linear)), Vector3(*(float(v) for v in angular))),
+                                np.zeros(36)),
+        )
+        self.bus.publish(self.topic, msg)
+        self.bus.publish("/tf", TFMessage([transform_msg(now_ns, self.frame, self.child, pos, quat)]))

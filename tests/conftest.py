@@ -1,0 +1,58 @@
+"""Shared helpers: drive a simulator with a constant command and collect what it publishes."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from racecar_sim import Simulator
+from racecar_sim.drivers import ConstantCommand
+
+NAVIGATION = "/vesc/ackermann_cmd_mux/input/navigation"
+TELEOP = "/vesc/ackermann_cmd_mux/input/teleop"
+
+
+class Log:
+    """Every message on some topics, in order."""
+
+    def __init__(self, sim: Simulator, *topics: str) -> None:
+        self.messages: dict[str, list] = {t: [] for t in topics}
+        for t in topics:
+            sim.subscribe(t, self.messages[t].append)
+
+    def __getitem__(self, topic: str) -> list:
+        return self.messages[topic]
+
+
+def positions(odom: list, after: float = 0.0) -> np.ndarray:
+    """(x, y) of /vesc/odom messages stamped after `after` seconds."""
+    return np.array([[o.pose.pose.position.x, o.pose.pose.position.y] for o in odom
+                     if o.header.stamp.sec + o.header.stamp.nanosec * 1e-9 > after])
+
+
+def ground_speed(odom_msg) -> float:
+    v = odom_msg.twist.twist.linear
+    return math.hypot(v.x, v.y)
+
+
+def fit_circle(points: np.ndarray) -> tuple[np.ndarray, float]:
+    """Least-squares circle through 2-D points: centre, radius."""
+    a = np.c_[2 * points, np.ones(len(points))]
+    cx, cy, c = np.linalg.lstsq(a, (points**2).sum(1), rcond=None)[0]
+    return np.array([cx, cy]), float(math.sqrt(c + cx * cx + cy * cy))
+
+
+@pytest.fixture
+def drive():
+    """drive(speed, steering, duration, **simulator_kwargs) -> (sim, log of odom and joint states)."""
+
+    def run(speed: float, steering: float, duration: float, **kwargs):
+        sim = Simulator(**kwargs)
+        log = Log(sim, "/vesc/odom", "/racecar/joint_states")
+        ConstantCommand(sim.bus, sim.scheduler, speed, steering)
+        sim.run_until(duration)
+        return sim, log
+
+    return run

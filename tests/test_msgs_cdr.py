@@ -1,0 +1,332 @@
+"""Message classes, .msg parsing and CDR bytes, checked against rosbags as the reference."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import pytest
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+from racecar_sim import msgs
+from racecar_sim.msgs import idl
+from racecar_sim.msgs._base import Message
+
+
+def _stamped(ns: int, frame: str) -> msgs.Header:
+    return msgs.Header.at(ns, frame)
+
+
+def _transform(child: str, x: float) -> msgs.TransformStamped:
+    return msgs.TransformStamped(
+        header=_stamped(5_000_000_123, "base_link"),
+        child_frame_id=child,
+        transform=msgs.Transform(
+            translation=msgs.Vector3(x, -0.5, 0.125),
+            rotation=msgs.Quaternion(0.0, 0.0, math.sin(0.3), math.cos(0.3)),
+        ),
+    )
+
+
+def _odometry() -> msgs.Odometry:
+    odom = msgs.Odometry(header=_stamped(12_345_678_901, "odom"), child_frame_id="base_link")
+    odom.pose.pose.position = msgs.Point(1.5, -2.25, 0.05)
+    odom.pose.pose.orientation = msgs.Quaternion(0.0, 0.0, 0.2, 0.98)
+    odom.pose.covariance = np.arange(36, dtype=np.float64) * 0.01
+    odom.twist.twist.linear = msgs.Vector3(2.0, 0.1, 0.0)
+    odom.twist.twist.angular = msgs.Vector3(0.0, 0.0, -0.7)
+    odom.twist.covariance = np.linspace(0.0, 1.0, 36)
+    return odom
+
+
+def _image(rng: np.random.Generator) -> msgs.Image:
+    return msgs.Image(
+        header=_stamped(3_000_000_000, "camera_link"),
+        height=48,
+        width=64,
+        encoding="bgr8",
+        step=64 * 3,
+        data=rng.integers(0, 256, 48 * 64 * 3, dtype=np.uint8).tobytes(),
+    )
+
+
+def _camera_info() -> msgs.CameraInfo:
+    return msgs.CameraInfo(
+        header=_stamped(3_000_000_000, "camera_link"),
+        height=480,
+        width=640,
+        distortion_model="plumb_bob",
+        d=np.array([0.1, -0.05, 0.001, 0.0, 0.002]),
+        k=np.array([525.0, 0, 320.5, 0, 525.0, 240.5, 0, 0, 1]),
+        r=np.eye(3).ravel(),
+        p=np.array([525.0, 0, 320.5, -37.5, 0, 525.0, 240.5, 0, 0, 0, 1, 0]),
+        binning_x=1,
+        binning_y=2,
+        roi=msgs.RegionOfInterest(10, 20, 100, 200, True),
+    )
+
+
+def _laser_scan(rng: np.random.Generator) -> msgs.LaserScan:
+    return msgs.LaserScan(
+        header=_stamped(1_025_000_000, "laser"),
+        angle_min=-2.25,
+        angle_max=2.25,
+        angle_increment=0.0043,
+        time_increment=1.5e-5,
+        scan_time=0.025,
+        range_min=0.1,
+        range_max=10.0,
+        ranges=rng.uniform(0.1, 10.0, 1081).astype(np.float32),
+        intensities=np.array([1.0, np.nan, np.inf], dtype=np.float32),
+    )
+
+
+SAMPLES: dict[str, Callable[[np.random.Generator], Message]] = {
+    "builtin_interfaces/msg/Time": lambda _: msgs.Time(1_700_000_000, 999_999_999),
+    "builtin_interfaces/msg/Duration": lambda _: msgs.Duration(-3, 250),
+    "std_msgs/msg/Header": lambda _: _stamped(42_000_000_007, "map"),
+    "std_msgs/msg/Float64": lambda _: msgs.Float64(-0.1),
+    "std_msgs/msg/String": lambda _: msgs.String("héllo wörld"),
+    "std_msgs/msg/Int8": lambda _: msgs.Int8(-128),
+    "geometry_msgs/msg/Point": lambda _: msgs.Point(1.0, 2.0, 3.5),
+    "geometry_msgs/msg/Vector3": lambda _: msgs.Vector3(-1.0, 0.25, 1e-9),
+    "geometry_msgs/msg/Quaternion": lambda _: msgs.Quaternion(0.1, 0.2, 0.3, 0.9),
+    "geometry_msgs/msg/Pose": lambda _: msgs.Pose(msgs.Point(1, 2, 3), msgs.Quaternion(w=0.5)),
+    "geometry_msgs/msg/PoseWithCovariance": lambda rng: msgs.PoseWithCovariance(
+        msgs.Pose(msgs.Point(4, 5, 6)), rng.normal(size=36)
+    ),
+    "geometry_msgs/msg/PoseStamped": lambda _: msgs.PoseStamped(
+        _stamped(7, "map"), msgs.Pose(msgs.Point(-1, -2, -3))
+    ),
+    "geometry_msgs/msg/Twist": lambda _: msgs.Twist(msgs.Vector3(1, 0, 0), msgs.Vector3(0, 0, 2)),
+    "geometry_msgs/msg/TwistWithCovariance": lambda rng: msgs.TwistWithCovariance(
+        msgs.Twist(msgs.Vector3(0.5, 0, 0)), rng.normal(size=36)
+    ),
+    "geometry_msgs/msg/Transform": lambda _: _transform("x", 1.0).transform,
+    "geometry_msgs/msg/TransformStamped": lambda _: _transform("laser", 0.265),
+    "nav_msgs/msg/Odometry": lambda _: _odometry(),
+    "sensor_msgs/msg/JointState": lambda _: msgs.JointState(
+        header=_stamped(99, ""),
+        name=["left_rear_wheel_joint", "right_steering_hinge_joint", ""],
+        position=np.array([0.1, -0.2, 0.3]),
+        velocity=np.array([10.0, 0.0, -1.0]),
+        effort=np.zeros(0),
+    ),
+    "sensor_msgs/msg/LaserScan": _laser_scan,
+    "sensor_msgs/msg/Image": _image,
+    "sensor_msgs/msg/RegionOfInterest": lambda _: msgs.RegionOfInterest(1, 2, 3, 4, True),
+    "sensor_msgs/msg/CameraInfo": lambda _: _camera_info(),
+    "tf2_msgs/msg/TFMessage": lambda _: msgs.TFMessage(
+        [_transform("base_link", 0.0), _transform("laser", 0.265)]
+    ),
+    "rosgraph_msgs/msg/Clock": lambda _: msgs.Clock(msgs.Time(12, 500_000_000)),
+    "ackermann_msgs/msg/AckermannDrive": lambda _: msgs.AckermannDrive(0.375, 1.5, 2.0, 0.5, 0.25),
+    "ackermann_msgs/msg/AckermannDriveStamped": lambda _: msgs.AckermannDriveStamped(
+        _stamped(1_000_000_000, "base_link"), msgs.AckermannDrive(-0.25, speed=1.75)
+    ),
+}
+
+
+@pytest.fixture(scope="module")
+def typestore() -> Any:
+    """Rosbags' ROS 2 Humble types plus ackermann_msgs registered from our .msg files."""
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    for name in ("AckermannDrive", "AckermannDriveStamped"):
+        msgtype = f"ackermann_msgs/msg/{name}"
+        store.register(get_types_from_msg(idl.get_spec(msgtype).text, msgtype))
+    return store
+
+
+def to_rosbags(msg: Any, store: Any) -> Any:
+    """The rosbags equivalent of one of our messages (uint8[] bytes become a uint8 array)."""
+    if not isinstance(msg, Message):
+        if isinstance(msg, list):
+            return [to_rosbags(item, store) for item in msg]
+        if isinstance(msg, (bytes, bytearray)):
+            return np.frombuffer(msg, dtype=np.uint8)
+        return msg
+    values = {f.name: to_rosbags(getattr(msg, f.name), store) for f in dataclasses.fields(msg)}
+    return store.types[msg.__msgtype__](**values)
+
+
+def _cases() -> list[Any]:
+    return [pytest.param(t, id=t.split("/")[-1]) for t in SAMPLES]
+
+
+def test_samples_cover_every_definition() -> None:
+    assert sorted(SAMPLES) == list(idl.available_msgtypes())
+
+
+@pytest.mark.parametrize("msgtype", _cases())
+def test_serialize_matches_rosbags(msgtype: str, typestore: Any) -> None:
+    msg = SAMPLES[msgtype](np.random.default_rng(7))
+    assert msgs.msgtype_of(msg) == msgtype
+    assert msgs.serialize(msg) == typestore.serialize_cdr(to_rosbags(msg, typestore), msgtype)
+
+
+@pytest.mark.parametrize("msgtype", _cases())
+def test_default_instance_matches_rosbags(msgtype: str, typestore: Any) -> None:
+    msg = msgs.message_class(msgtype)()
+    assert msgs.serialize(msg) == typestore.serialize_cdr(to_rosbags(msg, typestore), msgtype)
+
+
+@pytest.mark.parametrize("msgtype", _cases())
+def test_deserialize_round_trip(msgtype: str) -> None:
+    msg = SAMPLES[msgtype](np.random.default_rng(7))
+    data = msgs.serialize(msg)
+    back = msgs.deserialize(data, msgtype)
+    assert msgs.serialize(back) == data
+    if msgtype != "sensor_msgs/msg/LaserScan":  # its float32 scalars round, and NaN != NaN
+        assert back == msg
+
+
+def test_laser_scan_round_trip_values() -> None:
+    scan = SAMPLES["sensor_msgs/msg/LaserScan"](np.random.default_rng(1))
+    assert isinstance(scan, msgs.LaserScan)
+    back = msgs.deserialize(msgs.serialize(scan), "sensor_msgs/LaserScan")
+    assert back.header == scan.header
+    assert back.angle_min == pytest.approx(scan.angle_min, rel=1e-7)
+    assert back.ranges.dtype == np.float32
+    np.testing.assert_array_equal(back.ranges, scan.ranges)
+    np.testing.assert_array_equal(back.intensities, scan.intensities)  # NaN and inf survive
+
+
+@pytest.mark.parametrize("msgtype", _cases())
+def test_dataclass_fields_match_msg_definition(msgtype: str) -> None:
+    cls = msgs.message_class(msgtype)
+    spec = idl.get_spec(msgtype)
+    assert [f.name for f in dataclasses.fields(cls)] == [f.name for f in spec.fields]
+    assert cls.__doc__
+    assert cls.__msgtype__ == msgtype
+    default = cls()
+    for field_spec in spec.fields:
+        value = getattr(default, field_spec.name)
+        if field_spec.is_array and field_spec.type in ("uint8", "byte", "char"):
+            assert value == b""
+        elif field_spec.is_array and field_spec.is_primitive and field_spec.type != "string":
+            assert isinstance(value, np.ndarray)
+            assert value.shape == (field_spec.size or 0,)
+        elif field_spec.is_array:
+            assert value == []
+
+
+@pytest.mark.parametrize("msgtype", ["sensor_msgs/msg/LaserScan", "nav_msgs/msg/Odometry",
+                                     "ackermann_msgs/msg/AckermannDriveStamped"])  # fmt: skip
+def test_schema_text_parses_in_rosbags(msgtype: str, typestore: Any) -> None:
+    text = msgs.schema_text(msgtype)
+    assert text.count("=" * 80 + "\nMSG: ") == len(idl.dependencies(msgtype))
+    store = get_typestore(Stores.EMPTY)
+    store.register(get_types_from_msg(text, msgtype))
+    msg = SAMPLES[msgtype](np.random.default_rng(3))
+    decoded = store.deserialize_cdr(msgs.serialize(msg), msgtype)
+    reference = typestore.fielddefs[msgtype]
+    assert [f[0] for f in store.fielddefs[msgtype][1]] == [f[0] for f in reference[1]]
+    assert decoded.header.frame_id == msg.header.frame_id  # type: ignore[attr-defined]
+
+
+def test_schema_lists_each_dependency_once_depth_first() -> None:
+    assert idl.dependencies("tf2_msgs/TFMessage") == (
+        "geometry_msgs/msg/TransformStamped",
+        "std_msgs/msg/Header",
+        "builtin_interfaces/msg/Time",
+        "geometry_msgs/msg/Transform",
+        "geometry_msgs/msg/Vector3",
+        "geometry_msgs/msg/Quaternion",
+    )
+
+
+def test_parse_msg_features() -> None:
+    text = (
+        "# comment line\n"
+        "int32 LIMIT=5  # a constant\n"
+        'string GREETING="a # b"\n'
+        "Header header\n"
+        "Point p\n"
+        "geometry_msgs/msg/Vector3 v\n"
+        "float64[<=3] bounded\n"
+        "string<=8[2] names\n"
+        "uint8 flag 1\n"
+        "bool[] bits\n"
+    )
+    spec = idl.parse_msg(text, "my_pkg/Thing")
+    assert spec.msgtype == "my_pkg/msg/Thing"
+    assert [(c[1], c[2]) for c in spec.constants] == [("LIMIT", "5"), ("GREETING", '"a # b"')]
+    assert [(f.name, f.type, f.is_array, f.size) for f in spec.fields] == [
+        ("header", "std_msgs/msg/Header", False, None),
+        ("p", "my_pkg/msg/Point", False, None),
+        ("v", "geometry_msgs/msg/Vector3", False, None),
+        ("bounded", "float64", True, None),
+        ("names", "string", True, 2),
+        ("flag", "uint8", False, None),
+        ("bits", "bool", True, None),
+    ]
+
+
+def test_parse_msg_rejects_garbage() -> None:
+    with pytest.raises(ValueError, match="my_pkg/msg/Bad line 2"):
+        idl.parse_msg("int32 a\nfloat64[x y\n", "my_pkg/Bad")
+
+
+def test_image_data_accepts_buffers(typestore: Any) -> None:
+    raw = np.random.default_rng(0).integers(0, 256, (4, 5, 3), dtype=np.uint8)
+    reference = msgs.serialize(msgs.Image(height=4, width=5, step=15, data=raw.tobytes()))
+    for data in (bytearray(raw.tobytes()), memoryview(raw.tobytes()), raw, np.asfortranarray(raw)):
+        assert msgs.serialize(msgs.Image(height=4, width=5, step=15, data=data)) == reference
+
+
+def test_arrays_accept_lists_and_other_dtypes() -> None:
+    a = msgs.LaserScan(ranges=[1.0, 2.0, 3.0])  # type: ignore[arg-type]
+    b = msgs.LaserScan(ranges=np.array([1.0, 2.0, 3.0], dtype=np.float64))
+    assert msgs.serialize(a) == msgs.serialize(b)
+
+
+def test_bad_field_type_names_type_and_field() -> None:
+    with pytest.raises(TypeError, match=r"sensor_msgs/msg/LaserScan: field 'angle_min'"):
+        msgs.serialize(msgs.LaserScan(angle_min="wide"))  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match=r"std_msgs/msg/Header: field 'frame_id'"):
+        msgs.serialize(msgs.Header(frame_id=7))  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match=r"LaserScan: field 'ranges'"):
+        msgs.serialize(msgs.LaserScan(ranges=None))  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match=r"Image: field 'data'"):
+        msgs.serialize(msgs.Image(data="pixels"))  # type: ignore[arg-type]
+
+
+def test_bad_values_raise_value_error() -> None:
+    with pytest.raises(ValueError, match=r"std_msgs/msg/Int8: field 'data'"):
+        msgs.serialize(msgs.Int8(300))
+    with pytest.raises(ValueError, match=r"PoseWithCovariance: field 'covariance'.*36"):
+        msgs.serialize(msgs.PoseWithCovariance(covariance=np.zeros(35)))
+
+
+def test_nested_list_errors_name_the_element() -> None:
+    tf = msgs.TFMessage([_transform("a", 0.0), msgs.Transform()])  # type: ignore[list-item]
+    with pytest.raises(TypeError, match=r"tf2_msgs/msg/TFMessage: field 'transforms\[1\]'"):
+        msgs.serialize(tf)
+
+
+def test_nan_is_carried() -> None:
+    data = msgs.serialize(msgs.Float64(math.nan))
+    assert math.isnan(msgs.deserialize(data, "std_msgs/msg/Float64").data)
+
+
+def test_deserialize_rejects_bad_data() -> None:
+    with pytest.raises(ValueError, match="not little-endian CDR"):
+        msgs.deserialize(b"\x00\x00\x00\x00abcd", "std_msgs/String")
+    with pytest.raises(ValueError, match="std_msgs/msg/String: field 'data'"):
+        msgs.deserialize(msgs.serialize(msgs.String("hello"))[:-3], "std_msgs/String")
+
+
+def test_registry_and_helpers() -> None:
+    assert msgs.message_class("sensor_msgs/LaserScan") is msgs.LaserScan
+    assert msgs.msgtype_of(msgs.Odometry) == "nav_msgs/msg/Odometry"
+    with pytest.raises(KeyError):
+        msgs.message_class("sensor_msgs/msg/Imu")
+    with pytest.raises(TypeError):
+        msgs.msgtype_of(3.0)
+    assert msgs.Time.from_ns(-1) == msgs.Time(-1, 999_999_999)
+    assert msgs.Time.from_ns(12_000_000_345).to_ns() == 12_000_000_345
+    assert msgs.Header.at(2_500_000_000, "odom") == msgs.Header(msgs.Time(2, 500_000_000), "odom")
+    assert "<921600 bytes>" in repr(msgs.Image(data=bytes(921600)))
