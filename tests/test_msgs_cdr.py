@@ -286,6 +286,8 @@ def test_arrays_accept_lists_and_other_dtypes() -> None:
 def test_bad_field_type_names_type_and_field() -> None:
     with pytest.raises(TypeError, match=r"sensor_msgs/msg/LaserScan: field 'angle_min'"):
         msgs.serialize(msgs.LaserScan(angle_min="wide"))  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match=r"Image: field 'height'"):
+        msgs.serialize(msgs.Image(height=1.5))  # type: ignore[arg-type]
     with pytest.raises(TypeError, match=r"std_msgs/msg/Header: field 'frame_id'"):
         msgs.serialize(msgs.Header(frame_id=7))  # type: ignore[arg-type]
     with pytest.raises(TypeError, match=r"LaserScan: field 'ranges'"):
@@ -297,6 +299,8 @@ def test_bad_field_type_names_type_and_field() -> None:
 def test_bad_values_raise_value_error() -> None:
     with pytest.raises(ValueError, match=r"std_msgs/msg/Int8: field 'data'"):
         msgs.serialize(msgs.Int8(300))
+    with pytest.raises(ValueError, match=r"AckermannDrive: field 'speed'"):
+        msgs.serialize(msgs.AckermannDrive(speed=1e39))
     with pytest.raises(ValueError, match=r"PoseWithCovariance: field 'covariance'.*36"):
         msgs.serialize(msgs.PoseWithCovariance(covariance=np.zeros(35)))
 
@@ -326,6 +330,8 @@ def test_registry_and_helpers() -> None:
         msgs.message_class("sensor_msgs/msg/Imu")
     with pytest.raises(TypeError):
         msgs.msgtype_of(3.0)
+    with pytest.raises(TypeError, match="instance"):
+        msgs.serialize(msgs.LaserScan)
     assert msgs.Time.from_ns(-1) == msgs.Time(-1, 999_999_999)
     assert msgs.Time.from_ns(12_000_000_345).to_ns() == 12_000_000_345
     assert msgs.Header.at(2_500_000_000, "odom") == msgs.Header(msgs.Time(2, 500_000_000), "odom")

@@ -166,6 +166,7 @@ def test_sigint_during_write_is_deferred_until_the_file_is_consistent(tmp_path: 
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
     _, rows = _read_all(path)
     assert [t for _, t, _ in rows] == [0, 1]
+    assert rec.message_count == {"/scan": 2}
 
 
 def test_tf_static_declares_transient_local(tmp_path: Path) -> None:

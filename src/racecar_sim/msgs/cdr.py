@@ -39,6 +39,8 @@ _PAD = tuple(b"\0" * n for n in range(8))
 Encoder = Callable[[Any, list[Any], int], int]
 """``encode(msg, out, pos) -> pos``: append byte chunks to ``out``; ``pos`` is the body offset."""
 
+_ENCODERS: dict[type, Encoder] = {}
+
 
 def serialize(msg: object) -> bytes:
     """Serialize a message instance to CDR bytes, encapsulation header included.
@@ -50,13 +52,12 @@ def serialize(msg: object) -> bytes:
     try:
         encode = _ENCODERS[type(msg)]
     except KeyError:
+        if isinstance(msg, type):
+            raise TypeError(f"serialize() needs a message instance, got the class {msg.__name__}")
         encode = _ENCODERS.setdefault(type(msg), _encoder(msgtype_of(msg)))
     out: list[Any] = [CDR_LE_HEADER]
     encode(msg, out, 0)
     return b"".join(out)
-
-
-_ENCODERS: dict[type, Encoder] = {}
 
 
 def _error(kind: type[Exception], msgtype: str, path: str, detail: str) -> Exception:
@@ -145,10 +146,13 @@ def _diagnose_scalars(msgtype: str, msg: Any, run: list[tuple[str, str]]) -> Exc
             value = attrgetter(path)(msg)
         except AttributeError:
             return _error(TypeError, msgtype, path, f"missing on {type(msg).__name__}")
+        code = _SCALARS[type_name][0]
         try:
-            struct.pack("<" + _SCALARS[type_name][0], value)
+            struct.pack("<" + code, value)
         except (struct.error, TypeError, OverflowError) as exc:
-            kind = ValueError if isinstance(value, (int, float, np.number)) else TypeError
+            # A number of the right kind failed on range; anything else is a type error.
+            right_kind = (int, np.integer) if code not in "fd" else (int, float, np.number)
+            kind = ValueError if isinstance(value, right_kind) else TypeError
             return _error(kind, msgtype, path, f"cannot encode {value!r} as {type_name} ({exc})")
     return _error(TypeError, msgtype, ", ".join(p for p, _ in run), "cannot encode")
 

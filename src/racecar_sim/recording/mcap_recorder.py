@@ -6,7 +6,7 @@ import os
 import signal
 import threading
 from collections.abc import Iterable
-from importlib import metadata
+from importlib.metadata import PackageNotFoundError, version
 from types import FrameType, TracebackType
 from typing import Any
 
@@ -56,14 +56,15 @@ class _DeferredInterrupt:
 
     A KeyboardInterrupt raised inside ``mcap.writer.Writer`` (for example right after a
     chunk was compressed but before it was written) would leave indexes pointing at lost
-    data. While ``hold()`` is active on the main thread the Python-level handler only
-    notes the signal; ``release()`` then delivers it to the previously installed handler.
-    Installed only from the main thread and only over a callable handler.
+    data. Between ``hold()`` and the matching ``release()`` on the main thread (they
+    nest) the Python-level handler only notes the signal; the outermost ``release()``
+    then delivers it to the previously installed handler. Installed only from the main
+    thread and only over a callable handler; elsewhere every method is a no-op.
     """
 
     def __init__(self) -> None:
         self._main = threading.main_thread().ident
-        self._holding = False
+        self._depth = 0
         self._pending: tuple[int, FrameType | None] | None = None
         self._previous: Any = None
         if threading.get_ident() == self._main:
@@ -72,28 +73,33 @@ class _DeferredInterrupt:
                 self._previous = previous
                 signal.signal(signal.SIGINT, self._handle)
 
+    def _active(self) -> bool:
+        # KeyboardInterrupt is only ever raised on the main thread.
+        return self._previous is not None and threading.get_ident() == self._main
+
     def _handle(self, signum: int, frame: FrameType | None) -> None:
-        if self._holding:
+        if self._depth:
             self._pending = (signum, frame)
         else:
             self._previous(signum, frame)
 
     def hold(self) -> None:
-        """Start deferring SIGINT (no-op off the main thread, where it is never raised)."""
-        self._holding = self._previous is not None and threading.get_ident() == self._main
+        """Start (or nest) deferring SIGINT."""
+        if self._active():
+            self._depth += 1
 
     def release(self) -> None:
-        """Stop deferring and deliver a SIGINT that arrived meanwhile."""
-        self._holding = False
-        if self._pending is not None:
+        """End one ``hold()``; the outermost delivers a SIGINT that arrived meanwhile."""
+        if not self._active():
+            return
+        self._depth -= 1
+        if self._depth == 0 and self._pending is not None:
             pending, self._pending = self._pending, None
             self._previous(*pending)
 
     def uninstall(self) -> None:
         """Restore the previous handler if ours is still the installed one."""
-        if self._previous is None or threading.get_ident() != self._main:
-            return
-        if signal.getsignal(signal.SIGINT) == self._handle:
+        if self._active() and signal.getsignal(signal.SIGINT) == self._handle:
             signal.signal(signal.SIGINT, self._previous)
 
 
@@ -145,38 +151,31 @@ class McapRecorder:
             raise ValueError(f"compression must be one of {choices}; got {compression!r}")
         self.path = os.fspath(path)
         self.latched_topics = frozenset(latched_topics)
-        try:
-            self._stream = open(self.path, "wb")  # noqa: SIM115  # closed in close()
-        except OSError as exc:
-            reason = f"cannot create MCAP file: {exc.strerror}"
-            raise OSError(exc.errno, reason, self.path) from None
-        self._writer = Writer(
-            self._stream, chunk_size=chunk_size, compression=_COMPRESSION[compression]
-        )
         self._lock = threading.Lock()
-        self._interrupt = _DeferredInterrupt()
         self._closed = False
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, tuple[int, str]] = {}
         self._counts: dict[str, int] = {}
         self._flushed = 0
         try:
-            self._critical(self._start)
+            self._stream = open(self.path, "wb")  # noqa: SIM115  # closed in close()
+        except OSError as exc:
+            reason = f"cannot create MCAP file: {exc.strerror}"
+            raise OSError(exc.errno, reason, self.path) from None
+        self._interrupt = _DeferredInterrupt()
+        self._interrupt.hold()
+        try:
+            self._writer = Writer(
+                self._stream, chunk_size=chunk_size, compression=_COMPRESSION[compression]
+            )
+            self._writer.start(profile="ros2", library=_library())
+            # With a 'rosbag2' record lacking 'serialized_metadata', rosbag2 (Jazzy and
+            # later) decodes offered_qos_profiles as metadata version 8, our integer form.
+            self._writer.add_metadata("rosbag2", {"ROS_DISTRO": "racecar_sim"})
         except BaseException:
             self._stream.close()
             self._interrupt.uninstall()
             raise
-
-    def _start(self) -> None:
-        self._writer.start(profile="ros2", library=_library())
-        # With a 'rosbag2' record lacking 'serialized_metadata', rosbag2 (Jazzy and later)
-        # decodes offered_qos_profiles as metadata version 8, the integer form we write.
-        self._writer.add_metadata("rosbag2", {"ROS_DISTRO": "racecar_sim"})
-
-    def _critical(self, func: Any, *args: Any) -> Any:
-        self._interrupt.hold()
-        try:
-            return func(*args)
         finally:
             self._interrupt.release()
 
@@ -216,19 +215,23 @@ class McapRecorder:
         with self._lock:
             if self._closed:
                 raise ValueError(f"write to a closed recorder ({self.path})")
-            channel = self._channels.get(topic)
-            if channel is None or channel[1] != msgtype:
-                channel = self._channel(topic, msgtype)
-            count = self._counts[topic] + 1
-            sequence = count & 0xFFFFFFFF
-            self._critical(
-                self._writer.add_message, channel[0], log_time, data, publish_time, sequence
-            )
-            self._counts[topic] = count
-            if self._stream.tell() != self._flushed:
-                # A chunk was completed: hand it to the OS so that a SIGKILL cannot lose it.
-                self._stream.flush()
-                self._flushed = self._stream.tell()
+            self._interrupt.hold()
+            try:
+                self._append(topic, msgtype, data, log_time, publish_time)
+            finally:
+                self._interrupt.release()
+
+    def _append(self, topic: str, msgtype: str, data: bytes, log_time: int, publish: int) -> None:
+        channel = self._channels.get(topic)
+        if channel is None or channel[1] != msgtype:
+            channel = self._channel(topic, msgtype)
+        count = self._counts[topic] + 1
+        self._writer.add_message(channel[0], log_time, data, publish, count & 0xFFFFFFFF)
+        self._counts[topic] = count
+        if self._stream.tell() != self._flushed:
+            # A chunk was completed: hand it to the OS so that a SIGKILL cannot lose it.
+            self._stream.flush()
+            self._flushed = self._stream.tell()
 
     def _channel(self, topic: str, msgtype: str) -> tuple[int, str]:
         if topic in self._channels:
@@ -239,12 +242,12 @@ class McapRecorder:
         schema_id = self._schemas.get(msgtype)
         if schema_id is None:
             schema = schema_text(msgtype).encode()
-            schema_id = self._critical(self._writer.register_schema, msgtype, "ros2msg", schema)
+            schema_id = self._writer.register_schema(msgtype, "ros2msg", schema)
             self._schemas[msgtype] = schema_id
         qos = LATCHED_QOS if topic in self.latched_topics else VOLATILE_QOS
-        metadata = {"offered_qos_profiles": qos}
-        register = self._writer.register_channel
-        channel_id = self._critical(register, topic, "cdr", schema_id, metadata)
+        channel_id = self._writer.register_channel(
+            topic, "cdr", schema_id, {"offered_qos_profiles": qos}
+        )
         self._channels[topic] = (channel_id, msgtype)
         self._counts[topic] = 0
         return self._channels[topic]
@@ -281,8 +284,8 @@ class McapRecorder:
 
 def _library() -> str:
     try:
-        return f"racecar-sim {metadata.version('racecar-sim')}"
-    except metadata.PackageNotFoundError:
+        return f"racecar-sim {version('racecar-sim')}"
+    except PackageNotFoundError:
         return "racecar-sim"
 
 
