@@ -135,7 +135,7 @@ def test_exception_inside_with_leaves_readable_file(tmp_path: Path, error: type)
     path = tmp_path / "interrupted.mcap"
     rng = np.random.default_rng(1)
 
-    def record_then_fail() -> McapRecorder:
+    def record_then_fail() -> None:
         with McapRecorder(path) as rec:
             for stamp in SCAN_TIMES:
                 rec.write("/scan", _scan(stamp, rng), stamp)

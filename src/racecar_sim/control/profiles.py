@@ -3,12 +3,9 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import lru_cache
 from pathlib import Path
 
-import yaml
-
-from racecar_sim.core.errors import ConfigError
+from racecar_sim.core.tables import read_table, table_entry
 
 _FILE = Path(__file__).parent / "data" / "profiles.yaml"
 
@@ -24,19 +21,11 @@ class Profile:
     wheel_rate_per_speed: float | None = None
 
 
-@lru_cache(maxsize=1)
-def _profiles() -> dict[str, dict]:
-    return yaml.safe_load(_FILE.read_text())
-
-
 def profile_names() -> list[str]:
     """Names of the driving profiles."""
-    return list(_profiles())
+    return list(read_table(_FILE))
 
 
 def load_profile(name: str) -> Profile:
     """A profile by name; ConfigError lists the known ones."""
-    profiles = _profiles()
-    if name not in profiles:
-        raise ConfigError(f"unknown profile '{name}' (choose from: {', '.join(profiles)})")
-    return Profile(name=name, **profiles[name])
+    return table_entry(_FILE, name, Profile, "profile")

@@ -3,12 +3,10 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
 from pathlib import Path
 
-import yaml
-
 from racecar_sim.core.errors import ConfigError
+from racecar_sim.core.tables import read_table, table_entry
 
 _FILE = Path(__file__).parent / "data" / "presets.yaml"
 
@@ -27,22 +25,14 @@ class PhysicsPreset:
     wheel_contact: str = "ellipsoid"
 
 
-@lru_cache(maxsize=1)
-def _presets() -> dict[str, dict]:
-    return yaml.safe_load(_FILE.read_text())
-
-
 def preset_names() -> list[str]:
     """Names of the presets."""
-    return list(_presets())
+    return list(read_table(_FILE))
 
 
 def load_preset(name: str) -> PhysicsPreset:
     """A preset by name; ConfigError names the file and the preset."""
-    presets = _presets()
-    if name not in presets:
-        raise ConfigError(f"{_FILE}: no physics preset '{name}' (have: {', '.join(presets)})")
-    preset = PhysicsPreset(name=name, **presets[name])
+    preset = table_entry(_FILE, name, PhysicsPreset, "physics preset")
     if preset.wheel_contact not in ("ellipsoid", "cylinder"):
         raise ConfigError(f"{_FILE}: preset '{name}': wheel_contact must be ellipsoid or cylinder")
     if preset.contact_timeconst < 2 * preset.timestep:
