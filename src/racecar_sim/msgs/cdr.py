@@ -53,7 +53,9 @@ def serialize(msg: object) -> bytes:
         encode = _ENCODERS[type(msg)]
     except KeyError:
         if isinstance(msg, type):
-            raise TypeError(f"serialize() needs a message instance, got the class {msg.__name__}")
+            raise TypeError(
+                f"serialize() needs a message instance, got the class {msg.__name__}"
+            ) from None
         encode = _ENCODERS.setdefault(type(msg), _encoder(msgtype_of(msg)))
     out: list[Any] = [CDR_LE_HEADER]
     encode(msg, out, 0)
