@@ -19,7 +19,7 @@ from racecar_sim.bus import Bus
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.time import to_ns
 from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header, String
-from racecar_sim.runtime.scheduler import Scheduler, Task
+from racecar_sim.core.scheduler import Scheduler, Task
 
 DATA = Path(__file__).parent / "data"
 

@@ -1,1 +1,1 @@
-"""Core helpers shared by every layer: sim time, seeded randomness, errors."""
+"""Core helpers shared by every layer: sim time and its scheduler, seeded randomness, errors, transforms."""

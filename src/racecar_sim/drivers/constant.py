@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from racecar_sim.bus import Bus
 from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header
-from racecar_sim.runtime.scheduler import Scheduler
+from racecar_sim.core.scheduler import Scheduler
 
 NAVIGATION = "/vesc/ackermann_cmd_mux/input/navigation"
 

@@ -25,7 +25,7 @@ from racecar_sim.description import DEFAULT_XACRO, load_robot, package_path
 from racecar_sim.msgs import Clock, Time
 from racecar_sim.physics import build_spec, load_preset
 from racecar_sim.physics.state import CarState
-from racecar_sim.runtime.scheduler import Scheduler
+from racecar_sim.core.scheduler import Scheduler
 from racecar_sim.sensors.joint_states import JointStatePublisher
 from racecar_sim.sensors.odometry import OdometryPublisher
 from racecar_sim.sensors.robot_state import RobotStatePublisher

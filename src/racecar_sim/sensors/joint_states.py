@@ -5,7 +5,7 @@ from __future__ import annotations
 from racecar_sim.bus import Bus
 from racecar_sim.msgs import Header, JointState
 from racecar_sim.physics.state import CarState
-from racecar_sim.runtime.scheduler import Scheduler
+from racecar_sim.core.scheduler import Scheduler
 
 
 class JointStatePublisher:

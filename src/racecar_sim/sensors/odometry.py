@@ -12,7 +12,7 @@ from racecar_sim.bus import Bus
 from racecar_sim.msgs import (Header, Odometry, Point, Pose, PoseWithCovariance, Quaternion, TFMessage, Twist,
                               TwistWithCovariance, Vector3)
 from racecar_sim.physics.state import CarState
-from racecar_sim.runtime.scheduler import Scheduler
+from racecar_sim.core.scheduler import Scheduler
 from racecar_sim.sensors.robot_state import transform_msg
 
 FRAMES = {"original": ("map", "odom"), "ros": ("odom", "base_link")}
