@@ -23,7 +23,7 @@ from racecar_sim.worlds.world import Light, Physics, World, WorldBody, WorldGeom
 
 BUILTIN_MODELS = Path(__file__).parent / "data" / "models"
 _IGNORED = {"gui", "scene", "audio", "plugin", "gravity", "magnetic_field", "atmosphere", "state", "spherical_coordinates",
-            "wind", "self_collide", "enable_wind", "kinematic", "gravity"}
+            "wind", "self_collide", "enable_wind", "kinematic"}
 
 
 class _Context:
@@ -34,8 +34,9 @@ class _Context:
     def error(self, message: str) -> WorldError:
         return WorldError(f"{self.source}: {message}")
 
-    def warn(self, element: str) -> None:
-        warnings.warn(f"{self.source}: <{element}> is not supported and was ignored", stacklevel=3)
+    def warn(self, element: str, where: str = "") -> None:
+        place = f" in {where}" if where else ""
+        warnings.warn(f"{self.source}: <{element}>{place} is not supported and was ignored", stacklevel=3)
 
 
 def _numbers(text: str | None, n: int, ctx: _Context, where: str) -> tuple[float, ...]:
@@ -70,9 +71,9 @@ def _geometry(el: ET.Element | None, ctx: _Context, where: str) -> tuple[str, tu
     if g.tag == "plane":
         normal = _numbers(g.findtext("normal") or "0 0 1", 3, ctx, f"{where} plane <normal>")
         if normal != (0.0, 0.0, 1.0):
-            ctx.warn(f"plane normal {normal} in {where} (only 0 0 1)")
+            ctx.warn(f"normal>{' '.join(f'{v:g}' for v in normal)}</normal", f"{where} (only 0 0 1 planes)")
         return "plane", _numbers(g.findtext("size") or "100 100", 2, ctx, f"{where} plane <size>")
-    ctx.warn(f"{g.tag}> geometry in {where} <{g.tag}")
+    ctx.warn(g.tag, f"{where} <geometry>")
     return None
 
 
@@ -118,7 +119,7 @@ def _link(el: ET.Element, model: str, static: bool, pos: np.ndarray, quat: np.nd
             body.geoms.append(geom)
     for child in el:
         if child.tag not in ("pose", "inertial", "collision", "visual", "self_collide", "kinematic", "gravity"):
-            ctx.warn(f"{child.tag}> in link {name} <{child.tag}")
+            ctx.warn(child.tag, f"link {name}")
     return body
 
 
@@ -136,7 +137,7 @@ def _model(el: ET.Element, world: World, ctx: _Context, pose_override=None, name
             inner_pos, inner_quat = compose(pos, quat, *_pose(child, ctx, f"model {name}"))
             _model(child, world, ctx, (inner_pos, inner_quat), f"{name}::{child.get('name')}", static)
         elif child.tag not in ("static", "pose") and child.tag not in _IGNORED:
-            ctx.warn(f"{child.tag}> in model {name} <{child.tag}")
+            ctx.warn(child.tag, f"model {name}")
 
 
 def _light(el: ET.Element, ctx: _Context) -> Light:
