@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -56,3 +59,15 @@ def drive():
         return sim, log
 
     return run
+
+
+def run_cli_error(world: Path) -> str:
+    """stderr of `racecar-sim run --world WORLD`, which must fail with exit code 2 and one line."""
+    result = subprocess.run([sys.executable, "-m", "racecar_sim", "run", "--world", str(world), "--duration", "0.1"],
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 2, result.stderr
+    assert "Traceback" not in result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1, result.stderr
+    assert world.name in lines[0]
+    return lines[0]

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from racecar_sim.worlds import Spawn
+from racecar_sim.worlds import DEFAULT_WALL_HEIGHT, Spawn
 
 
 def finite_float(text: str) -> float:
@@ -44,3 +44,16 @@ def xacro_arg(text: str) -> tuple[str, str]:
         raise argparse.ArgumentTypeError(f"'{text}' is not name:=value")
     name, value = text.split(":=", 1)
     return name, value
+
+
+def add_world_arguments(p: argparse.ArgumentParser, world_option: bool = True) -> None:
+    """--world, --spawn, --model-path and --wall-height, shared by the subcommands that load a world."""
+    if world_option:
+        p.add_argument("--world", default="empty", metavar="NAME|PATH",
+                       help="built-in world (see `racecar-sim worlds`), SDF .world/.sdf file, ROS map .yaml, "
+                            "or race-track centerline .csv (default: empty)")
+    p.add_argument("--spawn", type=spawn_pose, help="spawn pose x,y,yaw (default: the world's own)")
+    p.add_argument("--model-path", action="append", default=[], metavar="DIR",
+                   help="folder holding model:// models, searched before GAZEBO_MODEL_PATH (repeatable)")
+    p.add_argument("--wall-height", type=positive_float, default=DEFAULT_WALL_HEIGHT, metavar="M",
+                   help=f"height of walls extruded from a map or track file (default {DEFAULT_WALL_HEIGHT:g} m)")

@@ -5,12 +5,13 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
+import warnings
 
 from racecar_sim import __version__
-from racecar_sim.cli import bench, describe, run
+from racecar_sim.cli import bench, describe, run, worlds
 from racecar_sim.core.errors import RacecarSimError
 
-SUBCOMMANDS = {"run": run, "describe": describe, "bench": bench}
+SUBCOMMANDS = {"run": run, "describe": describe, "bench": bench, "worlds": worlds}
 
 
 class _Parser(argparse.ArgumentParser):
@@ -29,8 +30,13 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _one_line_warning(message, category, filename, lineno, line=None) -> str:  # noqa: ANN001 (warnings' hook)
+    return f"racecar-sim: warning: {message}\n"
+
+
 def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.WARNING, format="racecar-sim: %(message)s")
+    warnings.formatwarning = _one_line_warning
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:

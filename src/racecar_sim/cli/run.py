@@ -11,7 +11,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from racecar_sim.cli.args import finite_float, positive_float, spawn_pose
+from racecar_sim.cli.args import add_world_arguments, finite_float, positive_float
 from racecar_sim.control.profiles import profile_names
 from racecar_sim.core.transforms import yaw_of
 from racecar_sim.drivers import ConstantCommand
@@ -25,7 +25,7 @@ CHUNK = 0.1  # s of sim time between progress updates and real-time sleeps
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help="drive the car with a constant command and print a summary")
-    p.add_argument("--world", default="empty", help="built-in world name or SDF file (default: empty)")
+    add_world_arguments(p)
     p.add_argument("--duration", type=positive_float, default=10.0, help="sim seconds to run (default 10)")
     p.add_argument("--speed", type=finite_float, default=1.0, help="commanded speed, m/s (default 1.0)")
     p.add_argument("--steering", type=finite_float, default=0.0, help="commanded steering angle, rad (default 0)")
@@ -34,7 +34,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--physics", default="default", choices=preset_names(), help="physics preset (default: default)")
     p.add_argument("--odometry", default="original", choices=["original", "ros"],
                    help="original: map->odom as the 2017 sim; ros: odom->base_link, body twist")
-    p.add_argument("--spawn", type=spawn_pose, help="spawn pose x,y,yaw (default: the world's own)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--record", metavar="FILE.mcap", help="record every topic to an MCAP file")
     p.add_argument("--realtime", action="store_true", help="run no faster than real time")
@@ -61,7 +60,7 @@ def _terminate(signum: int, frame: object) -> None:
 def main(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGTERM, _terminate)
     with Simulator(world=args.world, profile=args.profile, seed=args.seed, physics=args.physics, spawn=args.spawn,
-                   odometry=args.odometry) as sim:
+                   odometry=args.odometry, model_path=args.model_path, wall_height=args.wall_height) as sim:
         if args.record:
             Path(args.record).parent.mkdir(parents=True, exist_ok=True)
         recorder = sim.record(args.record) if args.record else None

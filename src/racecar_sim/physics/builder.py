@@ -13,33 +13,20 @@ import mujoco
 import numpy as np
 
 from racecar_sim.core.errors import DescriptionError
-from racecar_sim.core.transforms import compose, quat_from_axis_angle, quat_from_rpy
+from racecar_sim.core.transforms import quat_from_axis_angle, quat_from_rpy
 from racecar_sim.description.urdf import Link, Robot, Shape
 from racecar_sim.physics.contact import solref_solimp
 from racecar_sim.physics.presets import PhysicsPreset
+from racecar_sim.physics.world_geoms import COLLISION_GROUP, GEOM_TYPES, VISUAL_GROUP, add_world, mj_size
 from racecar_sim.worlds.materials import gazebo_material_rgba
-from racecar_sim.worlds.world import World, WorldGeom
+from racecar_sim.worlds.world import World
 
-VISUAL_GROUP = 1  # rendered by the camera and viewer
-COLLISION_GROUP = 3  # hidden, but seen by contacts and ray casts
 ROOT_JOINT = "root"
 
 _INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
                 "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT, "rk4": mujoco.mjtIntegrator.mjINT_RK4}
 _SOLVERS = {"newton": mujoco.mjtSolver.mjSOL_NEWTON, "cg": mujoco.mjtSolver.mjSOL_CG, "pgs": mujoco.mjtSolver.mjSOL_PGS}
 _CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
-_GEOM = {"box": mujoco.mjtGeom.mjGEOM_BOX, "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
-         "sphere": mujoco.mjtGeom.mjGEOM_SPHERE, "plane": mujoco.mjtGeom.mjGEOM_PLANE}
-
-
-def _mj_size(kind: str, size: tuple[float, ...]) -> list[float]:
-    if kind == "box":
-        return [0.5 * s for s in size[:3]]
-    if kind == "cylinder":
-        return [size[0], 0.5 * size[1], 0.0]
-    if kind == "sphere":
-        return [size[0], 0.0, 0.0]
-    return [0.5 * size[0], 0.5 * size[1], 1.0]  # plane: half extents, grid spacing
 
 
 def build_spec(robot: Robot, world: World, preset: PhysicsPreset) -> mujoco.MjSpec:
@@ -47,7 +34,7 @@ def build_spec(robot: Robot, world: World, preset: PhysicsPreset) -> mujoco.MjSp
     spec = mujoco.MjSpec()
     spec.modelname = robot.name
     _options(spec, world, preset)
-    _add_world(spec, world)
+    add_world(spec, world)
     _add_robot(spec, robot, world, preset)
     _friction_min_rule(spec)
     return spec
@@ -69,36 +56,6 @@ def _options(spec: mujoco.MjSpec, world: World, preset: PhysicsPreset) -> None:
     spec.visual.quality.offsamples = 0  # software GL: MSAA costs 2x per frame
 
 
-def _add_world_geom(body: mujoco.MjsBody, geom: WorldGeom, pos: np.ndarray, quat: np.ndarray) -> None:
-    g = body.add_geom(name=geom.name, type=_GEOM[geom.kind], size=_mj_size(geom.kind, geom.size),
-                      pos=list(pos), quat=list(quat))
-    if geom.collides:
-        g.group, g.contype, g.conaffinity, g.condim = COLLISION_GROUP, 1, 1, 3
-        g.friction = [geom.mu, 0.0, 0.0]
-        g.rgba = [0.5, 0.5, 0.5, 1.0]
-    else:
-        g.group, g.contype, g.conaffinity = VISUAL_GROUP, 0, 0
-        g.rgba = list(geom.rgba)
-
-
-def _add_world(spec: mujoco.MjSpec, world: World) -> None:
-    for wb in world.bodies:
-        if wb.static:
-            for geom in wb.geoms:
-                _add_world_geom(spec.worldbody, geom, *compose(wb.pos, wb.quat, geom.pos, geom.quat))
-        else:
-            body = spec.worldbody.add_body(name=wb.name, pos=list(wb.pos), quat=list(wb.quat), mass=wb.mass,
-                                           inertia=list(wb.inertia), explicitinertial=True)
-            body.add_freejoint(name=f"{wb.name}::free")
-            for geom in wb.geoms:
-                _add_world_geom(body, geom, geom.pos, geom.quat)
-    for light in world.lights:
-        spec.worldbody.add_light(name=light.name, pos=list(light.pos), dir=list(light.direction),
-                                 diffuse=list(light.diffuse), castshadow=light.cast_shadows,
-                                 type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL if light.directional
-                                 else mujoco.mjtLightType.mjLIGHT_SPOT)
-
-
 def _sprung_mass(robot: Robot) -> float:
     """Mass each contact carries at rest: the car's mass shared by the links with contact surfaces."""
     total = sum(link.inertial.mass for link in robot.links.values() if link.inertial)
@@ -116,7 +73,7 @@ def _collision_type(shape: Shape, is_wheel: bool, preset: PhysicsPreset) -> tupl
     kind, size = shape.geometry.kind, shape.geometry.size
     if is_wheel and kind == "cylinder" and preset.wheel_contact == "ellipsoid":
         return mujoco.mjtGeom.mjGEOM_ELLIPSOID, [size[0], size[0], 0.5 * size[1]]
-    return _GEOM[kind], _mj_size(kind, size)
+    return GEOM_TYPES[kind], mj_size(kind, size)
 
 
 def _add_shapes(body: mujoco.MjsBody, link: Link, robot: Robot, preset: PhysicsPreset, is_wheel: bool) -> None:
@@ -135,8 +92,8 @@ def _add_shapes(body: mujoco.MjsBody, link: Link, robot: Robot, preset: PhysicsP
         if shape.geometry.kind == "mesh":
             warnings.warn(f"link {link.name}: mesh visual {shape.geometry.filename} is not rendered", stacklevel=3)
             continue
-        body.add_geom(name=f"{link.name}_visual{'' if i == 0 else i}", type=_GEOM[shape.geometry.kind],
-                      size=_mj_size(shape.geometry.kind, shape.geometry.size), pos=list(shape.origin.xyz),
+        body.add_geom(name=f"{link.name}_visual{'' if i == 0 else i}", type=GEOM_TYPES[shape.geometry.kind],
+                      size=mj_size(shape.geometry.kind, shape.geometry.size), pos=list(shape.origin.xyz),
                       quat=list(quat_from_rpy(shape.origin.rpy)), group=VISUAL_GROUP, contype=0, conaffinity=0,
                       rgba=_link_rgba(link, shape), mass=0.0)
 

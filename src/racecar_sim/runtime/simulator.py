@@ -29,7 +29,7 @@ from racecar_sim.core.scheduler import Scheduler
 from racecar_sim.sensors.joint_states import JointStatePublisher
 from racecar_sim.sensors.odometry import OdometryPublisher
 from racecar_sim.sensors.robot_state import RobotStatePublisher
-from racecar_sim.worlds import Spawn, World, load_world
+from racecar_sim.worlds import DEFAULT_WALL_HEIGHT, Spawn, World, load_world
 
 if TYPE_CHECKING:
     from racecar_sim.recording import McapRecorder
@@ -51,11 +51,15 @@ class Simulator:
 
     def __init__(self, world: str | World = "empty", profile: str = "seed", seed: int = 0, physics: str = "default",
                  spawn: Spawn | None = None, odometry: str = "original", xacro: str | Path = DEFAULT_XACRO,
-                 xacro_args: Mapping[str, str] | None = None, controllers: str | Path | None = None) -> None:
+                 xacro_args: Mapping[str, str] | None = None, controllers: str | Path | None = None,
+                 model_path: list[str | Path] | None = None, wall_height: float = DEFAULT_WALL_HEIGHT) -> None:
         self.seed = seed
         self.profile = load_profile(profile)
         self.robot = load_robot(xacro, {**self.profile.xacro_args, **(xacro_args or {})})
-        self.world = load_world(world, spawn) if isinstance(world, str) else world
+        if isinstance(world, World):
+            self.world = world
+        else:
+            self.world = load_world(world, spawn, [Path(p) for p in model_path or []], wall_height)
         if spawn is not None:
             self.world.spawn = spawn
         self.preset = load_preset(physics)

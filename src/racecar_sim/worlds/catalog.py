@@ -1,4 +1,7 @@
-"""The built-in worlds (worlds.yaml beside the SDF files) and loading a world by name or path."""
+"""The built-in worlds (worlds.yaml beside the SDF files) and loading a world by name or path.
+
+A path is read by its suffix: .world/.sdf → SDF, .yaml/.yml → ROS occupancy map, .csv → race-track centerline.
+"""
 
 from __future__ import annotations
 
@@ -13,6 +16,9 @@ from racecar_sim.worlds.world import Spawn, World
 
 DATA = Path(str(resources.files("racecar_sim.worlds") / "data"))
 BUILTIN_WORLDS: dict[str, dict] = yaml.safe_load((DATA / "worlds.yaml").read_text())
+DEFAULT_WALL_HEIGHT = 1.0  # m, walls extruded from maps and track borders
+MAP_SUFFIXES = (".yaml", ".yml")
+TRACK_SUFFIXES = (".csv",)
 
 
 def world_names() -> list[str]:
@@ -20,19 +26,42 @@ def world_names() -> list[str]:
     return list(BUILTIN_WORLDS)
 
 
-def load_world(name_or_path: str, spawn: Spawn | None = None) -> World:
-    """A built-in world by name, or an SDF .world/.sdf file by path; `spawn` overrides the world's own spawn pose."""
-    if name_or_path in BUILTIN_WORLDS:
-        entry = BUILTIN_WORLDS[name_or_path]
-        world = load_sdf(DATA / entry["file"])
+def world_summary(name: str) -> str:
+    """One line describing a built-in world."""
+    return BUILTIN_WORLDS[name]["summary"]
+
+
+def load_world(name_or_path: str | Path, spawn: Spawn | None = None, model_path: list[Path] | None = None,
+               wall_height: float = DEFAULT_WALL_HEIGHT) -> World:
+    """A built-in world by name, or a world file by path; `spawn` overrides the world's own spawn pose.
+
+    model_path: folders searched for model:// URIs before GAZEBO_MODEL_PATH / GZ_SIM_RESOURCE_PATH.
+    wall_height: height of the walls extruded from an occupancy map or a track's borders.
+    """
+    key = str(name_or_path)
+    if key in BUILTIN_WORLDS:
+        entry = BUILTIN_WORLDS[key]
+        world = load_sdf(DATA / entry["file"], model_path)
         x, y, z, yaw = entry["spawn"]
         world.spawn = Spawn(x, y, z, yaw)
-        world.name = name_or_path
+        world.name = key
     else:
         path = Path(name_or_path)
         if not path.exists():
-            raise WorldError(f"{name_or_path}: no such world (built-in worlds: {', '.join(BUILTIN_WORLDS)})")
-        world = load_sdf(path)
+            raise WorldError(f"{key}: no such world file, and not a built-in world ({', '.join(BUILTIN_WORLDS)})")
+        if not (wall_height > 0 and wall_height < float("inf")):
+            raise WorldError(f"{key}: wall height must be a positive number of metres, got {wall_height}")
+        suffix = path.suffix.lower()
+        if suffix in MAP_SUFFIXES:
+            from racecar_sim.worlds.occupancy_map import load_map
+
+            world = load_map(path, wall_height, spawn)
+        elif suffix in TRACK_SUFFIXES:
+            from racecar_sim.worlds.centerline import load_track
+
+            world = load_track(path, wall_height)
+        else:
+            world = load_sdf(path, model_path)
     if spawn is not None:
         world.spawn = spawn
     return world

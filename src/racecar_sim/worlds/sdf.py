@@ -1,186 +1,52 @@
-"""Load the SDF subset Gazebo worlds use into a `World`.
+"""Load the SDF subset (1.4 - 1.9) that Gazebo worlds use into a `World`.
 
-Supported now: <world> with <physics> (max_step_size, gravity, ode/solver/iters), <include> of model://
-models (the built-in ones beside this module, then GAZEBO_MODEL_PATH / GZ_SIM_RESOURCE_PATH) with pose and
-name overrides, <model> with <static>, <pose>, <link> (<pose>, <inertial>), <collision>/<visual> with box,
-cylinder, sphere and plane geometry, <surface><friction><ode><mu>/<mu2>, material colours, <light>.
-Anything else gets a warning naming the element; it is never dropped silently.
+Read: <world> with <physics>, <gravity>, <scene>, <light>, <model> and <include> of model:// models (built-in
+sun and ground_plane, then --model-path, GAZEBO_MODEL_PATH, GZ_SIM_RESOURCE_PATH); an include's <pose>,
+<name> and <static> override the model's own. <model> with <static>, <pose>, nested <model>/<include>, <link>
+with <pose>, <inertial> and <collision>/<visual> (box, cylinder, sphere, plane, capsule, ellipsoid, mesh),
+<surface><friction><ode><mu>/<mu2>, <material> (Gazebo script names, colours, <pbr> albedo_map).
+Anything else gets a warning naming the element and where it is; nothing is dropped silently.
 """
 
 from __future__ import annotations
 
-import os
-import warnings
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
 
 from racecar_sim.core.errors import WorldError
-from racecar_sim.core.transforms import compose, quat_from_rpy
-from racecar_sim.worlds.materials import gazebo_material_rgba
-from racecar_sim.worlds.world import Light, Physics, World, WorldBody, WorldGeom
+from racecar_sim.core.transforms import compose, quat_to_matrix
+from racecar_sim.worlds.sdf_parts import (
+    SdfContext,
+    flag,
+    number,
+    numbers,
+    pose,
+    pose_or_identity,
+    resolve_uri,
+    rgba_of,
+    shapes,
+)
+from racecar_sim.worlds.world import Light, Physics, Scene, World, WorldBody
 
-BUILTIN_MODELS = Path(__file__).parent / "data" / "models"
-_IGNORED = {"gui", "scene", "audio", "plugin", "gravity", "magnetic_field", "atmosphere", "state", "spherical_coordinates",
-            "wind", "self_collide", "enable_wind", "kinematic"}
-
-
-class _Context:
-    def __init__(self, source: Path, model_path: list[Path]):
-        self.source = source
-        self.model_path = model_path
-
-    def error(self, message: str) -> WorldError:
-        return WorldError(f"{self.source}: {message}")
-
-    def warn(self, element: str, where: str = "") -> None:
-        place = f" in {where}" if where else ""
-        warnings.warn(f"{self.source}: <{element}>{place} is not supported and was ignored", stacklevel=3)
-
-
-def _numbers(text: str | None, n: int, ctx: _Context, where: str) -> tuple[float, ...]:
-    try:
-        values = tuple(float(v) for v in (text or "").split())
-    except ValueError:
-        raise ctx.error(f"{where}: '{text}' is not {n} numbers") from None
-    if len(values) != n or not all(np.isfinite(values)):
-        raise ctx.error(f"{where}: '{text}' is not {n} finite numbers")
-    return values
-
-
-def _pose(el: ET.Element, ctx: _Context, where: str) -> tuple[np.ndarray, np.ndarray]:
-    pose_el = el.find("pose")
-    if pose_el is None or not (pose_el.text or "").strip():
-        return np.zeros(3), np.array([1.0, 0, 0, 0])
-    v = _numbers(pose_el.text, 6, ctx, f"{where} <pose>")
-    return np.array(v[:3]), quat_from_rpy(v[3:])
-
-
-def _geometry(el: ET.Element | None, ctx: _Context, where: str) -> tuple[str, tuple[float, ...]] | None:
-    if el is None or len(el) == 0:
-        raise ctx.error(f"{where}: <geometry> is missing or empty")
-    g = el[0]
-    if g.tag == "box":
-        return "box", _numbers(g.findtext("size"), 3, ctx, f"{where} box <size>")
-    if g.tag == "cylinder":
-        return "cylinder", (_numbers(g.findtext("radius"), 1, ctx, f"{where} <radius>")[0],
-                            _numbers(g.findtext("length"), 1, ctx, f"{where} <length>")[0])
-    if g.tag == "sphere":
-        return "sphere", _numbers(g.findtext("radius"), 1, ctx, f"{where} <radius>")
-    if g.tag == "plane":
-        normal = _numbers(g.findtext("normal") or "0 0 1", 3, ctx, f"{where} plane <normal>")
-        if normal != (0.0, 0.0, 1.0):
-            ctx.warn(f"normal>{' '.join(f'{v:g}' for v in normal)}</normal", f"{where} (only 0 0 1 planes)")
-        return "plane", _numbers(g.findtext("size") or "100 100", 2, ctx, f"{where} plane <size>")
-    ctx.warn(g.tag, f"{where} <geometry>")
-    return None
-
-
-def _rgba(el: ET.Element | None, ctx: _Context) -> tuple[float, float, float, float]:
-    if el is None:
-        return (0.7, 0.7, 0.7, 1.0)
-    script_name = el.findtext("script/name")
-    if script_name:
-        return gazebo_material_rgba(script_name.strip())
-    for tag in ("diffuse", "ambient"):
-        text = el.findtext(tag)
-        if text:
-            return _numbers(text, 4, ctx, f"material <{tag}>")  # type: ignore[return-value]
-    return (0.7, 0.7, 0.7, 1.0)
-
-
-def _link(el: ET.Element, model: str, static: bool, pos: np.ndarray, quat: np.ndarray, ctx: _Context) -> WorldBody:
-    name = f"{model}::{el.get('name', 'link')}"
-    link_pos, link_quat = compose(pos, quat, *_pose(el, ctx, name))
-    body = WorldBody(name, link_pos, link_quat, static=static)
-    inertial = el.find("inertial")
-    if inertial is not None:
-        body.mass = _numbers(inertial.findtext("mass") or "1", 1, ctx, f"{name} <mass>")[0]
-        inertia = inertial.find("inertia")
-        if inertia is not None:
-            body.inertia = tuple(_numbers(inertia.findtext(k) or "1", 1, ctx, f"{name} <{k}>")[0]
-                                 for k in ("ixx", "iyy", "izz"))  # type: ignore[assignment]
-    for kind in ("collision", "visual"):
-        for shape in el.findall(kind):
-            where = f"{name}/{shape.get('name', kind)}"
-            geometry = _geometry(shape.find("geometry"), ctx, where)
-            if geometry is None:
-                continue
-            gpos, gquat = _pose(shape, ctx, where)
-            geom = WorldGeom(where, geometry[0], geometry[1], gpos, gquat, collides=kind == "collision")
-            if kind == "collision":
-                mu = shape.findtext("surface/friction/ode/mu")
-                mu2 = shape.findtext("surface/friction/ode/mu2")
-                geom.mu = _numbers(mu, 1, ctx, f"{where} <mu>")[0] if mu else 1.0
-                geom.mu2 = _numbers(mu2, 1, ctx, f"{where} <mu2>")[0] if mu2 else 1.0
-            else:
-                geom.rgba = _rgba(shape.find("material"), ctx)
-            body.geoms.append(geom)
-    for child in el:
-        if child.tag not in ("pose", "inertial", "collision", "visual", "self_collide", "kinematic", "gravity"):
-            ctx.warn(child.tag, f"link {name}")
-    return body
-
-
-def _model(el: ET.Element, world: World, ctx: _Context, pose_override=None, name_override=None,
-           static_override=None) -> None:
-    name = name_override or el.get("name", "model")
-    pos, quat = pose_override if pose_override is not None else _pose(el, ctx, f"model {name}")
-    static = static_override if static_override is not None else (el.findtext("static") or "false").strip() in ("true", "1")
-    for child in el:
-        if child.tag == "link":
-            world.bodies.append(_link(child, name, static, pos, quat, ctx))
-        elif child.tag == "include":
-            _include(child, world, ctx, parent=(pos, quat))
-        elif child.tag == "model":
-            inner_pos, inner_quat = compose(pos, quat, *_pose(child, ctx, f"model {name}"))
-            _model(child, world, ctx, (inner_pos, inner_quat), f"{name}::{child.get('name')}", static)
-        elif child.tag not in ("static", "pose") and child.tag not in _IGNORED:
-            ctx.warn(child.tag, f"model {name}")
-
-
-def _light(el: ET.Element, ctx: _Context) -> Light:
-    name = el.get("name", "light")
-    pos, _ = _pose(el, ctx, f"light {name}")
-    direction = np.array(_numbers(el.findtext("direction") or "0 0 -1", 3, ctx, f"light {name} <direction>"))
-    diffuse = _numbers(el.findtext("diffuse") or "0.8 0.8 0.8 1", 4, ctx, f"light {name} <diffuse>")
-    shadows = (el.findtext("cast_shadows") or "false").strip() in ("true", "1")
-    return Light(name, el.get("type") == "directional", pos, direction, diffuse[:3], shadows)  # type: ignore[arg-type]
-
-
-def _find_model(uri: str, ctx: _Context) -> Path:
-    if not uri.startswith("model://"):
-        raise ctx.error(f"<include><uri>{uri}</uri>: only model:// URIs are supported")
-    name = uri[len("model://"):].strip("/")
-    search = [BUILTIN_MODELS, *ctx.model_path]
-    for var in ("GAZEBO_MODEL_PATH", "GZ_SIM_RESOURCE_PATH"):
-        search += [Path(p) for p in os.environ.get(var, "").split(os.pathsep) if p]
-    for folder in search:
-        candidate = folder / name
-        if (candidate / "model.sdf").is_file():
-            return candidate / "model.sdf"
-    raise ctx.error(f"<include> {uri}: model not found in {', '.join(str(p) for p in search)}")
-
-
-def _include(el: ET.Element, world: World, ctx: _Context, parent=None) -> None:
-    uri = (el.findtext("uri") or "").strip()
-    path = _find_model(uri, ctx)
-    inner = _Context(path, ctx.model_path)
-    root = _parse(path)
-    model = root.find("model")
-    light = root.find("light")
-    pose = _pose(el, ctx, f"include {uri}") if el.find("pose") is not None else None
-    if parent is not None and pose is not None:
-        pose = compose(*parent, *pose)
-    if model is not None:
-        static = el.findtext("static")
-        _model(model, world, inner, pose if pose is not None else None, el.findtext("name"),
-               None if static is None else static.strip() in ("true", "1"))
-    elif light is not None:
-        world.lights.append(_light(light, inner))
-    else:
-        raise ctx.error(f"<include> {uri}: {path} holds neither a <model> nor a <light>")
+Pose = tuple[np.ndarray, np.ndarray]
+_WORLD_KNOWN = {"include", "model", "light", "physics", "gravity", "scene"}
+_MODEL_KNOWN = {"static", "pose", "link", "include", "model", "allow_auto_disable"}
+_LINK_KNOWN = {"pose", "inertial", "collision", "visual", "self_collide", "kinematic", "gravity"}
+_COLLISION_KNOWN = {"geometry", "pose", "surface", "max_contacts", "laser_retro"}
+_VISUAL_KNOWN = {"geometry", "pose", "material", "cast_shadows", "transparency", "meta"}
+_INCLUDE_KNOWN = {"uri", "name", "pose", "static"}
+_LIGHT_KNOWN = {"pose", "diffuse", "specular", "attenuation", "direction", "cast_shadows", "spot", "intensity"}
+_SCENE_KNOWN = {"ambient", "background", "shadows", "grid", "origin_visual"}
+# ODE tuning with no MuJoCo counterpart, and Gazebo's defaults for them: a world that changes one is told so.
+_ODE_DEFAULTS = {"solver/type": "quick", "solver/sor": 1.3, "solver/min_step_size": 0.0001,
+                 "solver/precon_iters": 0, "solver/use_dynamic_moi_rescaling": "false",
+                 "solver/friction_model": "pyramid_model", "solver/island_threads": 0,
+                 "solver/thread_position_correction": 0, "constraints/cfm": 0.0, "constraints/erp": 0.2,
+                 "constraints/contact_max_correcting_vel": 100.0, "constraints/contact_surface_layer": 0.001}
+_PHYSICS_KNOWN = {"max_step_size", "real_time_factor", "real_time_update_rate", "gravity", "ode", "max_contacts",
+                  "magnetic_field"}
 
 
 def _parse(path: Path) -> ET.Element:
@@ -195,17 +61,164 @@ def _parse(path: Path) -> ET.Element:
     return root
 
 
-def _physics(el: ET.Element, ctx: _Context) -> Physics:
-    physics = Physics()
+def _inertial(el: ET.Element, body: WorldBody, ctx: SdfContext, where: str) -> None:
+    ctx.warn_unknown(el, {"mass", "inertia", "pose"}, f"{where} <inertial>")
+    body.mass = number(el, "mass", 1.0, ctx, f"{where} <inertial>")
+    if not body.mass > 0:
+        raise ctx.error(f"{where} <inertial><mass> must be positive, got {body.mass:g}")
+    values = {k: 0.0 for k in ("ixy", "ixz", "iyz")} | {k: 1.0 for k in ("ixx", "iyy", "izz")}
+    inertia = el.find("inertia")
+    if inertia is not None:
+        values = {k: number(inertia, k, v, ctx, f"{where} <inertia>") for k, v in values.items()}
+    tensor = np.array([[values["ixx"], values["ixy"], values["ixz"]],
+                       [values["ixy"], values["iyy"], values["iyz"]],
+                       [values["ixz"], values["iyz"], values["izz"]]])
+    com, frame = pose_or_identity(el, ctx, f"{where} <inertial>")
+    rot = quat_to_matrix(frame)
+    tensor = rot @ tensor @ rot.T  # into the link frame, where MuJoCo's fullinertia is given
+    body.com = com
+    body.inertia = (tensor[0, 0], tensor[1, 1], tensor[2, 2], tensor[0, 1], tensor[0, 2], tensor[1, 2])
+
+
+def _link(el: ET.Element, model: str, static: bool, model_pose: Pose, ctx: SdfContext) -> WorldBody:
+    name = f"{model}::{el.get('name', 'link')}"
+    ctx.warn_unknown(el, _LINK_KNOWN, f"link {name}")
+    if not flag(el, "gravity", True):
+        ctx.warn("gravity>false</gravity", f"link {name}", "is not supported: gravity acts on every body")
+    link_pos, link_quat = compose(*model_pose, *pose_or_identity(el, ctx, name))
+    body = WorldBody(name, link_pos, link_quat, static=static or flag(el, "kinematic", False))
+    inertial = el.find("inertial")
+    if inertial is not None:
+        _inertial(inertial, body, ctx, name)
+    for shape in el.findall("collision"):
+        where = f"{name}/{shape.get('name', 'collision')}"
+        ctx.warn_unknown(shape, _COLLISION_KNOWN, where)
+        mu = number(shape, "surface/friction/ode/mu", 1.0, ctx, f"{where} <surface>")
+        mu2 = number(shape, "surface/friction/ode/mu2", mu, ctx, f"{where} <surface>")
+        if mu < 0 or mu2 < 0:
+            raise ctx.error(f"{where} <surface><friction>: mu and mu2 must not be negative")
+        surface = shape.find("surface")
+        if surface is not None:
+            ctx.warn_unknown(surface, {"friction"}, f"{where} <surface>")
+        for geom in shapes(shape, True, ctx, where):
+            geom.mu, geom.mu2 = mu, mu2
+            body.geoms.append(geom)
+    for shape in el.findall("visual"):
+        where = f"{name}/{shape.get('name', 'visual')}"
+        ctx.warn_unknown(shape, _VISUAL_KNOWN, where)
+        rgba = rgba_of(shape.find("material"), ctx, where)
+        for geom in shapes(shape, False, ctx, where):
+            if geom.mesh is None or shape.find("material") is not None:
+                geom.rgba = rgba
+            body.geoms.append(geom)
+    return body
+
+
+def _model(el: ET.Element, world: World, ctx: SdfContext, placed: Pose, name: str,
+           static: bool | None = None) -> None:
+    """Add a <model> whose frame is at `placed` in the world."""
+    ctx.warn_unknown(el, _MODEL_KNOWN, f"model {name}")
+    static = flag(el, "static", False) if static is None else static
+    for child in el:
+        if child.tag == "link":
+            world.bodies.append(_link(child, name, static, placed, ctx))
+        elif child.tag == "include":
+            _include(child, world, ctx, placed, f"{name}::")
+        elif child.tag == "model":
+            inner = compose(*placed, *pose_or_identity(child, ctx, f"model {name}"))
+            _model(child, world, ctx, inner, f"{name}::{child.get('name', 'model')}", static or None)
+
+
+def _light(el: ET.Element, ctx: SdfContext, placed: Pose | None = None) -> Light:
+    """A <light> at its own pose, or at `placed` (an include's pose) when given."""
+    name = el.get("name", "light")
+    where = f"light {name}"
+    ctx.warn_unknown(el, _LIGHT_KNOWN, where)
+    pos, quat = placed if placed is not None else pose_or_identity(el, ctx, where)
+    kind = el.get("type", "point")
+    if kind not in ("point", "directional", "spot"):
+        raise ctx.error(f"{where}: type '{kind}' is not point, directional or spot")
+    direction = quat_to_matrix(quat) @ np.array(numbers(el.findtext("direction") or "0 0 -1", 3, ctx,
+                                                        f"{where} <direction>"))
+    diffuse = numbers(el.findtext("diffuse") or "1 1 1 1", 4, ctx, f"{where} <diffuse>")
+    specular = numbers(el.findtext("specular") or "0.1 0.1 0.1 1", 4, ctx, f"{where} <specular>")
+    light = Light(name, kind == "directional", pos, direction, diffuse[:3], flag(el, "cast_shadows", False),
+                  specular[:3])
+    attenuation = el.find("attenuation")
+    if attenuation is not None:
+        ctx.warn_unknown(attenuation, {"constant", "linear", "quadratic", "range"}, f"{where} <attenuation>")
+        light.attenuation = tuple(number(attenuation, k, d, ctx, f"{where} <attenuation>")  # type: ignore[assignment]
+                                  for k, d in (("constant", 1.0), ("linear", 0.0), ("quadratic", 0.0)))
+    if kind == "spot":
+        light.spot_cutoff = number(el, "spot/outer_angle", 1.0, ctx, f"{where} <spot>")
+    return light
+
+
+def _include(el: ET.Element, world: World, ctx: SdfContext, parent: Pose | None = None, prefix: str = "") -> None:
+    uri = (el.findtext("uri") or "").strip()
+    if not uri:
+        raise ctx.error("<include> without a <uri>")
+    ctx.warn_unknown(el, _INCLUDE_KNOWN, f"include {uri}")
+    folder = resolve_uri(uri, ctx, "<include>")
+    path = folder if folder.is_file() else folder / "model.sdf"
+    if not path.is_file():
+        raise ctx.error(f"<include> {uri}: {path} does not exist")
+    inner = ctx.inside(path)
+    root = _parse(path)
+    model, light = root.find("model"), root.find("light")
+    target = model if model is not None else light
+    if target is None:
+        raise ctx.error(f"<include> {uri}: {path} holds neither a <model> nor a <light>")
+    # An include's pose replaces the model's own pose (Gazebo does the same); both are relative to the parent.
+    placed = pose(el, ctx, f"include {uri}") or pose_or_identity(target, inner, f"{target.tag} {uri}")
+    if parent is not None:
+        placed = compose(*parent, *placed)
+    if model is not None:
+        name = prefix + ((el.findtext("name") or "").strip() or model.get("name", "model"))
+        static = el.findtext("static")
+        _model(model, world, inner, placed, name, None if static is None else flag(el, "static", False))
+    else:
+        world.lights.append(_light(light, inner, placed))
+
+
+def _physics(el: ET.Element, physics: Physics, ctx: SdfContext) -> None:
+    ctx.warn_unknown(el, _PHYSICS_KNOWN, "<physics>")
+    if el.get("type", "ode") != "ode":
+        ctx.warn(f"physics type='{el.get('type')}'", "", "is not used: MuJoCo is the physics engine")
     step = el.findtext("max_step_size")
-    if step:
-        physics.max_step_size = _numbers(step, 1, ctx, "<physics><max_step_size>")[0]
+    if step is not None and step.strip():
+        physics.max_step_size = numbers(step, 1, ctx, "<physics><max_step_size>")[0]
         if physics.max_step_size <= 0:
-            raise ctx.error(f"<physics><max_step_size> must be positive, got {step}")
+            raise ctx.error(f"<physics><max_step_size> must be positive, got {step.strip()}")
+    physics.real_time_factor = number(el, "real_time_factor", 1.0, ctx, "<physics>")
     iters = el.findtext("ode/solver/iters")
-    if iters:
-        physics.iterations = int(_numbers(iters, 1, ctx, "<physics><ode><solver><iters>")[0])
-    return physics
+    if iters is not None and iters.strip():
+        physics.iterations = int(numbers(iters, 1, ctx, "<physics><ode><solver><iters>")[0])
+        if physics.iterations < 1:
+            raise ctx.error(f"<physics><ode><solver><iters> must be at least 1, got {iters.strip()}")
+    for key, default in _ODE_DEFAULTS.items():
+        text = el.findtext(f"ode/{key}")
+        if text is None or not text.strip():
+            continue
+        same = text.strip() == default if isinstance(default, str) else abs(float(text) - default) < 1e-12
+        if not same:
+            ctx.warn(f"ode/{key}>{text.strip()}</{key.split('/')[-1]}", "<physics>",
+                     "is an ODE setting with no MuJoCo counterpart and was ignored")
+    gravity = el.findtext("gravity")
+    if gravity is not None and gravity.strip():
+        physics.gravity = numbers(gravity, 3, ctx, "<physics><gravity>")  # type: ignore[assignment]
+
+
+def _scene(el: ET.Element, scene: Scene, ctx: SdfContext) -> None:
+    ctx.warn_unknown(el, _SCENE_KNOWN, "<scene>")
+    for tag in ("ambient", "background"):
+        text = el.findtext(tag)
+        if text and text.strip():
+            values = numbers(text, len(text.split()), ctx, f"<scene><{tag}>")
+            if len(values) not in (3, 4):
+                raise ctx.error(f"<scene><{tag}>: '{text.strip()}' is not a colour (3 or 4 numbers)")
+            setattr(scene, tag, values[:3])
+    scene.shadows = flag(el, "shadows", scene.shadows)
 
 
 def load_sdf(path: str | Path, model_path: list[Path] | None = None) -> World:
@@ -215,22 +228,24 @@ def load_sdf(path: str | Path, model_path: list[Path] | None = None) -> World:
     world_el = root.find("world")
     if world_el is None:
         raise WorldError(f"{path}: no <world> element")
-    ctx = _Context(path, list(model_path or []))
+    ctx = SdfContext(path, [Path(p) for p in (model_path or [])])
     world = World(world_el.get("name", path.stem), str(path))
+    ctx.warn_unknown(world_el, _WORLD_KNOWN, f"world {world.name}")
     for el in world_el:
         if el.tag == "include":
             _include(el, world, ctx)
         elif el.tag == "model":
-            _model(el, world, ctx)
+            name = el.get("name", "model")
+            _model(el, world, ctx, pose_or_identity(el, ctx, f"model {name}"), name)
         elif el.tag == "light":
             world.lights.append(_light(el, ctx))
         elif el.tag == "physics":
-            world.physics = _physics(el, ctx)
+            _physics(el, world.physics, ctx)
         elif el.tag == "gravity":
-            world.physics.gravity = _numbers(el.text, 3, ctx, "<gravity>")  # type: ignore[assignment]
-        elif el.tag not in _IGNORED:
-            ctx.warn(el.tag)
-    gravity = world_el.findtext("physics/gravity")
-    if gravity:
-        world.physics.gravity = _numbers(gravity, 3, ctx, "<physics><gravity>")  # type: ignore[assignment]
+            world.physics.gravity = numbers(el.text, 3, ctx, "<gravity>")  # type: ignore[assignment]
+        elif el.tag == "scene":
+            _scene(el, world.scene, ctx)
     return world
+
+
+__all__ = ["load_sdf", "resolve_uri"]

@@ -8,11 +8,25 @@ import numpy as np
 
 
 @dataclass
+class Mesh:
+    """A triangle mesh in its geom's frame, already scaled to metres; texcoord (one uv per vertex) when textured."""
+
+    vertices: np.ndarray  # (N, 3) float64
+    faces: np.ndarray  # (M, 3) int32
+    texcoord: np.ndarray | None = None  # (N, 2) float32, v measured from the image's bottom row
+    source: str = ""
+
+
+@dataclass
 class WorldGeom:
-    """One collision or visual shape. size: box full extents, cylinder (radius, length), sphere (radius,), plane (x, y)."""
+    """One collision or visual shape.
+
+    size: box full extents, cylinder (radius, length), sphere (radius,), plane (x, y), mesh () with `mesh` set.
+    texture: an RGB(A) image (H, W, C uint8), drawn on every face of a box, or by `mesh.texcoord` on a mesh.
+    """
 
     name: str
-    kind: str  # box | cylinder | sphere | plane
+    kind: str  # box | cylinder | sphere | plane | mesh
     size: tuple[float, ...]
     pos: np.ndarray
     quat: np.ndarray  # (w, x, y, z), in the owning body's frame
@@ -20,6 +34,8 @@ class WorldGeom:
     mu: float = 1.0
     mu2: float = 1.0
     rgba: tuple[float, float, float, float] = (0.7, 0.7, 0.7, 1.0)
+    mesh: Mesh | None = None
+    texture: np.ndarray | None = None
 
 
 @dataclass
@@ -30,8 +46,9 @@ class WorldBody:
     pos: np.ndarray
     quat: np.ndarray
     static: bool = True
-    mass: float = 1.0
-    inertia: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    mass: float = 1.0  # SDF defaults: 1 kg, unit inertia about the link origin
+    inertia: tuple[float, float, float, float, float, float] = (1.0, 1.0, 1.0, 0.0, 0.0, 0.0)  # ixx iyy izz ixy ixz iyz
+    com: np.ndarray = field(default_factory=lambda: np.zeros(3))
     geoms: list[WorldGeom] = field(default_factory=list)
 
 
@@ -45,6 +62,9 @@ class Light:
     direction: np.ndarray
     diffuse: tuple[float, float, float] = (0.8, 0.8, 0.8)
     cast_shadows: bool = False
+    specular: tuple[float, float, float] = (0.2, 0.2, 0.2)
+    attenuation: tuple[float, float, float] = (1.0, 0.0, 0.0)  # constant, linear, quadratic
+    spot_cutoff: float | None = None  # rad, outer cone half-angle of a spot light
 
 
 @dataclass
@@ -54,6 +74,16 @@ class Physics:
     max_step_size: float | None = None
     gravity: tuple[float, float, float] = (0.0, 0.0, -9.8)
     iterations: int | None = None
+    real_time_factor: float = 1.0
+
+
+@dataclass
+class Scene:
+    """The world's <scene>: ambient light and sky colour for the camera and viewer."""
+
+    ambient: tuple[float, float, float] = (0.4, 0.4, 0.4)
+    background: tuple[float, float, float] = (0.7, 0.7, 0.7)
+    shadows: bool = True
 
 
 @dataclass(frozen=True)
@@ -75,4 +105,20 @@ class World:
     bodies: list[WorldBody] = field(default_factory=list)
     lights: list[Light] = field(default_factory=list)
     physics: Physics = field(default_factory=Physics)
+    scene: Scene = field(default_factory=Scene)
     spawn: Spawn = field(default_factory=Spawn)
+
+    def cover_ground(self, points: np.ndarray, margin: float = 5.0) -> None:
+        """Grow the ground planes to reach `margin` beyond every xy point given (a plane collides everywhere in
+        MuJoCo, but is drawn only over its size)."""
+        reach = np.abs(np.asarray(points, dtype=float)).max(axis=0) + margin
+        for _, geom in self.geoms():
+            if geom.kind == "plane":
+                geom.size = (max(geom.size[0], 2 * reach[0]), max(geom.size[1], 2 * reach[1]))
+
+    def geoms(self, collides: bool | None = None):
+        """(body, geom) pairs, optionally only collision (True) or only visual (False) geoms."""
+        for body in self.bodies:
+            for geom in body.geoms:
+                if collides is None or geom.collides == collides:
+                    yield body, geom

@@ -1,0 +1,124 @@
+"""Put a loaded `World` into an MjSpec: static geoms on the world body, free bodies, meshes, textures, lights.
+
+Collision geoms go to group 3 (contacts and ray casts see them, the camera does not); visual geoms to
+group 1 (the camera and viewer draw them, contacts ignore them) - the same split as Gazebo's.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from racecar_sim.core.transforms import compose
+from racecar_sim.worlds.world import Light, Mesh, Scene, World, WorldGeom
+
+VISUAL_GROUP = 1  # rendered by the camera and viewer
+COLLISION_GROUP = 3  # hidden, but seen by contacts and ray casts
+GEOM_TYPES = {"box": mujoco.mjtGeom.mjGEOM_BOX, "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
+              "sphere": mujoco.mjtGeom.mjGEOM_SPHERE, "plane": mujoco.mjtGeom.mjGEOM_PLANE,
+              "capsule": mujoco.mjtGeom.mjGEOM_CAPSULE, "ellipsoid": mujoco.mjtGeom.mjGEOM_ELLIPSOID,
+              "mesh": mujoco.mjtGeom.mjGEOM_MESH}
+_LIGHT_TYPES = {True: mujoco.mjtLightType.mjLIGHT_DIRECTIONAL, False: mujoco.mjtLightType.mjLIGHT_POINT}
+
+
+def mj_size(kind: str, size: tuple[float, ...]) -> list[float]:
+    """SDF/URDF sizes (full extents, lengths) as MuJoCo's half sizes."""
+    if kind == "box":
+        return [0.5 * s for s in size[:3]]
+    if kind in ("cylinder", "capsule"):
+        return [size[0], 0.5 * size[1], 0.0]
+    if kind == "sphere":
+        return [size[0], 0.0, 0.0]
+    if kind == "ellipsoid":
+        return list(size[:3])
+    if kind == "plane":
+        return [0.5 * size[0], 0.5 * size[1], 1.0]  # half extents, grid spacing
+    return [0.0, 0.0, 0.0]  # mesh: the mesh asset gives the size
+
+
+class _Assets:
+    """Mesh, texture and material assets, each added once however many geoms share it."""
+
+    def __init__(self, spec: mujoco.MjSpec) -> None:
+        self.spec = spec
+        self.meshes: dict[int, str] = {}
+        self.materials: dict[int, str] = {}
+
+    def mesh(self, mesh: Mesh, textured: bool) -> str:
+        key = id(mesh)
+        if key not in self.meshes:
+            name = f"mesh{len(self.meshes)}"
+            m = self.spec.add_mesh(name=name, uservert=mesh.vertices.ravel().tolist(),
+                                   userface=mesh.faces.ravel().tolist())
+            m.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL  # open surfaces (a floor sheet) are valid
+            if textured and mesh.texcoord is not None:
+                m.usertexcoord = mesh.texcoord.ravel().tolist()
+                m.userfacetexcoord = mesh.faces.ravel().tolist()
+            self.meshes[key] = name
+        return self.meshes[key]
+
+    def material(self, image: np.ndarray) -> str:
+        key = id(image)
+        if key not in self.materials:
+            name = f"material{len(self.materials)}"
+            rgba = np.ascontiguousarray(image[..., :4] if image.shape[-1] >= 4 else
+                                        np.dstack([image, np.full(image.shape[:2], 255, np.uint8)]))
+            # MuJoCo's texture rows run bottom-up relative to texcoord v; images are stored top-down
+            rgba = np.ascontiguousarray(rgba[::-1])
+            texture = self.spec.add_texture(name=name, type=mujoco.mjtTexture.mjTEXTURE_2D, width=rgba.shape[1],
+                                            height=rgba.shape[0], nchannel=4)
+            texture.data = rgba.tobytes()
+            material = self.spec.add_material(name=name)
+            material.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = name
+            self.materials[key] = name
+        return self.materials[key]
+
+
+def _add_geom(body: mujoco.MjsBody, geom: WorldGeom, pos: np.ndarray, quat: np.ndarray, assets: _Assets) -> None:
+    g = body.add_geom(name=geom.name, type=GEOM_TYPES[geom.kind], size=mj_size(geom.kind, geom.size),
+                      pos=list(pos), quat=list(quat))
+    if geom.mesh is not None:
+        g.meshname = assets.mesh(geom.mesh, textured=geom.texture is not None)
+    if geom.collides:
+        g.group, g.contype, g.conaffinity, g.condim = COLLISION_GROUP, 1, 1, 3
+        g.friction = [geom.mu, 0.0, 0.0]  # MuJoCo's sliding friction is isotropic: mu2 has no counterpart
+        g.rgba = [0.5, 0.5, 0.5, 1.0]
+    else:
+        g.group, g.contype, g.conaffinity = VISUAL_GROUP, 0, 0
+        g.rgba = list(geom.rgba)
+        if geom.texture is not None:
+            g.material = assets.material(geom.texture)
+            g.rgba = [1.0, 1.0, 1.0, 1.0]
+
+
+def _add_light(spec: mujoco.MjSpec, light: Light) -> None:
+    mj = spec.worldbody.add_light(name=light.name, pos=list(light.pos), dir=list(light.direction),
+                                  diffuse=list(light.diffuse), specular=list(light.specular),
+                                  castshadow=light.cast_shadows, attenuation=list(light.attenuation))
+    if light.spot_cutoff is not None:
+        mj.type = mujoco.mjtLightType.mjLIGHT_SPOT
+        mj.cutoff = float(np.degrees(light.spot_cutoff))
+    else:
+        mj.type = _LIGHT_TYPES[light.directional]
+
+
+def _scene(spec: mujoco.MjSpec, scene: Scene) -> None:
+    spec.visual.headlight.ambient = list(scene.ambient)
+
+
+def add_world(spec: mujoco.MjSpec, world: World) -> None:
+    """Add every body, geom and light of `world` to `spec`."""
+    assets = _Assets(spec)
+    for wb in world.bodies:
+        if wb.static:
+            for geom in wb.geoms:
+                _add_geom(spec.worldbody, geom, *compose(wb.pos, wb.quat, geom.pos, geom.quat), assets)
+            continue
+        body = spec.worldbody.add_body(name=wb.name, pos=list(wb.pos), quat=list(wb.quat), mass=wb.mass,
+                                       ipos=list(wb.com), fullinertia=list(wb.inertia), explicitinertial=True)
+        body.add_freejoint(name=f"{wb.name}::free")
+        for geom in wb.geoms:
+            _add_geom(body, geom, geom.pos, geom.quat, assets)
+    for light in world.lights:
+        _add_light(spec, light)
+    _scene(spec, world.scene)

@@ -1,0 +1,242 @@
+"""The small pieces of SDF: numbers, poses, URIs, geometry and materials, each checked with a one-line error.
+
+`SdfContext` carries the file being read (errors and warnings name it) and the model search path.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import warnings
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+from racecar_sim.core.errors import WorldError
+from racecar_sim.core.transforms import quat_from_rpy, quat_mul
+from racecar_sim.worlds.materials import gazebo_material_rgba
+from racecar_sim.worlds.meshes import convex_pieces, load_mesh, textured_box
+from racecar_sim.worlds.world import WorldGeom
+
+BUILTIN_MODELS = Path(__file__).parent / "data" / "models"
+MODEL_PATH_VARIABLES = ("GAZEBO_MODEL_PATH", "GZ_SIM_RESOURCE_PATH", "SDF_PATH")
+DEFAULT_RGBA = (0.7, 0.7, 0.7, 1.0)
+# Children the loader reads, or that have no effect on a ground robot's physics, sensors or pictures.
+GEOMETRY_SHAPES = ("box", "cylinder", "sphere", "plane", "mesh", "capsule", "ellipsoid")
+_MATERIAL_KNOWN = {"script", "ambient", "diffuse", "specular", "emissive", "pbr", "lighting", "double_sided"}
+
+
+class SdfContext:
+    """Where we are: the SDF file (for messages and relative URIs) and the folders that hold model:// models."""
+
+    def __init__(self, source: Path, model_path: list[Path], warned: set | None = None) -> None:
+        self.source = source
+        self.model_path = model_path
+        self.warned: set = set() if warned is None else warned
+
+    def inside(self, source: Path) -> SdfContext:
+        """The context for an included file: same search path, one shared set of warnings."""
+        return SdfContext(source, self.model_path, self.warned)
+
+    def error(self, message: str) -> WorldError:
+        return WorldError(f"{self.source}: {message}")
+
+    def warn(self, element: str, where: str = "", why: str = "is not supported and was ignored") -> None:
+        key = (self.source, element, where)
+        if key in self.warned:
+            return
+        self.warned.add(key)
+        place = f" in {where}" if where else ""
+        warnings.warn(f"{self.source}: <{element}>{place} {why}", stacklevel=4)
+
+    def warn_unknown(self, el: ET.Element, known: set[str] | tuple[str, ...], where: str) -> None:
+        """Warn once for each child of `el` the loader does not read."""
+        for child in el:
+            if child.tag not in known and isinstance(child.tag, str):
+                self.warn(child.tag, where)
+
+    def search_path(self) -> list[Path]:
+        path = [BUILTIN_MODELS, *self.model_path]
+        for var in MODEL_PATH_VARIABLES:
+            path += [Path(p) for p in os.environ.get(var, "").split(os.pathsep) if p]
+        return path
+
+
+def numbers(text: str | None, n: int, ctx: SdfContext, where: str) -> tuple[float, ...]:
+    """Exactly n finite numbers from whitespace-separated text."""
+    try:
+        values = tuple(float(v) for v in (text or "").split())
+    except ValueError:
+        raise ctx.error(f"{where}: '{text}' is not {n} numbers") from None
+    if len(values) != n or not all(math.isfinite(v) for v in values):
+        raise ctx.error(f"{where}: '{(text or '').strip()}' is not {n} finite numbers")
+    return values
+
+
+def number(el: ET.Element, tag: str, default: float, ctx: SdfContext, where: str) -> float:
+    """The finite number in child `tag`, or `default` when it is absent."""
+    text = el.findtext(tag)
+    return default if text is None or not text.strip() else numbers(text, 1, ctx, f"{where} <{tag}>")[0]
+
+
+def flag(el: ET.Element, tag: str, default: bool) -> bool:
+    text = el.findtext(tag)
+    return default if text is None else text.strip().lower() in ("true", "1")
+
+
+def pose(el: ET.Element, ctx: SdfContext, where: str) -> tuple[np.ndarray, np.ndarray] | None:
+    """The element's <pose> as (position, quaternion wxyz), or None when it has none."""
+    pose_el = el.find("pose")
+    if pose_el is None or not (pose_el.text or "").strip():
+        return None
+    if pose_el.get("relative_to"):
+        ctx.warn(f"pose relative_to='{pose_el.get('relative_to')}'", where, "is not supported; the pose is taken "
+                 "relative to the parent frame")
+    if pose_el.get("rotation_format", "euler_rpy") == "quat_xyzw":
+        v = numbers(pose_el.text, 7, ctx, f"{where} <pose>")
+        quat = np.array([v[6], v[3], v[4], v[5]])
+        norm = np.linalg.norm(quat)
+        if norm < 1e-9:
+            raise ctx.error(f"{where} <pose>: quaternion is zero")
+        return np.array(v[:3]), quat / norm
+    v = numbers(pose_el.text, 6, ctx, f"{where} <pose>")
+    rpy = np.radians(v[3:]) if pose_el.get("degrees", "false").lower() == "true" else v[3:]
+    return np.array(v[:3]), quat_from_rpy(rpy)
+
+
+def pose_or_identity(el: ET.Element, ctx: SdfContext, where: str) -> tuple[np.ndarray, np.ndarray]:
+    return pose(el, ctx, where) or (np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]))
+
+
+def resolve_uri(uri: str, ctx: SdfContext, where: str) -> Path:
+    """model://name/rest through the model path, file:// and plain paths relative to the current file."""
+    uri = uri.strip()
+    if uri.startswith("model://"):
+        name, _, rest = uri[len("model://"):].partition("/")
+        for folder in ctx.search_path():
+            if (folder / name).is_dir():
+                return folder / name / rest
+        raise ctx.error(f"{where}: {uri}: model '{name}' not found in "
+                        f"{os.pathsep.join(str(p) for p in ctx.search_path())} (add its folder with --model-path)")
+    if uri.startswith("file://"):
+        uri = uri[len("file://"):]
+    elif "://" in uri:
+        raise ctx.error(f"{where}: {uri}: only model://, file:// and plain paths are supported")
+    path = Path(uri)
+    return path if path.is_absolute() else ctx.source.parent / path
+
+
+def _plane_quat(normal: tuple[float, ...]) -> np.ndarray:
+    z = np.array(normal) / np.linalg.norm(normal)
+    axis = np.cross([0.0, 0.0, 1.0], z)
+    angle = math.atan2(np.linalg.norm(axis), z[2])
+    if np.linalg.norm(axis) < 1e-12:
+        axis = np.array([1.0, 0.0, 0.0])
+    axis = axis / np.linalg.norm(axis)
+    return np.r_[math.cos(angle / 2), math.sin(angle / 2) * axis]
+
+
+def shapes(el: ET.Element, collides: bool, ctx: SdfContext, where: str) -> list[WorldGeom]:
+    """The geoms of one <collision> or <visual>: usually one, one per part or convex piece for meshes."""
+    geometry = el.find("geometry")
+    if geometry is None or len(geometry) == 0:
+        raise ctx.error(f"{where}: <geometry> is missing or empty")
+    g = geometry[0]
+    pos, quat = pose_or_identity(el, ctx, where)
+    kind, size = g.tag, ()
+    if kind == "box":
+        size = numbers(g.findtext("size"), 3, ctx, f"{where} box <size>")
+    elif kind in ("cylinder", "capsule"):
+        size = (number(g, "radius", math.nan, ctx, where), number(g, "length", math.nan, ctx, where))
+    elif kind == "sphere":
+        size = (number(g, "radius", math.nan, ctx, where),)
+    elif kind == "ellipsoid":
+        size = numbers(g.findtext("radii"), 3, ctx, f"{where} ellipsoid <radii>")
+    elif kind == "plane":
+        normal = numbers(g.findtext("normal") or "0 0 1", 3, ctx, f"{where} plane <normal>")
+        if np.linalg.norm(normal) < 1e-9:
+            raise ctx.error(f"{where} plane <normal>: the normal is zero")
+        size = numbers(g.findtext("size") or "100 100", 2, ctx, f"{where} plane <size>")
+        quat = quat_mul(quat, _plane_quat(normal))
+    elif kind == "mesh":
+        return _mesh_shapes(g, el, collides, pos, quat, ctx, where)
+    else:
+        ctx.warn(kind, f"{where} <geometry>")
+        return []
+    if any(not (s > 0) for s in size):
+        raise ctx.error(f"{where} <{kind}>: sizes must be positive, got {' '.join(f'{s:g}' for s in size)}")
+    geom = WorldGeom(where, kind, size, pos, quat, collides=collides)
+    texture = None if collides else albedo_map(el.find("material"), ctx, where)
+    if texture is not None and kind == "box":
+        geom.kind, geom.size, geom.mesh, geom.texture = "mesh", (), textured_box(size), texture
+    elif texture is not None:
+        ctx.warn("albedo_map", where, f"is only drawn on boxes and meshes, not on a {kind}")
+    return [geom]
+
+
+def _mesh_shapes(g: ET.Element, el: ET.Element, collides: bool, pos: np.ndarray, quat: np.ndarray,
+                 ctx: SdfContext, where: str) -> list[WorldGeom]:
+    uri = g.findtext("uri")
+    if not uri or not uri.strip():
+        raise ctx.error(f"{where} <mesh>: <uri> is missing")
+    path = resolve_uri(uri, ctx, f"{where} <mesh><uri>")
+    if not path.is_file():
+        raise ctx.error(f"{where} <mesh><uri>{uri.strip()}</uri>: mesh file {path} not found")
+    scale = numbers(g.findtext("scale") or "1 1 1", 3, ctx, f"{where} <mesh><scale>")
+    ctx.warn_unknown(g, {"uri", "scale"}, f"{where} <mesh>")
+    try:
+        parts = load_mesh(path, scale)
+    except WorldError as exc:
+        raise ctx.error(f"{where} <mesh>: {exc}") from None
+    geoms = []
+    if collides:
+        for part in parts:
+            pieces, convex = convex_pieces(part.mesh)
+            if not convex:
+                ctx.warn(f"mesh><uri>{uri.strip()}</uri", where, "is not convex: it collides as the convex hull "
+                         "of each of its connected pieces")
+            geoms += [WorldGeom(where, "mesh", (), pos, quat, collides=True, mesh=m) for m in pieces]
+    else:
+        material = el.find("material")
+        texture = albedo_map(material, ctx, where)
+        for part in parts:
+            rgba = rgba_of(material, ctx, where) if material is not None or part.rgba is None else part.rgba
+            part_texture = texture if texture is not None and part.mesh.texcoord is not None else part.texture
+            geoms.append(WorldGeom(where, "mesh", (), pos, quat, collides=False, rgba=rgba, mesh=part.mesh,
+                                   texture=part_texture))
+    for i, geom in enumerate(geoms[1:], start=1):
+        geom.name = f"{where}#{i}"
+    return geoms
+
+
+def rgba_of(material: ET.Element | None, ctx: SdfContext, where: str) -> tuple[float, float, float, float]:
+    """A <material>'s colour: a Gazebo script name, else diffuse, else ambient."""
+    if material is None:
+        return DEFAULT_RGBA
+    ctx.warn_unknown(material, _MATERIAL_KNOWN, f"{where} <material>")
+    script_name = material.findtext("script/name")
+    if script_name and script_name.strip():
+        return gazebo_material_rgba(script_name.strip())
+    for tag in ("diffuse", "ambient"):
+        text = material.findtext(tag)
+        if text and text.strip():
+            values = text.split()
+            return numbers(" ".join(values + ["1"] * (len(values) == 3)), 4, ctx, f"{where} <material><{tag}>")  # type: ignore[return-value]
+    return DEFAULT_RGBA
+
+
+def albedo_map(material: ET.Element | None, ctx: SdfContext, where: str) -> np.ndarray | None:
+    """The image of <pbr><metal|specular><albedo_map>, as an RGBA array."""
+    if material is None:
+        return None
+    text = material.findtext("pbr/metal/albedo_map") or material.findtext("pbr/specular/albedo_map")
+    if not text or not text.strip():
+        return None
+    path = resolve_uri(text, ctx, f"{where} <albedo_map>")
+    try:
+        with Image.open(path) as image:
+            return np.asarray(image.convert("RGBA"))
+    except (OSError, ValueError) as exc:
+        raise ctx.error(f"{where} <albedo_map>{text.strip()}</albedo_map>: cannot read image {path}: {exc}") from None

@@ -1,0 +1,217 @@
+"""Occupancy maps: occupied cells merge into few boxes lying exactly on the cells, and rays see them there."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+from PIL import Image
+
+from conftest import run_cli_error
+from racecar_sim import Simulator
+from racecar_sim.core.errors import WorldError
+from racecar_sim.physics.builder import COLLISION_GROUP
+from racecar_sim.worlds import load_world
+from racecar_sim.worlds.occupancy_map import occupied_cells
+from racecar_sim.worlds.walls import cell_rectangles
+
+RES, ROWS, COLS = 0.05, 80, 100
+WALL = 2  # cells
+PILLAR = (20, 70, 30, 80)  # row0, col0, row1, col1 (half-open)
+UNKNOWN = (60, 35, 66, 45)  # grey patch between the spawn point and the bottom wall
+LIDAR_HEIGHT = 0.15  # m
+FREE, OCCUPIED, GREY = 254, 0, 128  # map_saver's free and occupied grey levels, and an unknown one
+
+
+def room_image() -> np.ndarray:
+    """A 5 m x 4 m room with 2-cell walls, a square pillar and an unknown patch (grey levels, row 0 on top)."""
+    img = np.full((ROWS, COLS), FREE, dtype=np.uint8)
+    img[:WALL], img[-WALL:], img[:, :WALL], img[:, -WALL:] = OCCUPIED, OCCUPIED, OCCUPIED, OCCUPIED
+    r0, c0, r1, c1 = PILLAR
+    img[r0:r1, c0:c1] = OCCUPIED
+    r0, c0, r1, c1 = UNKNOWN
+    img[r0:r1, c0:c1] = GREY
+    return img
+
+
+def write_map(folder: Path, image: np.ndarray, origin: tuple[float, float, float], negate: int = 0,
+              name: str = "room", suffix: str = ".pgm") -> Path:
+    """room.yaml and its image, as map_saver writes them."""
+    Image.fromarray(image).save(folder / f"{name}{suffix}")
+    yaml_path = folder / f"{name}.yaml"
+    yaml_path.write_text(f"image: {name}{suffix}\nresolution: {RES}\norigin: [{origin[0]}, {origin[1]}, {origin[2]}]\n"
+                         f"negate: {negate}\noccupied_thresh: 0.65\nfree_thresh: 0.196\n")
+    return yaml_path
+
+
+def obstacles_in_map_frame() -> list[tuple[float, float, float, float]]:
+    """(xmin, ymin, xmax, ymax) of the walls and the pillar, metres from the map's bottom-left corner."""
+    def box(r0: int, c0: int, r1: int, c1: int) -> tuple[float, float, float, float]:
+        return c0 * RES, (ROWS - r1) * RES, c1 * RES, (ROWS - r0) * RES
+
+    return [box(0, 0, WALL, COLS), box(ROWS - WALL, 0, ROWS, COLS), box(0, 0, ROWS, WALL),
+            box(0, COLS - WALL, ROWS, COLS), box(*PILLAR)]
+
+
+def expected_range(start: np.ndarray, direction: np.ndarray) -> float:
+    """Distance along a 2-D ray (map frame) to the first obstacle, by the slab method."""
+    best = math.inf
+    for xmin, ymin, xmax, ymax in obstacles_in_map_frame():
+        with np.errstate(divide="ignore"):
+            t1 = (np.array([xmin, ymin]) - start) / direction
+            t2 = (np.array([xmax, ymax]) - start) / direction
+        near, far = np.nanmax(np.minimum(t1, t2)), np.nanmin(np.maximum(t1, t2))
+        if near <= far and near >= 0:
+            best = min(best, near)
+    return best
+
+
+def cast(sim: Simulator, x: float, y: float, yaw: float) -> tuple[float, str]:
+    """Range and geom name of a horizontal ray at lidar height, seeing only collision geoms, not the car."""
+    geomgroup = np.zeros(6, dtype=np.uint8)
+    geomgroup[COLLISION_GROUP] = 1
+    geomid = np.zeros(1, dtype=np.int32)
+    base = sim.model.body(sim.robot.root).id
+    distance = mujoco.mj_ray(sim.model, sim.data, np.array([x, y, LIDAR_HEIGHT]),
+                             np.array([math.cos(yaw), math.sin(yaw), 0.0]), geomgroup, 1, base, geomid)
+    return distance, sim.model.geom(geomid[0]).name
+
+
+# --- cell_rectangles ----------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("seed", range(20))
+def test_rectangles_cover_exactly_the_occupied_cells_without_overlap(seed):
+    rng = np.random.default_rng(seed)
+    grid = rng.random(tuple(rng.integers(1, 40, size=2))) < rng.random()
+    coverage = np.zeros(grid.shape, dtype=int)
+    for r0, c0, r1, c1 in cell_rectangles(grid):
+        assert 0 <= r0 < r1 <= grid.shape[0] and 0 <= c0 < c1 <= grid.shape[1]
+        coverage[r0:r1, c0:c1] += 1
+    np.testing.assert_array_equal(coverage, grid.astype(int))
+
+
+def test_solid_block_is_one_rectangle_and_room_outline_four():
+    block = np.zeros((30, 40), dtype=bool)
+    block[5:25, 3:37] = True
+    assert cell_rectangles(block) == [(5, 3, 25, 37)]
+    assert cell_rectangles(np.zeros((3, 3), dtype=bool)) == []
+    assert len(cell_rectangles(room_image() == OCCUPIED)) == 5  # four walls and the pillar
+
+
+# --- loading a map ------------------------------------------------------------------------------------------------
+
+def test_room_walls_are_few_boxes_on_the_cells(tmp_path):
+    world = load_world(write_map(tmp_path, room_image(), (-2.0, -1.5, 0.0)), wall_height=0.8)
+    (ground, body) = world.bodies[0], world.bodies[-1]
+    assert ground.geoms[0].kind == "plane" and world.lights[0].name == "sun"
+    collision = [g for g in body.geoms if g.collides]
+    visual = [g for g in body.geoms if not g.collides]
+    assert len(collision) == len(visual) == 5
+    np.testing.assert_allclose(body.pos, [-2.0, -1.5, 0.0])
+    coverage = np.zeros((ROWS, COLS), dtype=int)
+    for g in collision:
+        xmin, ymin = (g.pos[:2] - np.array(g.size[:2]) / 2) / RES
+        xmax, ymax = (g.pos[:2] + np.array(g.size[:2]) / 2) / RES
+        edges = np.array([xmin, ymin, xmax, ymax])
+        np.testing.assert_allclose(edges, np.round(edges), atol=1e-9)  # on cell boundaries
+        c0, r1, c1, r0 = np.round(edges).astype(int)  # y grows upwards, rows downwards
+        coverage[ROWS - r0 : ROWS - r1, c0:c1] += 1
+    np.testing.assert_array_equal(coverage, (room_image() == OCCUPIED).astype(int))
+    assert all(g.pos[2] - g.size[2] / 2 == pytest.approx(0.0) and g.size[2] == pytest.approx(0.8) for g in collision)
+    assert (world.spawn.x, world.spawn.y, world.spawn.yaw) == (0.0, 0.0, 0.0)
+
+
+VARIANTS = {
+    "plain": (lambda img: img, 0, (-2.0, -1.5, 0.0)),
+    "negate": (lambda img: 255 - img, 1, (-2.0, -1.5, 0.0)),
+    # yaw turns the map about its origin corner: the spawn point (0, 0) lands on the same cell as above
+    "yaw": (lambda img: img, 0, (1.5, -2.0, math.pi / 2)),
+}
+
+
+@pytest.mark.parametrize("variant", VARIANTS)
+def test_rays_from_the_spawn_point_hit_the_mapped_walls(tmp_path, variant):
+    transform, negate, origin = VARIANTS[variant]
+    sim = Simulator(world=str(write_map(tmp_path, transform(room_image()), origin, negate)))
+    sim.run_until(0.5)  # settled: the wheel tops sink from 0.15 m to 0.10 m, below the rays
+    ox, oy, yaw = origin
+    rotation = np.array([[math.cos(yaw), math.sin(yaw)], [-math.sin(yaw), math.cos(yaw)]])  # world -> map frame
+    start = rotation @ np.array([0.0 - ox, 0.0 - oy])
+    pillar = np.array([(PILLAR[1] + PILLAR[3]) / 2 * RES, (ROWS - (PILLAR[0] + PILLAR[2]) / 2) * RES])
+    toward_pillar = math.atan2(*(pillar - start)[::-1])
+    for map_angle in [0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi, 0.6, 2.4, 4.0, 5.3, toward_pillar]:
+        expected = expected_range(start, np.array([math.cos(map_angle), math.sin(map_angle)]))
+        distance, geom = cast(sim, 0.0, 0.0, map_angle + yaw)
+        assert geom.startswith("map_wall")
+        assert distance == pytest.approx(expected, abs=1e-6), (variant, map_angle)
+    # the ray straight down (map frame) crossed the unknown patch and still reached the bottom wall
+    assert expected_range(start, np.array([0.0, -1.0])) == pytest.approx(1.4)
+
+
+def test_colour_pixels_are_averaged_like_map_server(tmp_path):
+    # magenta averages to 170 (p = 0.33, below 0.45); by luminance it would be 105 (p = 0.59, occupied)
+    pixels = np.array([[[0, 0, 0], [255, 0, 255], [255, 255, 255]]], dtype=np.uint8)
+    Image.fromarray(pixels).save(tmp_path / "c.png")
+    (tmp_path / "c.yaml").write_text("image: c.png\nresolution: 1.0\norigin: [10, 10, 0]\nnegate: 0\n"
+                                     "occupied_thresh: 0.45\nfree_thresh: 0.1\n")
+    (box,) = [g for _, g in load_world(tmp_path / "c.yaml").geoms(collides=True) if g.kind == "box"]
+    np.testing.assert_allclose(box.pos[:2], [0.5, 0.5])
+
+
+@pytest.mark.parametrize(("mode", "negate", "expected"), [
+    ("trinary", 0, [True, True, False, False, False]),  # p = 1, 0.69, 0.5, 0.2, 0
+    ("trinary", 1, [False, False, False, True, True]),  # p = 0, 0.31, 0.5, 0.8, 1
+    ("raw", 0, [False, True, False, False, False]),  # percent: 0, 80, 128 (> 100: unknown), 204, 255
+])
+def test_map_modes_mark_occupied_cells_as_map_server_does(mode, negate, expected):
+    grey = np.array([[0.0, 80.0, 128.0, 204.0, 255.0]])
+    meta = {"mode": mode, "negate": negate, "occupied_thresh": 0.65, "free_thresh": 0.196}
+    assert occupied_cells(grey, None, meta).tolist() == [expected]
+
+
+def test_spawn_in_a_wall_warns_naming_the_file(tmp_path):
+    with pytest.warns(UserWarning, match=r"room\.yaml: the spawn point \(0, 0\) lies in an occupied cell"):
+        load_world(write_map(tmp_path, room_image(), (0.0, 0.0, 0.0)))
+
+
+# --- malformed maps: one line on stderr, exit code 2 --------------------------------------------------------------
+
+BAD_MAPS = {
+    "missing_image.yaml": ("image: nowhere.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n", "image: "),
+    "bad_syntax.yaml": ("image: room.pgm\nresolution: [0.05\norigin: [0, 0, 0]\n", "invalid YAML"),
+    "nan_resolution.yaml": ("image: room.pgm\nresolution: .nan\norigin: [0, 0, 0]\n", "resolution: "),
+    "nan_origin.yaml": ("image: room.pgm\nresolution: 0.05\norigin: [0, .nan, 0]\n", "origin: "),
+    "no_image.yaml": ("resolution: 0.05\norigin: [0, 0, 0]\n", "image: missing"),
+    "bad_negate.yaml": ("image: room.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 2\n", "negate: "),
+    "bad_thresh.yaml": ("image: room.pgm\nresolution: 0.05\norigin: [0, 0, 0]\noccupied_thresh: 1.5\n",
+                        "occupied_thresh: "),
+}
+
+
+@pytest.mark.parametrize("name", ["missing_image.yaml", "bad_syntax.yaml", "nan_resolution.yaml"])
+def test_malformed_map_fails_in_one_line_from_the_cli(tmp_path, name):
+    Image.fromarray(room_image()).save(tmp_path / "room.pgm")
+    content, field = BAD_MAPS[name]
+    (tmp_path / name).write_text(content)
+    assert field in run_cli_error(tmp_path / name)
+
+
+@pytest.mark.parametrize("name", BAD_MAPS)
+def test_malformed_map_error_names_file_and_field(tmp_path, name):
+    Image.fromarray(room_image()).save(tmp_path / "room.pgm")
+    content, field = BAD_MAPS[name]
+    (tmp_path / name).write_text(content)
+    with pytest.raises(WorldError) as error:
+        load_world(tmp_path / name)
+    message = str(error.value)
+    assert "\n" not in message and name in message and field in message
+
+
+def test_unreadable_image_names_the_file(tmp_path):
+    (tmp_path / "room.pgm").write_bytes(b"not an image")
+    (tmp_path / "m.yaml").write_text("image: room.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n")
+    with pytest.raises(WorldError, match=r"m\.yaml: image: cannot read .*room\.pgm"):
+        load_world(tmp_path / "m.yaml")
