@@ -1,4 +1,5 @@
-"""Real-time factor of the full pipeline (lidar and camera off) against bare MuJoCo: `python bench/bench_rtf.py`.
+"""Real-time factor of the full pipeline - sensors off, lidar on, lidar + camera - against bare MuJoCo stepping:
+`python bench/bench_rtf.py`.
 
 Same as `racecar-sim bench`; extra arguments are passed through (e.g. --physics gazebo --duration 60).
 """

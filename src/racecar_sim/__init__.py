@@ -6,6 +6,10 @@
 
 __version__ = "0.1.0"
 
+from racecar_sim.sensors.gl import guard_mujoco_import  # noqa: E402
+
+guard_mujoco_import()  # before anything imports mujoco: a MUJOCO_GL backend without its library must not break it
+
 from racecar_sim.runtime import Simulator  # noqa: E402
 
 __all__ = ["Simulator", "__version__"]

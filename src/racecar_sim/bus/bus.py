@@ -90,6 +90,13 @@ class Bus:
         """Every topic seen so far and its message class."""
         return {name: t.msgtype for name, t in sorted(self._topics.items())}
 
+    def has_listeners(self, topic: str) -> bool:
+        """Whether a message on `topic` would reach anyone: a subscriber or a tap (a recorder, a bridge).
+
+        Sensors check this before doing expensive work, as gazebo_ros plugins render only for subscribers.
+        """
+        return bool(self._taps) or (topic in self._topics and bool(self._topics[topic].subscribers))
+
     def count(self, topic: str) -> int:
         """How many messages have been published on `topic`."""
         return self._topics[topic].count if topic in self._topics else 0

@@ -57,3 +57,15 @@ def add_world_arguments(p: argparse.ArgumentParser, world_option: bool = True) -
                    help="folder holding model:// models, searched before GAZEBO_MODEL_PATH (repeatable)")
     p.add_argument("--wall-height", type=positive_float, default=DEFAULT_WALL_HEIGHT, metavar="M",
                    help=f"height of walls extruded from a map or track file (default {DEFAULT_WALL_HEIGHT:g} m)")
+
+
+def add_sensor_arguments(p: argparse.ArgumentParser) -> None:
+    """--no-lidar, --no-camera and --no-noise (DISABLE_GAZEBO_LASER / DISABLE_GAZEBO_CAMERA=true work too)."""
+    p.add_argument("--no-lidar", action="store_true", help="no /scan (the Hokuyo is not simulated)")
+    p.add_argument("--no-camera", action="store_true", help="no /camera/zed images (no OpenGL needed)")
+    p.add_argument("--no-noise", action="store_true", help="sensor readings without their Gaussian noise")
+
+
+def sensor_options(args: argparse.Namespace) -> dict[str, bool]:
+    """Simulator keyword arguments from the sensor switches."""
+    return {"lidar": not args.no_lidar, "camera": not args.no_camera, "sensor_noise": not args.no_noise}

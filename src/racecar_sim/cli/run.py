@@ -11,7 +11,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from racecar_sim.cli.args import add_world_arguments, finite_float, positive_float
+from racecar_sim.cli.args import add_sensor_arguments, add_world_arguments, finite_float, positive_float, sensor_options
 from racecar_sim.control.profiles import profile_names
 from racecar_sim.core.transforms import yaw_of
 from racecar_sim.drivers import ConstantCommand
@@ -36,6 +36,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="original: map->odom as the 2017 sim; ros: odom->base_link, body twist")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--record", metavar="FILE.mcap", help="record every topic to an MCAP file")
+    add_sensor_arguments(p)
     p.add_argument("--realtime", action="store_true", help="run no faster than real time")
 
 
@@ -60,7 +61,8 @@ def _terminate(signum: int, frame: object) -> None:
 def main(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGTERM, _terminate)
     with Simulator(world=args.world, profile=args.profile, seed=args.seed, physics=args.physics, spawn=args.spawn,
-                   odometry=args.odometry, model_path=args.model_path, wall_height=args.wall_height) as sim:
+                   odometry=args.odometry, model_path=args.model_path, wall_height=args.wall_height,
+                   **sensor_options(args)) as sim:
         if args.record:
             Path(args.record).parent.mkdir(parents=True, exist_ok=True)
         recorder = sim.record(args.record) if args.record else None

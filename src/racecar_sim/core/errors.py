@@ -21,3 +21,7 @@ class WorldError(RacecarSimError):
 
 class CommandError(RacecarSimError):
     """A command message carries a NaN, an infinity or an out-of-range value."""
+
+
+class RenderingError(RacecarSimError):
+    """No headless OpenGL context (EGL or OSMesa) could be created for the camera."""

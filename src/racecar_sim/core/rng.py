@@ -14,3 +14,12 @@ def stream(seed: int, name: str) -> np.random.Generator:
     noise another sensor sees.
     """
     return np.random.default_rng([seed, zlib.crc32(name.encode())])
+
+
+def sample_stream(seed: int, name: str, stamp_ns: int) -> np.random.Generator:
+    """A generator for one sample (a scan, an image) of `name` taken at sim time `stamp_ns`.
+
+    Keyed by the stamp, so a sample's noise is the same whether or not earlier samples were taken
+    (a sensor that skips work while nobody listens still reproduces the same data).
+    """
+    return np.random.default_rng([seed, zlib.crc32(name.encode()), stamp_ns])

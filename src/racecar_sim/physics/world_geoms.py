@@ -19,6 +19,9 @@ GEOM_TYPES = {"box": mujoco.mjtGeom.mjGEOM_BOX, "cylinder": mujoco.mjtGeom.mjGEO
               "capsule": mujoco.mjtGeom.mjGEOM_CAPSULE, "ellipsoid": mujoco.mjtGeom.mjGEOM_ELLIPSOID,
               "mesh": mujoco.mjtGeom.mjGEOM_MESH}
 _LIGHT_TYPES = {True: mujoco.mjtLightType.mjLIGHT_DIRECTIONAL, False: mujoco.mjtLightType.mjLIGHT_POINT}
+CHECKER_SIZE = 0.5  # m, side of the squares drawn on ground planes, so that the camera sees the ground move
+CHECKER_SHADE = 0.85  # brightness of the darker squares relative to the plane's colour
+HEADLIGHT_DIFFUSE = 0.3  # the viewer's light, at the camera: lights the faces the camera looks at
 
 
 def mj_size(kind: str, size: tuple[float, ...]) -> list[float]:
@@ -43,6 +46,7 @@ class _Assets:
         self.spec = spec
         self.meshes: dict[int, str] = {}
         self.materials: dict[int, str] = {}
+        self.checkers: dict[tuple[float, ...], str] = {}
 
     def mesh(self, mesh: Mesh, textured: bool) -> str:
         key = id(mesh)
@@ -73,6 +77,21 @@ class _Assets:
             self.materials[key] = name
         return self.materials[key]
 
+    def checker(self, rgba: tuple[float, float, float, float]) -> str:
+        """A material of subtle squares, CHECKER_SIZE wide in world units, in the colour `rgba`."""
+        key = tuple(rgba)
+        if key not in self.checkers:
+            name = f"checker{len(self.checkers)}"
+            self.spec.add_texture(name=name, type=mujoco.mjtTexture.mjTEXTURE_2D,
+                                  builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, width=64, height=64,
+                                  rgb1=list(rgba[:3]), rgb2=[CHECKER_SHADE * c for c in rgba[:3]])
+            # one texture tile (2 x 2 squares) spans 2 / texrepeat metres on a uniform material
+            material = self.spec.add_material(name=name, texrepeat=[1 / CHECKER_SIZE] * 2, texuniform=True,
+                                              specular=0.1)
+            material.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = name
+            self.checkers[key] = name
+        return self.checkers[key]
+
 
 def _add_geom(body: mujoco.MjsBody, geom: WorldGeom, pos: np.ndarray, quat: np.ndarray, assets: _Assets) -> None:
     g = body.add_geom(name=geom.name, type=GEOM_TYPES[geom.kind], size=mj_size(geom.kind, geom.size),
@@ -89,6 +108,9 @@ def _add_geom(body: mujoco.MjsBody, geom: WorldGeom, pos: np.ndarray, quat: np.n
         if geom.texture is not None:
             g.material = assets.material(geom.texture)
             g.rgba = [1.0, 1.0, 1.0, 1.0]
+        elif geom.kind == "plane":
+            g.material = assets.checker(geom.rgba)
+            g.rgba = [1.0, 1.0, 1.0, geom.rgba[3]]
 
 
 def _add_light(spec: mujoco.MjSpec, light: Light) -> None:
@@ -103,7 +125,14 @@ def _add_light(spec: mujoco.MjSpec, light: Light) -> None:
 
 
 def _scene(spec: mujoco.MjSpec, scene: Scene) -> None:
-    spec.visual.headlight.ambient = list(scene.ambient)
+    """Ambient light, a headlight that lights what the camera faces, and the sky: a flat skybox in the world's
+    background colour (MuJoCo clears to black, so without a skybox the sky would be black)."""
+    light = spec.visual.headlight
+    light.ambient = list(scene.ambient)  # Gazebo multiplies it by the material colour, as MuJoCo does
+    light.diffuse = [HEADLIGHT_DIFFUSE] * 3
+    light.specular = [0.0] * 3
+    spec.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX, builtin=mujoco.mjtBuiltin.mjBUILTIN_FLAT,
+                     width=8, height=8, rgb1=list(scene.background), rgb2=list(scene.background))
 
 
 def add_world(spec: mujoco.MjSpec, world: World) -> None:

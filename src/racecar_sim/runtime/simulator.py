@@ -33,6 +33,8 @@ from racecar_sim.worlds import DEFAULT_WALL_HEIGHT, Spawn, World, load_world
 
 if TYPE_CHECKING:
     from racecar_sim.recording import McapRecorder
+    from racecar_sim.sensors.camera import CameraPublisher
+    from racecar_sim.sensors.lidar import LidarPublisher
 
 log = logging.getLogger("racecar_sim")
 CLOCK_RATE = 100.0  # gazebo_ros publishes /clock at pub_clock_frequency, 100 Hz by default
@@ -52,8 +54,10 @@ class Simulator:
     def __init__(self, world: str | World = "empty", profile: str = "seed", seed: int = 0, physics: str = "default",
                  spawn: Spawn | None = None, odometry: str = "original", xacro: str | Path = DEFAULT_XACRO,
                  xacro_args: Mapping[str, str] | None = None, controllers: str | Path | None = None,
-                 model_path: list[str | Path] | None = None, wall_height: float = DEFAULT_WALL_HEIGHT) -> None:
+                 model_path: list[str | Path] | None = None, wall_height: float = DEFAULT_WALL_HEIGHT,
+                 lidar: bool = True, camera: bool = True, sensor_noise: bool = True) -> None:
         self.seed = seed
+        self.sensor_noise = sensor_noise
         self.profile = load_profile(profile)
         self.robot = load_robot(xacro, {**self.profile.xacro_args, **(xacro_args or {})})
         if isinstance(world, World):
@@ -67,6 +71,12 @@ class Simulator:
         self.controllers = load_controller_config(controllers, self.robot)
         spec = build_spec(self.robot, self.world, self.preset)
         add_actuators(spec, self.controllers, self.robot)
+        self._lidar_on = lidar and self.robot.sensor("ray") is not None
+        self._camera_on = camera and self.robot.sensor("camera") is not None
+        if self._camera_on:
+            from racecar_sim.sensors.camera import add_camera  # GL bindings load only when a camera is wanted
+
+            add_camera(spec, self.robot)
         try:
             self.model = spec.compile()
         except ValueError as exc:
@@ -80,6 +90,8 @@ class Simulator:
         self._odometry_mode = odometry
         self._user_subscriptions: list[tuple[str, Callable[[Any], None]]] = []
         self._recorders: list[McapRecorder] = []
+        self.lidar: LidarPublisher | None = None
+        self.camera: CameraPublisher | None = None
         self._setup()
 
     def _setup(self) -> None:
@@ -102,8 +114,28 @@ class Simulator:
                                                 self.controllers.joint_state_rate)
         self.robot_state = RobotStatePublisher(self.bus, self.robot)
         self.odometry = OdometryPublisher(self.bus, self.scheduler, self.state, self._odometry_mode)
+        self._setup_sensors()
         for topic, callback in self._user_subscriptions:
             self.bus.subscribe(topic, callback)
+
+    def _setup_sensors(self) -> None:
+        """The Hokuyo and the ZED, as racecar.gazebo declares them (and unless switched off)."""
+        if self._lidar_on:
+            from racecar_sim.sensors.lidar import LidarPublisher
+
+            self.lidar = LidarPublisher(self.bus, self.scheduler, self.model, self.data, self.robot, self.seed,
+                                        noise=self.sensor_noise)
+        if self._camera_on:
+            from racecar_sim.sensors.camera import CameraPublisher, RenderingError
+
+            if self.camera is not None:
+                self.camera.close()  # reset(): one GL context at a time
+            try:
+                self.camera = CameraPublisher(self.bus, self.scheduler, self.model, self.data, self.robot, self.seed,
+                                              noise=self.sensor_noise)
+            except RenderingError as exc:
+                log.error("%s; continuing without the camera", exc)
+                self._camera_on, self.camera = False, None
 
     # --- the public API -------------------------------------------------------------------------
     @property
@@ -153,10 +185,13 @@ class Simulator:
         return recorder
 
     def close(self) -> None:
-        """Finish every recording (writes the MCAP footers)."""
+        """Finish every recording (writes the MCAP footers) and free the camera's GL context."""
         for recorder in self._recorders:
             recorder.close()
         self._recorders.clear()
+        if self.camera is not None:
+            self.camera.close()
+            self.camera = None
 
     def __enter__(self) -> Simulator:
         return self

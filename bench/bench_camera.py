@@ -1,0 +1,80 @@
+"""Camera frames per second at 640x480 in the empty and tunnel worlds: `python bench/bench_camera.py [--frames N]`.
+
+Per world, with the car driving a 1 m/s, 0.2 rad circle (physics steps between frames are not timed):
+  draw        scene update + drawing, finished (glFinish) but not read back
+  + readback  the same plus reading the pixels back (OffscreenCamera.render)
+  full frame  what a 30 Hz tick costs: render, readback, flip to BGR, Gaussian noise, Image + CameraInfo, publish
+The OpenGL renderer is printed first: "llvmpipe" is Mesa's software rasteriser (no GPU).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from collections.abc import Callable
+
+import mujoco
+
+from racecar_sim.drivers import ConstantCommand
+from racecar_sim.runtime import Simulator
+from racecar_sim.sensors.camera import CameraPublisher
+
+
+def _fps(sim: Simulator, frames: int, work: Callable[[int], object]) -> float:
+    """Frames per wall second of `work(stamp)`, the car moving one camera period between frames."""
+    period = 1 / sim.camera.spec.rate_hz
+    wall = 0.0
+    for _ in range(frames):
+        sim.run_for(period)
+        start = time.perf_counter()
+        work(sim.time_ns)
+        wall += time.perf_counter() - start
+    return frames / wall
+
+
+def _draw(camera: CameraPublisher) -> Callable[[int], None]:
+    from OpenGL import GL  # bound to the camera's backend by now
+
+    renderer = camera.renderer
+
+    def draw(_: int) -> None:
+        mujoco.mjv_updateScene(renderer.model, renderer.data, renderer.option, None, renderer.camera,
+                               mujoco.mjtCatBit.mjCAT_STATIC | mujoco.mjtCatBit.mjCAT_DYNAMIC, renderer.scene)
+        renderer.gl.make_current()
+        mujoco.mjr_render(renderer.rect, renderer.scene, renderer.context)
+        GL.glFinish()
+
+    return draw
+
+
+def measure(world: str, frames: int) -> tuple[str, dict[str, float]]:
+    sim = Simulator(world=world, lidar=False)
+    if sim.camera is None:
+        raise SystemExit("the camera could not start (see the error above)")
+    ConstantCommand(sim.bus, sim.scheduler, 1.0, 0.2)
+    camera = sim.camera
+    camera._task.cancel()  # the bench calls the camera itself
+    camera.renderer.render()  # warm up: shaders, textures
+    rows = {"draw": _fps(sim, frames, _draw(camera)),
+            "+ readback": _fps(sim, frames, lambda _: camera.renderer.render())}
+    sim.subscribe(camera.spec.image_topic, lambda msg: None)
+    rows["full frame"] = _fps(sim, frames, camera._tick)
+    renderer = camera.gl_renderer
+    sim.close()
+    return renderer, rows
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--frames", type=int, default=300, help="frames per measurement (default 300)")
+    args = parser.parse_args()
+    results = {world: measure(world, args.frames) for world in ("empty", "tunnel")}
+    print(f"OpenGL: {next(iter(results.values()))[0]}; 640x480, {args.frames} frames per figure, one run")
+    print(f"{'world':<8}{'draw fps':>10}{'+ readback fps':>16}{'full frame fps':>16}{'full frame ms':>15}")
+    for world, (_, rows) in results.items():
+        print(f"{world:<8}{rows['draw']:>10.0f}{rows['+ readback']:>16.0f}{rows['full frame']:>16.0f}"
+              f"{1e3 / rows['full frame']:>15.2f}")
+
+
+if __name__ == "__main__":
+    main()

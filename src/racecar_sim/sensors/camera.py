@@ -1,0 +1,128 @@
+"""The ZED camera (left lens): gazebo_ros_camera on MuJoCo offscreen rendering.
+
+Two steps, because the Simulator compiles the model before nodes exist:
+  add_camera(spec, robot)   puts a MuJoCo camera on the camera link of the MjSpec, before compiling;
+  CameraPublisher(...)      renders it at the sensor's rate and publishes Image + CameraInfo, stamped in sim time.
+
+Rendering happens only when someone listens (gazebo_ros_camera renders only for subscribers); the schedule is
+kept regardless, and the noise of a frame depends only on (seed, stamp), so skipping frames changes no other.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from racecar_sim.bus import Bus
+from racecar_sim.core.errors import DescriptionError, RenderingError
+from racecar_sim.core.rng import sample_stream
+from racecar_sim.core.scheduler import Scheduler
+from racecar_sim.core.transforms import quat_from_rpy, quat_mul
+from racecar_sim.description.urdf import Robot
+from racecar_sim.msgs import Header, Image
+from racecar_sim.sensors.camera_spec import CameraSpec
+from racecar_sim.sensors.render import OffscreenCamera
+
+__all__ = ["CameraPublisher", "CameraSpec", "RenderingError", "add_camera", "add_noise", "camera_spec", "set_clip"]
+
+NOISE_STREAM = "camera"
+# A MuJoCo camera looks along its -z with +y up; Gazebo's looks along the link's +x with +z up. This rotation
+# takes the camera axes to the link's: x_cam = -y_link, y_cam = +z_link, z_cam = -x_link.
+LOOK_ALONG_X = np.array([0.5, 0.5, -0.5, -0.5])
+
+
+def camera_spec(robot: Robot) -> CameraSpec:
+    """The robot's camera sensor block, parsed; DescriptionError if it has none."""
+    sensor = robot.sensor("camera")
+    if sensor is None:
+        raise DescriptionError(f"robot {robot.name} has no <sensor type=\"camera\"> (is DISABLE_GAZEBO_CAMERA set?)")
+    return CameraSpec.from_sensor(sensor)
+
+
+def add_camera(spec: mujoco.MjSpec, robot: Robot) -> None:
+    """Add the robot's camera to `spec` (before compiling): on its link's body, at the sensor pose, with the
+    sensor's vertical field of view, and an offscreen buffer large enough for its image."""
+    cam = camera_spec(robot)
+    body = spec.body(cam.link)
+    if body is None:
+        raise DescriptionError(f"camera sensor '{cam.name}': link {cam.link} is not in the model")
+    quat = quat_mul(quat_from_rpy(cam.pose.rpy), LOOK_ALONG_X)
+    body.add_camera(name=cam.name, pos=list(cam.pose.xyz), quat=list(quat), fovy=math.degrees(cam.fovy))
+    buffer = spec.visual.global_
+    buffer.offwidth, buffer.offheight = max(buffer.offwidth, cam.width), max(buffer.offheight, cam.height)
+    spec.visual.quality.offsamples = 0  # software GL: MSAA would double the cost of a frame
+
+
+def set_clip(model: mujoco.MjModel, near: float, far: float) -> None:
+    """Clip planes in metres: MuJoCo stores them as multiples of the model's extent."""
+    model.vis.map.znear = near / model.stat.extent
+    model.vis.map.zfar = far / model.stat.extent
+
+
+def add_noise(pixels: np.ndarray, rng: np.random.Generator, mean: float, stddev: float) -> np.ndarray:
+    """Gazebo's camera noise: one N(mean, stddev) sample per pixel (colour units, 0-255) added to every channel,
+    then rounded and clamped to 0-255 - the float-colour shader's result written to an 8-bit image."""
+    height, width = pixels.shape[:2]
+    noise = rng.standard_normal((height, width), dtype=np.float32)
+    noise *= stddev
+    noise += mean
+    np.clip(noise, -255.0, 255.0, out=noise)  # beyond that the clamp saturates anyway; keeps int16 safe
+    np.rint(noise, out=noise)
+    out = pixels.astype(np.int16)
+    out += noise.astype(np.int16)[..., None]
+    np.clip(out, 0, 255, out=out)
+    return out.astype(np.uint8)
+
+
+class CameraPublisher:
+    """gazebo_ros_camera: Image and CameraInfo at the sensor's rate (30 Hz), frame camera_link, sim-time stamps.
+
+    Raises RenderingError (one line) at construction when no headless OpenGL context can be made.
+    Attributes: `spec` (the parsed sensor block), `noise` (whether frames get the sensor's noise),
+    `frames_rendered` (how many frames were drawn: none while nobody listens).
+    """
+
+    def __init__(self, bus: Bus, scheduler: Scheduler, model: mujoco.MjModel, data: mujoco.MjData, robot: Robot,
+                 seed: int, noise: bool = True) -> None:
+        self.spec = camera_spec(robot)
+        if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, self.spec.name) < 0:
+            raise ValueError(f"the model has no camera '{self.spec.name}': call add_camera(spec, robot) before "
+                             "compiling")
+        self.bus, self.seed = bus, seed
+        self.noise = noise and (self.spec.noise_stddev > 0 or self.spec.noise_mean != 0)
+        set_clip(model, self.spec.near, self.spec.far)
+        self.renderer = OffscreenCamera(model, data, self.spec.name, self.spec.width, self.spec.height)
+        self.frames_rendered = 0
+        self._task = scheduler.every(self.spec.rate_hz, self._tick, "gazebo_ros_camera")
+
+    def _tick(self, now_ns: int) -> None:
+        spec = self.spec
+        if not (self.bus.has_listeners(spec.image_topic) or self.bus.has_listeners(spec.info_topic)):
+            return
+        pixels = self.capture(now_ns)
+        self.bus.publish(spec.image_topic, Image(Header.at(now_ns, spec.frame_id), spec.height, spec.width,
+                                                 spec.encoding, 0, spec.step, pixels.reshape(-1)))
+        self.bus.publish(spec.info_topic, spec.camera_info(now_ns))
+
+    def capture(self, stamp_ns: int) -> np.ndarray:
+        """Render the current state: a new (height, width, 3) uint8 array in the spec's encoding, top row first,
+        with the noise of the frame stamped `stamp_ns`."""
+        self.frames_rendered += 1
+        rgb = self.renderer.render()[::-1]  # GL rows run bottom-up
+        pixels = rgb[..., ::-1] if self.spec.encoding == "bgr8" else rgb
+        if not self.noise:
+            return pixels.copy()  # C order: the buffer is reused, the message keeps its own pixels
+        rng = sample_stream(self.seed, NOISE_STREAM, stamp_ns)
+        return add_noise(pixels, rng, 255.0 * self.spec.noise_mean, 255.0 * self.spec.noise_stddev)
+
+    @property
+    def gl_renderer(self) -> str:
+        """The OpenGL renderer drawing the images (e.g. llvmpipe: Mesa's software rasteriser)."""
+        return f"{self.renderer.gl.backend}: {self.renderer.gl.renderer}"
+
+    def close(self) -> None:
+        """Stop publishing and free this camera's GL objects."""
+        self._task.cancel()
+        self.renderer.close()

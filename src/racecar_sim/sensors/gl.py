@@ -1,0 +1,205 @@
+"""A headless OpenGL context for the camera: EGL or OSMesa, made by MuJoCo's own `mujoco.egl` / `mujoco.osmesa`.
+
+MUJOCO_GL=egl or osmesa picks the backend; otherwise (unset, glfw, ...) EGL is tried, then OSMesa.
+
+PyOpenGL binds itself to one platform, read from PYOPENGL_PLATFORM, the first time it is imported, and
+`mujoco.egl` / `mujoco.osmesa` refuse to load under another one. `import mujoco` imports the MUJOCO_GL backend
+(and so PyOpenGL) when MUJOCO_GL is egl or osmesa, and nothing of PyOpenGL otherwise; so either PyOpenGL is
+already bound to the backend MUJOCO_GL names, or it is not imported yet and setting PYOPENGL_PLATFORM just before
+we import a backend is early enough. A failed attempt drops the PyOpenGL modules it imported, so that the next
+backend binds PyOpenGL afresh. If other code imported PyOpenGL first, its platform is the only one that can work.
+"""
+
+from __future__ import annotations
+
+import atexit
+import ctypes
+import importlib
+import os
+import sys
+from dataclasses import dataclass
+from typing import Any
+
+from racecar_sim.core.errors import RenderingError
+from racecar_sim.sensors.egl_probe import egl_problem
+
+BACKENDS = ("egl", "osmesa")
+LABELS = {"egl": "EGL", "osmesa": "OSMesa"}
+PACKAGES = {"egl": "libegl1 libgl1-mesa-dri", "osmesa": "libosmesa6"}
+_SONAMES = {"egl": ("libEGL.so.1", "libEGL.so"), "osmesa": ("libOSMesa.so.8", "libOSMesa.so.6", "libOSMesa.so")}
+
+__all__ = ["BACKENDS", "HeadlessGL", "RenderingError", "create_context", "guard_mujoco_import", "library_present",
+           "shared_context"]
+
+
+@dataclass
+class HeadlessGL:
+    """An OpenGL context with no window: make it current before any mjr_* call."""
+
+    backend: str  # egl | osmesa
+    context: Any  # mujoco.egl.GLContext or mujoco.osmesa.GLContext
+    renderer: str  # GL_RENDERER, e.g. "llvmpipe (LLVM 15.0.6, 256 bits)" for Mesa's software rasteriser
+
+    def make_current(self) -> None:
+        """Make this the calling thread's current context."""
+        self.context.make_current()
+
+    def free(self) -> None:
+        """Destroy the context."""
+        self.context.free()
+
+
+_OFF = ("disable", "disabled", "off", "false", "0")
+_shared: HeadlessGL | None = None
+_shared_error: str | None = None
+_requested_before_import: str | None = None
+
+
+def guard_mujoco_import() -> None:
+    """Import mujoco safely when MUJOCO_GL names a backend whose library is missing; call before mujoco's import.
+
+    mujoco imports that backend as it is imported itself, and without its library (no libOSMesa for osmesa, no
+    libEGL for egl) PyOpenGL fails with an AttributeError that mujoco does not catch: the whole package would not
+    import. Then mujoco is imported with MUJOCO_GL=disable instead, MUJOCO_GL is put back, and the camera later
+    reports the missing library as a RenderingError.
+    """
+    global _requested_before_import
+    requested = os.environ.get("MUJOCO_GL", "").strip().lower()
+    if requested not in BACKENDS or "mujoco" in sys.modules or library_present(requested):
+        return
+    _requested_before_import = requested
+    os.environ["MUJOCO_GL"] = "disable"
+    try:
+        importlib.import_module("mujoco")
+    finally:
+        os.environ["MUJOCO_GL"] = requested
+
+
+def shared_context(width: int = 640, height: int = 480) -> HeadlessGL:
+    """The process's headless context, created on first use and kept; every camera renders through it.
+
+    Creating a context costs 0.1-1 s, so cameras share one (each has its own MjrContext in it). A failure is
+    remembered too, and raised again as the same one-line RenderingError without a second attempt.
+    """
+    global _shared, _shared_error
+    if _shared is None:
+        if _shared_error is not None:
+            raise RenderingError(_shared_error)
+        try:
+            _shared = create_context(width, height)
+        except RenderingError as exc:
+            _shared_error = str(exc)
+            raise
+        atexit.register(_free_shared)  # while Python still runs: OSMesa's own __del__ fails at interpreter exit
+    return _shared
+
+
+def _free_shared() -> None:
+    global _shared
+    if _shared is not None:
+        _shared.free()
+        _shared = None
+
+
+def create_context(width: int = 640, height: int = 480) -> HeadlessGL:
+    """A new context on the first backend that works; RenderingError (one line) if none does.
+
+    width, height: size of OSMesa's default framebuffer (MuJoCo renders into its own offscreen buffer).
+    """
+    requested = _requested_before_import or os.environ.get("MUJOCO_GL", "").strip().lower()
+    if requested in _OFF:
+        raise RenderingError(f"MUJOCO_GL={requested} switches OpenGL off: unset it (or set egl or osmesa), "
+                             "or run with --no-camera")
+    if requested in BACKENDS:
+        candidates = [requested]
+    else:
+        bound = _pyopengl_platform()
+        if bound and bound not in BACKENDS:
+            raise RenderingError(f"PyOpenGL was imported for the {bound} platform before the camera could choose: "
+                                 "set PYOPENGL_PLATFORM=egl (or osmesa), or run with --no-camera")
+        candidates = [bound] if bound else list(BACKENDS)
+        requested = ""
+    reasons: dict[str, str] = {}
+    for backend in candidates:
+        try:
+            return _open(backend, width, height)
+        except Exception as exc:  # noqa: BLE001 - backends fail their own ways: ImportError, OSError, ...
+            reasons[backend] = _reason(backend, exc)
+    raise RenderingError(_message(reasons, requested))
+
+
+def _open(backend: str, width: int, height: int) -> HeadlessGL:
+    bound = _pyopengl_platform()
+    if bound is not None and bound != backend:
+        raise RuntimeError(f"PyOpenGL was already imported for the {bound} platform")
+    fresh = bound is None
+    if fresh and backend == "egl":
+        problem = egl_problem()  # a failed attempt through PyOpenGL would leave OSMesa unusable to MuJoCo
+        if problem:
+            raise RuntimeError(problem)
+    previous = os.environ.get("PYOPENGL_PLATFORM")
+    os.environ["PYOPENGL_PLATFORM"] = backend
+    try:
+        module = importlib.import_module(f"mujoco.{backend}")
+        context = module.GLContext(width, height)
+        context.make_current()
+        return HeadlessGL(backend, context, _renderer_string())
+    except Exception:
+        if fresh:
+            _forget_pyopengl()
+            if previous is None:
+                os.environ.pop("PYOPENGL_PLATFORM", None)
+            else:
+                os.environ["PYOPENGL_PLATFORM"] = previous
+        raise
+
+
+def _pyopengl_platform() -> str | None:
+    """The platform PyOpenGL is already bound to (egl, osmesa, or another name), or None if not yet imported."""
+    platform = sys.modules.get("OpenGL.platform")
+    if platform is None or getattr(platform, "PLATFORM", None) is None:
+        return None
+    name = type(platform.PLATFORM).__name__
+    return name.removesuffix("Platform").lower()  # EGLPlatform, OSMesaPlatform, GLXPlatform, ...
+
+
+def _forget_pyopengl() -> None:
+    """Drop the PyOpenGL modules a failed attempt imported, so that the next one re-reads PYOPENGL_PLATFORM."""
+    for name in list(sys.modules):
+        if name == "OpenGL" or name.startswith(("OpenGL.", "mujoco.egl", "mujoco.osmesa")):
+            del sys.modules[name]
+
+
+def library_present(backend: str) -> bool:
+    """Whether the backend's library (libEGL or libOSMesa) loads; loaded RTLD_LOCAL, so MuJoCo does not see it."""
+    for soname in _SONAMES[backend]:
+        try:
+            ctypes.CDLL(soname, mode=ctypes.RTLD_LOCAL)
+            return True
+        except OSError:
+            continue
+    return False
+
+
+def _renderer_string() -> str:
+    try:
+        from OpenGL import GL
+
+        return GL.glGetString(GL.GL_RENDERER).decode()
+    except Exception:  # noqa: BLE001 - only a label for reports
+        return "unknown"
+
+
+def _reason(backend: str, exc: Exception) -> str:
+    if backend in BACKENDS and not library_present(backend):
+        return f"{_SONAMES[backend][0]} not found"
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return text.split(". ")[0][:120]
+
+
+def _message(reasons: dict[str, str], requested: str) -> str:
+    tried = "; ".join(f"{LABELS.get(b, b)}: {why}" for b, why in reasons.items())
+    backends = [b for b in reasons if b in PACKAGES] or list(BACKENDS)
+    packages = " or ".join(f"{PACKAGES[b]} ({LABELS[b]})" for b in backends)
+    other = f", or unset MUJOCO_GL to try {LABELS[BACKENDS[requested == 'egl']]} too" if requested else ""
+    return f"no headless OpenGL for the camera ({tried}): apt-get install {packages}{other}, or run with --no-camera"

@@ -1,0 +1,97 @@
+"""The Hokuyo: gazebo_ros_laser's sensor_msgs/LaserScan on /scan, from racecar.gazebo's <sensor type="ray">.
+
+Per beam, Gazebo 7's rule: nothing within range_max gives +inf; otherwise the true range plus N(mean,
+stddev) noise, clamped to [range_min, range_max]. Rays start at range_min, so nearer objects are not seen.
+The car never sees itself. The scan is cast only when someone listens (as gazebo_ros_laser does), but the
+schedule is kept, and a scan's noise depends only on (seed, stamp): skipping scans changes no other.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from racecar_sim.bus import Bus
+from racecar_sim.core.errors import DescriptionError
+from racecar_sim.core.rng import sample_stream
+from racecar_sim.core.scheduler import Scheduler
+from racecar_sim.core.transforms import quat_from_rpy, quat_to_matrix
+from racecar_sim.description.urdf import Robot
+from racecar_sim.msgs import Header, LaserScan
+from racecar_sim.physics import COLLISION_GROUP
+from racecar_sim.sensors.laser_spec import LaserSpec
+from racecar_sim.sensors.raycast import Fan, RayCaster
+
+NOISE_STREAM = "scan"
+
+
+def laser_spec(robot: Robot) -> LaserSpec:
+    """The robot's ray sensor block, parsed; DescriptionError if it has none."""
+    sensor = robot.sensor("ray")
+    if sensor is None:
+        raise DescriptionError(f"robot {robot.name} has no <sensor type=\"ray\"> (is DISABLE_GAZEBO_LASER set?)")
+    return LaserSpec.from_sensor(sensor)
+
+
+class LidarPublisher:
+    """gazebo_ros_laser: LaserScan at the sensor's rate (40 Hz), frame `laser`, sim-time stamps.
+
+    `noise=False` publishes the true ranges (still clamped and +inf past range_max). `mode` "3d" makes
+    every scan a MuJoCo 3-D cast (the reference; "auto" gives the same ranges, faster).
+    """
+
+    def __init__(self, bus: Bus, scheduler: Scheduler, model: mujoco.MjModel, data: mujoco.MjData, robot: Robot,
+                 seed: int, noise: bool = True, topic: str = "/scan", mode: str = "auto") -> None:
+        self.spec = spec = laser_spec(robot)
+        self.bus, self.model, self.data, self.seed, self.topic, self.mode = bus, model, data, seed, topic, mode
+        self.noise = noise and spec.noisy
+        self._site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, spec.link)
+        if self._site < 0:
+            raise DescriptionError(f"ray sensor '{spec.name}': link {spec.link} is not in the model")
+        self._offset = np.array(spec.pose.xyz, dtype=float)
+        self._turn = quat_to_matrix(quat_from_rpy(spec.pose.rpy))
+        # Scans are cast in a private MjData posed from the live qpos: after mj_step the live positions
+        # describe the start of the last step, and the simulation's own data stays untouched.
+        self._pose = mujoco.MjData(model)
+        self.fan = Fan(spec.min_angle, spec.angle_increment, spec.samples, spec.range_min, spec.range_max)
+        self.caster = RayCaster(model, self._pose, self.fan, model.body(robot.root).id, COLLISION_GROUP)
+        self.scans_cast = 0
+        self._task = scheduler.every(spec.update_rate, self._tick, "hokuyo")
+
+    def _tick(self, now_ns: int) -> None:
+        if not self.bus.has_listeners(self.topic):
+            return
+        spec = self.spec
+        self.bus.publish(self.topic, LaserScan(Header.at(now_ns, spec.frame_id), spec.min_angle, spec.max_angle,
+                                               spec.angle_increment, 0.0, 0.0, spec.range_min, spec.range_max,
+                                               self.scan(now_ns), np.zeros(spec.samples, np.float32)))
+
+    def ray_origin(self) -> tuple[np.ndarray, np.ndarray]:
+        """World position of the ray origin and the sensor's axes (world from sensor, 3x3) at the current
+        qpos; also poses every body the next cast sees."""
+        pose = self._pose
+        pose.qpos[:] = self.data.qpos
+        pose.mocap_pos[:] = self.data.mocap_pos
+        pose.mocap_quat[:] = self.data.mocap_quat
+        mujoco.mj_kinematics(self.model, pose)
+        site_rotation = pose.site_xmat[self._site].reshape(3, 3)
+        return pose.site_xpos[self._site] + site_rotation @ self._offset, site_rotation @ self._turn
+
+    def true_ranges(self) -> np.ndarray:
+        """Noise-free distances (float64, m) from the ray origin: inf where nothing is within range."""
+        self.scans_cast += 1
+        return self.caster.cast(*self.ray_origin(), mode=self.mode)
+
+    def scan(self, stamp_ns: int) -> np.ndarray:
+        """The ranges (float32) of a scan taken now and stamped `stamp_ns`, with that stamp's noise."""
+        ranges = self.true_ranges()
+        hit = np.isfinite(ranges)
+        if self.noise:
+            rng = sample_stream(self.seed, NOISE_STREAM, stamp_ns)
+            ranges = ranges + rng.normal(self.spec.noise_mean, self.spec.noise_stddev, len(ranges))
+        ranges = np.where(hit, np.clip(ranges, self.spec.range_min, self.spec.range_max), np.inf)
+        return ranges.astype(np.float32)
+
+    def close(self) -> None:
+        """Stop publishing."""
+        self._task.cancel()

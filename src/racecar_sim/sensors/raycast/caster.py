@@ -1,0 +1,144 @@
+"""RayCaster: a planar scan cast in 2-D wherever that is exact, and in 3-D (MuJoCo) wherever it is not.
+
+Per scan, the beams stay inside a height band around the sensor (range_max x the tilt of the scan plane).
+A vertical prism whose z-range covers the band is cast in 2-D (exact at any tilt, see fan.py); beams that
+may reach anything else inside the band - a prism that only partly covers it, a sphere, a cone mesh, a
+tilted pushed box - are recast in 3-D, and a floor inside the band (a ramp, a crash) sends the whole scan
+to 3-D. Beams that can only reach prisms never leave the fast path, so a level scan of a walled world
+costs tens of microseconds; the answer is the same as the 3-D cast's either way.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from racecar_sim.sensors.raycast.fan import Fan, ScanFrame
+from racecar_sim.sensors.raycast.grid import Grid, split_by_band
+from racecar_sim.sensors.raycast.mujoco3d import MujocoRays
+from racecar_sim.sensors.raycast.planar import (
+    Walls,
+    cast_circles,
+    circle_spans,
+    near_items,
+)
+from racecar_sim.sensors.raycast.scene import (
+    Footprints,
+    geom_footprint,
+    is_static,
+    seen_geoms,
+    static_footprints,
+    subtree_bodies,
+)
+
+MODES = ("auto", "3d")
+G = mujoco.mjtGeom
+_ALWAYS_BOUNDED = [int(kind) for kind in (G.mjGEOM_SPHERE, G.mjGEOM_CAPSULE, G.mjGEOM_ELLIPSOID, G.mjGEOM_MESH)]
+
+
+class RayCaster:
+    """Casts a `Fan` of beams from a pose in a compiled model, seeing the geoms of `group` except the
+    bodies under `own_body` (the robot carrying the sensor).
+
+    Static geoms are cut into footprints once, here; free bodies (pushable cones, boxes) are looked at
+    from their current pose on every scan. `last_3d_beams` tells how many beams the last scan cast in 3-D.
+    """
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, fan: Fan, own_body: int, group: int,
+                 cell_size: float | None = None) -> None:
+        self.model, self.data, self.fan = model, data, fan
+        geoms = seen_geoms(model, group)
+        own = np.isin(model.geom_bodyid[geoms], subtree_bodies(model, own_body))
+        static = np.array([is_static(model, g) for g in geoms], bool)
+        self.static = static_footprints(model, geoms[static & ~own])
+        self.grid = Grid(self.static, fan, cell_size)
+        moving = geoms[~static & ~own]
+        bounded = np.isin(model.geom_type[moving], _ALWAYS_BOUNDED)
+        self.moving_bounded, self.moving_other = moving[bounded], moving[~bounded]
+        self._has_moving = len(moving) > 0
+        self.rays3d = MujocoRays(model, data, group, geoms[own])
+        self.last_3d_beams = 0
+
+    def cast(self, origin: np.ndarray, rotation: np.ndarray, mode: str = "auto") -> np.ndarray:
+        """Range (m) of every beam from `origin` (world, 3) along the sensor axes `rotation` (world from
+        sensor, 3x3): the first hit at or beyond range_min, inf if none within range_max.
+
+        mode "3d" casts every beam with MuJoCo (the reference the fast path is tested against).
+        """
+        if mode not in MODES:
+            raise ValueError(f"ray cast mode '{mode}' is not one of {', '.join(MODES)}")
+        frame = ScanFrame(origin, rotation, self.fan)
+        if mode == "3d" or _needs_3d(frame, self.static):
+            return self._cast_3d(frame)
+        moving = self._moving(frame) if self._has_moving else None
+        if moving is not None and _needs_3d(frame, moving):
+            return self._cast_3d(frame)
+        ranges = np.full(self.fan.count, np.inf)
+        unsure: list[tuple[int, int]] = []  # beam intervals to recast in 3-D
+        lo, hi = frame.band
+        cell = self.grid.cell(frame.origin[0], frame.origin[1])
+        with np.errstate(divide="ignore", invalid="ignore"):  # beams exactly parallel to a wall
+            _cast_prisms(frame, *cell.split(lo, hi), ranges, unsure)
+            mark_bounds(frame, cell.bounds, unsure)
+            if moving is not None:
+                segments, circles, partly = split_by_band(moving.segments, moving.circles, lo, hi)
+                _cast_prisms(frame, Walls(segments, self.fan), circles, partly, ranges, unsure)
+                mark_bounds(frame, moving.bounds, unsure)
+        ranges[ranges > self.fan.range_max] = np.inf
+        self.last_3d_beams = 0
+        if unsure:
+            beams = np.flatnonzero(_mask(unsure, self.fan.count))
+            self.last_3d_beams = len(beams)
+            ranges[beams] = self.rays3d.cast(frame, beams)
+        return ranges
+
+    def _cast_3d(self, frame: ScanFrame) -> np.ndarray:
+        self.last_3d_beams = self.fan.count
+        return self.rays3d.cast(frame)
+
+    def _moving(self, frame: ScanFrame) -> Footprints:
+        """Footprints of the free bodies' geoms that may be inside the band, from their current pose."""
+        d, m = self.data, self.model
+        ids = self.moving_bounded
+        pos, radius = d.geom_xpos[ids], m.geom_rbound[ids]
+        parts = [Footprints(bounds=np.array([pos[:, 0], pos[:, 1], radius, pos[:, 2] - radius, pos[:, 2] + radius]))]
+        if len(self.moving_other):
+            ids = self.moving_other
+            pos, radius = d.geom_xpos[ids], m.geom_rbound[ids]
+            lo, hi = frame.band
+            reach = np.hypot(pos[:, 0] - frame.origin[0], pos[:, 1] - frame.origin[1]) <= radius + self.fan.range_max
+            maybe = (reach & (pos[:, 2] - radius <= hi) & (pos[:, 2] + radius >= lo)) | (radius == 0)
+            parts += [geom_footprint(m, g, d.geom_xpos[g], d.geom_xmat[g].reshape(3, 3), allow_mesh=False)
+                      for g in ids[maybe].tolist()]
+        return parts[0] if len(parts) == 1 else Footprints.join(parts)
+
+
+def _needs_3d(frame: ScanFrame, footprints: Footprints) -> bool:
+    """Whether a whole scan must be 3-D: a steep scan plane, a floor within the band, a geom that is
+    nowhere a prism (a sloped plane, a height field)."""
+    lo, hi = frame.band
+    return frame.steep or bool(footprints.not_prism_like) or any(lo <= z <= hi for z in footprints.floors.tolist())
+
+
+def _cast_prisms(frame: ScanFrame, walls: Walls, circles: np.ndarray, partly: np.ndarray, ranges: np.ndarray,
+                 unsure: list[tuple[int, int]]) -> None:
+    walls.cast(frame, ranges)
+    if circles.shape[1]:
+        cast_circles(frame, circles[:, near_items(circles, frame, 0, 1, 2)], ranges)
+    if partly.shape[1]:
+        unsure += circle_spans(frame, partly[:, near_items(partly, frame, 0, 1, 2)])
+
+
+def mark_bounds(frame: ScanFrame, bounds: np.ndarray, unsure: list[tuple[int, int]]) -> None:
+    """Add the beam intervals that may reach a bounding cylinder (rows cx, cy, r, zlo, zhi) in the band."""
+    if bounds.shape[1]:
+        lo, hi = frame.band
+        inside = near_items(bounds, frame, 0, 1, 2) & (bounds[3] <= hi) & (bounds[4] >= lo)
+        unsure += circle_spans(frame, bounds[:, inside])
+
+
+def _mask(spans: list[tuple[int, int]], count: int) -> np.ndarray:
+    mask = np.zeros(count, bool)
+    for first, last in spans:
+        mask[first:last + 1] = True
+    return mask

@@ -1,0 +1,102 @@
+"""A uniform grid over the static footprints: each cell holds every item within range_max of any of its
+points, copied into contiguous tables, so one dictionary look-up gives a scan all it may need."""
+
+from __future__ import annotations
+
+import bisect
+import math
+
+import numpy as np
+
+from racecar_sim.sensors.raycast.fan import Fan
+from racecar_sim.sensors.raycast.planar import Walls
+from racecar_sim.sensors.raycast.scene import Footprints, empty_circles, empty_segments
+
+
+def split_by_band(segments: np.ndarray, circles: np.ndarray, lo: float,
+                  hi: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The segments and circles whose z-range covers the band [lo, hi], and the footprint circles
+    (rows cx, cy, r) of those that cover only part of it (a beam may pass over, under or onto them)."""
+    seg_lo, seg_hi, circ_lo, circ_hi = segments[4], segments[5], circles[3], circles[4]
+    seg_covers = (seg_lo <= lo) & (seg_hi >= hi)
+    circ_covers = (circ_lo <= lo) & (circ_hi >= hi)
+    seg_partly = ~seg_covers & (seg_lo < hi) & (seg_hi > lo)
+    circ_partly = ~circ_covers & (circ_lo < hi) & (circ_hi > lo)
+    partly = np.concatenate([segments[9:12, seg_partly], circles[:3, circ_partly]], axis=1)
+    return segments[:, seg_covers], circles[:, circ_covers], partly
+
+
+class Cell:
+    """The static items near one grid cell, and which of them cover a height band (cached per band)."""
+
+    def __init__(self, segments: np.ndarray, circles: np.ndarray, bounds: np.ndarray, fan: Fan) -> None:
+        self.segments, self.circles, self.bounds, self.fan = segments, circles, bounds, fan
+        self.breaks = sorted(set(np.concatenate([segments[4], segments[5], circles[3], circles[4]]).tolist()))
+        self._covering: dict[int, tuple[Walls, np.ndarray]] = {}
+
+    def split(self, lo: float, hi: float) -> tuple[Walls, np.ndarray, np.ndarray]:
+        """The walls and circles covering the band [lo, hi], and the footprint circles of those covering
+        part of it (see split_by_band).
+
+        Between two consecutive heights where some prism starts or ends, the covering set is the same for
+        every band, so it is prepared once per such slab.
+        """
+        k = bisect.bisect_right(self.breaks, lo)
+        if k < len(self.breaks) and self.breaks[k] < hi:  # a prism starts or ends inside the band
+            segments, circles, partly = split_by_band(self.segments, self.circles, lo, hi)
+            return Walls(segments, self.fan), circles, partly
+        if k not in self._covering:
+            segments, circles, _ = split_by_band(self.segments, self.circles, lo, hi)
+            self._covering[k] = Walls(segments, self.fan), circles
+        return (*self._covering[k], _NO_CIRCLES)
+
+
+_NO_CIRCLES = np.zeros((3, 0))
+
+
+def _segment_boxes(segments: np.ndarray) -> np.ndarray:
+    x0, y0, x1, y1 = segments[:4]
+    return np.array([np.minimum(x0, x1), np.minimum(y0, y1), np.maximum(x0, x1), np.maximum(y0, y1)])
+
+
+def _circle_boxes(circles: np.ndarray) -> np.ndarray:
+    cx, cy, r = circles[:3]
+    return np.array([cx - r, cy - r, cx + r, cy + r])
+
+
+class Grid:
+    """Square cells of side `size` (m); items are registered in every cell their box, grown by `reach`,
+    overlaps."""
+
+    def __init__(self, footprints: Footprints, fan: Fan, size: float | None = None) -> None:
+        reach = fan.range_max
+        self.size = size or max(reach / 2.0, 1.0)
+        self.empty = Cell(empty_segments(), empty_circles(), empty_circles(), fan)
+        tables = (footprints.segments, footprints.circles, footprints.bounds)
+        boxes = (_segment_boxes(footprints.segments), _circle_boxes(footprints.circles),
+                 _circle_boxes(footprints.bounds))
+        per_table = [self._register(box, reach) for box in boxes]
+        keys = set().union(*(cells.keys() for cells in per_table))
+        self.cells = {key: Cell(*(table[:, cells.get(key, np.zeros(0, np.intp))]
+                                  for table, cells in zip(tables, per_table)), fan) for key in keys}
+
+    def _register(self, boxes: np.ndarray, reach: float) -> dict[tuple[int, int], np.ndarray]:
+        lo = np.floor((boxes[:2] - reach) / self.size).astype(np.int64)
+        hi = np.floor((boxes[2:] + reach) / self.size).astype(np.int64)
+        nx, ny = hi[0] - lo[0] + 1, hi[1] - lo[1] + 1
+        counts = nx * ny
+        item = np.repeat(np.arange(boxes.shape[1]), counts)
+        k = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)  # index within the item's block
+        ix = np.repeat(lo[0], counts) + k % np.repeat(nx, counts)
+        iy = np.repeat(lo[1], counts) + k // np.repeat(nx, counts)
+        order = np.lexsort((item, iy, ix))
+        ix, iy, item = ix[order], iy[order], item[order]
+        if len(ix) == 0:
+            return {}
+        starts = np.flatnonzero(np.r_[True, (np.diff(ix) != 0) | (np.diff(iy) != 0)])
+        ends = np.r_[starts[1:], len(ix)]
+        return {(int(ix[s]), int(iy[s])): item[s:e] for s, e in zip(starts, ends)}
+
+    def cell(self, x: float, y: float) -> Cell:
+        """The items near the point (x, y)."""
+        return self.cells.get((math.floor(x / self.size), math.floor(y / self.size)), self.empty)
