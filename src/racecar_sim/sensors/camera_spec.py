@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from racecar_sim.core.errors import DescriptionError
+from racecar_sim.sensors.sensor_xml import sensor_number
 from racecar_sim.description.urdf import Origin, Sensor
 from racecar_sim.msgs import CameraInfo, Header
 
@@ -71,14 +72,14 @@ class CameraSpec:
             raise DescriptionError(f"{where}: <camera> is missing")
         if not (sensor.update_rate > 0 and math.isfinite(sensor.update_rate)):
             raise DescriptionError(f"{where}: <update_rate> must be a positive number, got {sensor.update_rate}")
-        hfov = _number(camera, "horizontal_fov", where)
+        hfov = sensor_number(camera, "horizontal_fov", where)
         if not 0 < hfov < math.pi:
             raise DescriptionError(f"{where}: <horizontal_fov> {hfov} must be in (0, pi) rad")
         width, height = (_integer(camera, f"image/{k}", where) for k in ("width", "height"))
         fmt = _text(camera, "image/format", where)
         if fmt not in ENCODINGS:
             raise DescriptionError(f"{where}: <image/format> '{fmt}' is not one of {', '.join(ENCODINGS)}")
-        near, far = _number(camera, "clip/near", where), _number(camera, "clip/far", where)
+        near, far = sensor_number(camera, "clip/near", where), sensor_number(camera, "clip/far", where)
         if not 0 < near < far:
             raise DescriptionError(f"{where}: <clip> needs 0 < near < far, got near {near}, far {far}")
         mean, stddev = _noise(camera, where)
@@ -116,22 +117,11 @@ def _text(el: ET.Element, path: str, where: str) -> str:
     return text.strip()
 
 
-def _number(el: ET.Element, path: str, where: str) -> float:
-    text = _text(el, path, where)
-    try:
-        value = float(text)
-    except ValueError:
-        raise DescriptionError(f"{where}: <{path}> '{text}' is not a number") from None
-    if not math.isfinite(value):
-        raise DescriptionError(f"{where}: <{path}> '{text}' is not finite")
-    return value
-
-
 def _integer(el: ET.Element, path: str, where: str) -> int:
-    text = _text(el, path, where)
-    if not text.isdigit() or int(text) <= 0:
-        raise DescriptionError(f"{where}: <{path}> '{text}' is not a positive whole number")
-    return int(text)
+    value = int(sensor_number(el, path, where, integer=True))
+    if value <= 0:
+        raise DescriptionError(f"{where}: <{path}> '{value}' is not a positive whole number")
+    return value
 
 
 def _noise(camera: ET.Element, where: str) -> tuple[float, float]:
@@ -141,7 +131,7 @@ def _noise(camera: ET.Element, where: str) -> tuple[float, float]:
     kind = (noise.findtext("type") or "gaussian").strip()
     if kind != "gaussian":
         raise DescriptionError(f"{where}: <noise/type> '{kind}' is not supported (only gaussian)")
-    mean, stddev = _number(noise, "mean", where + " <noise>"), _number(noise, "stddev", where + " <noise>")
+    mean, stddev = sensor_number(noise, "mean", where + " <noise>"), sensor_number(noise, "stddev", where + " <noise>")
     if stddev < 0:
         raise DescriptionError(f"{where}: <noise/stddev> {stddev} must not be negative")
     return mean, stddev

@@ -12,6 +12,7 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 
 from racecar_sim.core.errors import DescriptionError
+from racecar_sim.sensors.sensor_xml import sensor_number
 from racecar_sim.description.urdf import Origin, Sensor
 
 NOISE_TYPES = ("gaussian", "none")
@@ -57,18 +58,18 @@ class LaserSpec:
         el = sensor.element
         ray = _child(el, "ray", where)
         horizontal = _child(_child(ray, "scan", where), "horizontal", where)
-        samples = _number(horizontal, "samples", where, integer=True)
-        resolution = _number(horizontal, "resolution", where, default=1.0)
+        samples = sensor_number(horizontal, "samples", where, integer=True)
+        resolution = sensor_number(horizontal, "resolution", where, default=1.0)
         if resolution != 1.0:
             raise DescriptionError(f"{where}: <horizontal><resolution> {resolution:g} is not supported (only 1)")
         vertical = ray.find("scan/vertical")
-        if vertical is not None and _number(vertical, "samples", where, default=1.0, integer=True) != 1:
+        if vertical is not None and sensor_number(vertical, "samples", where, default=1.0, integer=True) != 1:
             raise DescriptionError(f"{where}: <vertical><samples> must be 1, this is a planar laser")
         span = _child(ray, "range", where)
         spec = cls(sensor.name, sensor.link, sensor.pose, _update_rate(el, where), int(samples),
-                   _number(horizontal, "min_angle", where), _number(horizontal, "max_angle", where),
-                   _number(span, "min", where), _number(span, "max", where),
-                   _number(span, "resolution", where, default=0.0), *_noise(ray, where), *_plugin(el, sensor))
+                   sensor_number(horizontal, "min_angle", where), sensor_number(horizontal, "max_angle", where),
+                   sensor_number(span, "min", where), sensor_number(span, "max", where),
+                   sensor_number(span, "resolution", where, default=0.0), *_noise(ray, where), *_plugin(el, sensor))
         spec._check(where)
         return spec
 
@@ -95,26 +96,10 @@ def _child(el: ET.Element, tag: str, where: str) -> ET.Element:
     return child
 
 
-def _number(el: ET.Element, tag: str, where: str, default: float | None = None, integer: bool = False) -> float:
-    text = el.findtext(tag)
-    if text is None or not text.strip():
-        if default is None:
-            raise DescriptionError(f"{where}: <{el.tag}><{tag}> is missing")
-        return default
-    try:
-        value = float(text)
-    except ValueError:
-        raise DescriptionError(f"{where}: <{el.tag}><{tag}> '{text.strip()}' is not a number") from None
-    if not math.isfinite(value) or (integer and value != int(value)):
-        kind = "a whole number" if integer else "a finite number"
-        raise DescriptionError(f"{where}: <{el.tag}><{tag}> '{text.strip()}' is not {kind}")
-    return value
-
-
 def _update_rate(el: ET.Element, where: str) -> float:
     if el.find("update_rate") is None:
         raise DescriptionError(f"{where}: <sensor><update_rate> is missing")
-    return _number(el, "update_rate", where)
+    return sensor_number(el, "update_rate", where)
 
 
 def _noise(ray: ET.Element, where: str) -> tuple[str, float, float]:
@@ -124,7 +109,7 @@ def _noise(ray: ET.Element, where: str) -> tuple[str, float, float]:
     kind = (noise.findtext("type") or "gaussian").strip().lower()
     if kind not in NOISE_TYPES:
         raise DescriptionError(f"{where}: <noise><type> '{kind}' is not one of {', '.join(NOISE_TYPES)}")
-    return kind, _number(noise, "mean", where, default=0.0), _number(noise, "stddev", where, default=0.0)
+    return kind, sensor_number(noise, "mean", where, default=0.0), sensor_number(noise, "stddev", where, default=0.0)
 
 
 def _plugin(el: ET.Element, sensor: Sensor) -> tuple[str, str]:

@@ -41,9 +41,10 @@ class LidarPublisher:
     """
 
     def __init__(self, bus: Bus, scheduler: Scheduler, model: mujoco.MjModel, data: mujoco.MjData, robot: Robot,
-                 seed: int, noise: bool = True, topic: str = "/scan", mode: str = "auto") -> None:
+                 seed: int, noise: bool = True, topic: str | None = None, mode: str = "auto") -> None:
         self.spec = spec = laser_spec(robot)
-        self.bus, self.model, self.data, self.seed, self.topic, self.mode = bus, model, data, seed, topic, mode
+        self.bus, self.model, self.data, self.seed, self.mode = bus, model, data, seed, mode
+        self.topic = topic or spec.topic  # gazebo_ros_laser's <topicName>: /scan
         self.noise = noise and spec.noisy
         self._site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, spec.link)
         if self._site < 0:

@@ -1,0 +1,26 @@
+"""Reading numbers out of a Gazebo <sensor> block, with errors that name the sensor and the element."""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+
+from racecar_sim.core.errors import DescriptionError
+
+
+def sensor_number(el: ET.Element, path: str, where: str, default: float | None = None,
+                  integer: bool = False) -> float:
+    """The finite number at `path` under `el` (a whole one if `integer`); `default` when absent, else an error."""
+    text = el.findtext(path)
+    if text is None or not text.strip():
+        if default is None:
+            raise DescriptionError(f"{where}: <{el.tag}><{path}> is missing")
+        return default
+    try:
+        value = float(text)
+    except ValueError:
+        raise DescriptionError(f"{where}: <{el.tag}><{path}> '{text.strip()}' is not a number") from None
+    if not math.isfinite(value) or (integer and value != int(value)):
+        kind = "a whole number" if integer else "a finite number"
+        raise DescriptionError(f"{where}: <{el.tag}><{path}> '{text.strip()}' is not {kind}")
+    return value
