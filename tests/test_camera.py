@@ -350,13 +350,18 @@ def test_opencv_decodes_the_ar_tag():
 
 # --- no OpenGL --------------------------------------------------------------------------------------------------
 
-def _python(code: str, env: dict[str, str]) -> str:
-    """stdout of `code` run in a fresh interpreter whose GL choice comes only from `env`."""
+def _run_python(code: str, env: dict[str, str]) -> subprocess.CompletedProcess:
+    """`code` run in a fresh interpreter whose GL choice comes only from `env`; it must exit 0."""
     parent = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM")}
     result = subprocess.run([sys.executable, "-c", code], check=False, capture_output=True, text=True, timeout=120,
                             env={**parent, **env})
     assert result.returncode == 0, result.stderr
-    return result.stdout
+    return result
+
+
+def _python(code: str, env: dict[str, str]) -> str:
+    """stdout of `code` run in a fresh interpreter whose GL choice comes only from `env`."""
+    return _run_python(code, env).stdout
 
 
 def _gl_error(env: dict[str, str]) -> str:
@@ -397,7 +402,8 @@ def test_osmesa_renders_when_chosen_or_when_egl_fails(env):
             "image = sim.camera.capture(0)\n"
             "print(sim.camera.gl_renderer.split(':')[0], int(image[0, 0, 0]), int(image[-1].mean()))\n"
             "sim.close()\n")
-    out = _python(code, env)
+    result = _run_python(code, env)
+    out = result.stdout
     backend, sky, ground = out.split()
     assert backend == "osmesa" and abs(int(sky) - 178) <= 1 and 60 < int(ground) < 230, out
     assert "Traceback" not in result.stderr and "Exception ignored" not in result.stderr, result.stderr

@@ -149,7 +149,15 @@ def test_exception_inside_with_leaves_readable_file(tmp_path: Path, error: type)
 
 
 def test_sigint_during_write_is_deferred_until_the_file_is_consistent(tmp_path: Path) -> None:
-    path = tmp_path / "sigint.mcap"
+    # a shell's background job starts with SIGINT ignored; this test needs Python's own handler
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        _interrupt_mid_write(tmp_path / "sigint.mcap")
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _interrupt_mid_write(path: Path) -> None:
     rng = np.random.default_rng(2)
     rec = McapRecorder(path, chunk_size=1)
     rec.write("/scan", _scan(0, rng), 0)

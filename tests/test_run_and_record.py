@@ -17,6 +17,11 @@ from rosbags.typesys import Stores, get_typestore
 CLI = [sys.executable, "-m", "racecar_sim"]
 
 
+def default_sigint() -> None:
+    """A shell's background job starts with SIGINT ignored; the child needs the default to see Ctrl-C."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def run_cli(*args: str, **kwargs) -> subprocess.CompletedProcess:
     return subprocess.run([*CLI, *args], capture_output=True, text=True, timeout=120, **kwargs)
 
@@ -65,7 +70,7 @@ def test_same_seed_gives_identical_recordings(tmp_path):
 def test_interrupted_run_leaves_a_readable_recording(tmp_path):
     out = tmp_path / "interrupted.mcap"
     proc = subprocess.Popen([*CLI, "run", "--duration", "3000", "--realtime", "--record", str(out)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=default_sigint)
     deadline = time.time() + 60
     while time.time() < deadline and (not out.exists() or out.stat().st_size < 2000):
         time.sleep(0.2)

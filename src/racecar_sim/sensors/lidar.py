@@ -93,6 +93,16 @@ class LidarPublisher:
         ranges = np.where(hit, np.clip(ranges, self.spec.range_min, self.spec.range_max), np.inf)
         return ranges.astype(np.float32)
 
+    def beam_ends(self, ranges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The ray origin (3,) and the world end points (N, 3) of a scan's finite beams, at the current pose."""
+        origin, axes = self.ray_origin()
+        ranges = np.asarray(ranges, np.float64)
+        angles = self.spec.min_angle + self.spec.angle_increment * np.arange(len(ranges))
+        hit = np.isfinite(ranges)
+        r, a = ranges[hit], angles[hit]
+        local = np.stack([r * np.cos(a), r * np.sin(a), np.zeros_like(r)], axis=1)
+        return origin.copy(), origin + local @ axes.T
+
     def close(self) -> None:
         """Stop publishing."""
         self._task.cancel()
