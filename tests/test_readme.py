@@ -17,3 +17,13 @@ def test_readme_python_example_runs(tmp_path, monkeypatch, capsys):
     assert len(lines) == 100  # /vesc/odom at 20 Hz for 5 s
     assert lines[-1].split()[0] == "5" and float(lines[1].split()[1]) > 0.0  # t = 5 s; it moved forward
     assert (tmp_path / "runs" / "api.mcap").stat().st_size > 10_000
+
+
+def test_readme_driver_example_laps_the_racecourse(capsys):
+    code = re.search(r"## Your own driver.*?```python\n(.*?)```", README.read_text(), re.S).group(1)
+    exec(compile(code, str(README), "exec"), {"__name__": "readme_driver"})
+    rows = [[float(v) for v in line.split()] for line in capsys.readouterr().out.splitlines()]
+    assert len(rows) == 1200 and rows[-1][0] == 60.0  # /vesc/odom at 20 Hz for 60 s
+    xy = [(x, y) for _, x, y in rows]
+    # round the course (its far corner is ~20 m from the start) and back near the start line
+    assert max(abs(x) for x, _ in xy) > 15.0 and min(y for _, y in xy) < -8.0 and max(y for _, y in xy) > 10.0

@@ -22,6 +22,9 @@ def default_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
+CONSTANT = ["run", "--world", "empty", "--driver", "constant"]  # the pre-main-job `run`: a constant command
+
+
 def run_cli(*args: str, **kwargs) -> subprocess.CompletedProcess:
     return subprocess.run([*CLI, *args], capture_output=True, text=True, timeout=120, **kwargs)
 
@@ -34,7 +37,8 @@ def payloads(path: Path) -> list[tuple[str, int, bytes]]:
 
 def test_run_prints_summary_and_records_every_topic(tmp_path):
     out = tmp_path / "circle.mcap"
-    result = run_cli("run", "--duration", "10", "--speed", "1.0", "--steering", "0.2", "--record", str(out))
+    result = run_cli(*CONSTANT, "--duration", "10", "--speed", "1.0", "--steering", "0.2", "--record", str(out),
+                     "--out", str(tmp_path))
     assert result.returncode == 0, result.stderr
     assert "real-time factor" in result.stdout and "distance" in result.stdout
     distance = float(next(line for line in result.stdout.splitlines() if line.startswith("distance")).split()[1])
@@ -61,7 +65,8 @@ def test_same_seed_gives_identical_recordings(tmp_path):
     files = []
     for name in ("a.mcap", "b.mcap"):
         files.append(tmp_path / name)
-        assert run_cli("run", "--duration", "3", "--steering", "0.3", "--seed", "7", "--record", str(files[-1])).returncode == 0
+        assert run_cli(*CONSTANT, "--duration", "3", "--steering", "0.3", "--seed", "7", "--record", str(files[-1]),
+                       "--out", str(tmp_path / name[0])).returncode == 0
     first, second = payloads(files[0]), payloads(files[1])
     assert len(first) > 1000 and first == second
 
@@ -69,7 +74,8 @@ def test_same_seed_gives_identical_recordings(tmp_path):
 @pytest.mark.skipif(os.name != "posix", reason="signals")
 def test_interrupted_run_leaves_a_readable_recording(tmp_path):
     out = tmp_path / "interrupted.mcap"
-    proc = subprocess.Popen([*CLI, "run", "--duration", "3000", "--realtime", "--record", str(out)],
+    proc = subprocess.Popen([*CLI, *CONSTANT, "--duration", "3000", "--realtime", "--record", str(out), "--out",
+                             str(tmp_path)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=default_sigint)
     deadline = time.time() + 60
     while time.time() < deadline and (not out.exists() or out.stat().st_size < 2000):

@@ -46,12 +46,12 @@ def xacro_arg(text: str) -> tuple[str, str]:
     return name, value
 
 
-def add_world_arguments(p: argparse.ArgumentParser, world_option: bool = True) -> None:
+def add_world_arguments(p: argparse.ArgumentParser, world_option: bool = True, default_world: str = "empty") -> None:
     """--world, --spawn, --model-path and --wall-height, shared by the subcommands that load a world."""
     if world_option:
-        p.add_argument("--world", default="empty", metavar="NAME|PATH",
+        p.add_argument("--world", default=default_world, metavar="NAME|PATH",
                        help="built-in world (see `racecar-sim worlds`), SDF .world/.sdf file, ROS map .yaml, "
-                            "or race-track centerline .csv (default: empty)")
+                            f"or race-track centerline .csv (default: {default_world})")
     p.add_argument("--spawn", type=spawn_pose, help="spawn pose x,y,yaw (default: the world's own)")
     p.add_argument("--model-path", action="append", default=[], metavar="DIR",
                    help="folder holding model:// models, searched before GAZEBO_MODEL_PATH (repeatable)")

@@ -1,57 +1,78 @@
-"""`racecar-sim run`: drive the car with a constant command, optionally record, print a summary."""
+"""`racecar-sim run`: the main job. A driver drives the car in a world; the run leaves a folder to look at.
+
+With no arguments: wall-follow round the `walker` racecourse for 60 s of sim time with the lidar and the
+camera on, then runs/<timestamp>/ holds run.mcap, summary.png and camera.mp4, and a summary is printed.
+"""
 
 from __future__ import annotations
 
 import argparse
-import math
 import signal
 import sys
 import time
+from datetime import datetime
 from pathlib import Path
 
 from tqdm import tqdm
 
 from racecar_sim.cli.args import add_sensor_arguments, add_world_arguments, finite_float, positive_float, sensor_options
+from racecar_sim.cli.live import LiveViews, RealTimePacer, add_live_arguments
 from racecar_sim.control.profiles import profile_names
-from racecar_sim.core.transforms import yaw_of
-from racecar_sim.drivers import ConstantCommand
-from racecar_sim.msgs import Odometry
+from racecar_sim.core.errors import ConfigError
+from racecar_sim.drivers import (ConstantCommand, PurePursuit, WallFollower, load_waypoints, pure_pursuit_config,
+                                 wall_follow_config)
 from racecar_sim.physics import preset_names
 from racecar_sim.runtime import Simulator
+from racecar_sim.runtime.run_log import RunLog, image_array
 
+DRIVERS = ("wall-follow", "pure-pursuit", "constant")
 PROGRESS_MIN_DURATION = 5.0  # s of sim time; shorter runs finish before a bar is worth drawing
-CHUNK = 0.1  # s of sim time between progress updates and real-time sleeps
+CHUNK = 0.1  # s of sim time between progress updates
+LIVE_CHUNK = 0.02  # s of sim time between viewer updates
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("run", help="drive the car with a constant command and print a summary")
-    add_world_arguments(p)
-    p.add_argument("--duration", type=positive_float, default=10.0, help="sim seconds to run (default 10)")
-    p.add_argument("--speed", type=finite_float, default=1.0, help="commanded speed, m/s (default 1.0)")
-    p.add_argument("--steering", type=finite_float, default=0.0, help="commanded steering angle, rad (default 0)")
-    p.add_argument("--rate", type=positive_float, default=20.0, help="command rate on the navigation input, Hz")
+    p = sub.add_parser("run", help="the main job: a driver drives a world; writes runs/<time>/ (MCAP, summary.png, "
+                                   "camera.mp4)")
+    add_world_arguments(p, default_world="walker")
+    p.add_argument("--driver", default="wall-follow", choices=DRIVERS,
+                   help="wall-follow (lidar PID), pure-pursuit (a path CSV), constant (--speed/--steering); "
+                        "default wall-follow")
+    p.add_argument("--duration", type=positive_float, default=60.0, help="sim seconds to run (default 60)")
+    p.add_argument("--speed", type=finite_float, help="m/s: the constant command, or the drivers' top speed")
+    p.add_argument("--steering", type=finite_float, default=0.0, help="rad, for --driver constant (default 0)")
+    p.add_argument("--rate", type=positive_float, default=20.0, help="Hz of --driver constant's commands")
+    p.add_argument("--side", choices=["right", "left"], help="wall-follow: the wall to follow (default left)")
+    p.add_argument("--distance", type=positive_float, help="wall-follow: metres to keep from the wall")
+    p.add_argument("--path", metavar="FILE.csv",
+                   help="pure-pursuit: waypoint CSV (x,y[,speed]) or track centerline (default: the --world CSV)")
     p.add_argument("--profile", default="seed", choices=profile_names(), help="driving profile (default seed)")
     p.add_argument("--physics", default="default", choices=preset_names(), help="physics preset (default: default)")
     p.add_argument("--odometry", default="original", choices=["original", "ros"],
                    help="original: map->odom as the 2017 sim; ros: odom->base_link, body twist")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--record", metavar="FILE.mcap", help="record every topic to an MCAP file")
+    p.add_argument("--out", metavar="DIR", help="folder for the run's files (default runs/<date-time>)")
+    p.add_argument("--record", metavar="FILE.mcap", help="the MCAP's path (default OUT/run.mcap)")
+    p.add_argument("--no-record", action="store_true", help="no MCAP recording")
+    p.add_argument("--no-video", action="store_true", help="no camera.mp4")
+    p.add_argument("--no-summary", action="store_true", help="no summary.png")
     add_sensor_arguments(p)
+    add_live_arguments(p)
     p.add_argument("--realtime", action="store_true", help="run no faster than real time")
 
 
-class _Trip:
-    """Distance and last pose, from /vesc/odom."""
-
-    def __init__(self) -> None:
-        self.distance = 0.0
-        self.last: Odometry | None = None
-
-    def __call__(self, msg: Odometry) -> None:
-        if self.last is not None:
-            a, b = self.last.pose.pose.position, msg.pose.pose.position
-            self.distance += math.hypot(b.x - a.x, b.y - a.y)
-        self.last = msg
+def _attach_driver(args: argparse.Namespace, sim: Simulator) -> object:
+    if args.driver == "constant":
+        return ConstantCommand(sim.bus, sim.scheduler, 1.0 if args.speed is None else args.speed, args.steering,
+                               args.rate)
+    if args.driver == "wall-follow":
+        if sim.lidar is None:
+            raise ConfigError("--driver wall-follow steers by the lidar: drop --no-lidar (or DISABLE_GAZEBO_LASER)")
+        return WallFollower(sim.bus, wall_follow_config(side=args.side, distance=args.distance, speed=args.speed))
+    path = args.path or (args.world if str(args.world).endswith(".csv") else None)
+    if path is None:
+        raise ConfigError("--driver pure-pursuit needs --path FILE.csv (or a track .csv as --world)")
+    return PurePursuit(sim.bus, load_waypoints(path), pure_pursuit_config(speed=args.speed))
 
 
 def _terminate(signum: int, frame: object) -> None:
@@ -60,40 +81,102 @@ def _terminate(signum: int, frame: object) -> None:
 
 def main(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGTERM, _terminate)
+    out = Path(args.out) if args.out else Path("runs") / datetime.now().strftime("%Y%m%d-%H%M%S")
+    record = None if args.no_record else Path(args.record) if args.record else out / "run.mcap"
     with Simulator(world=args.world, profile=args.profile, seed=args.seed, physics=args.physics, spawn=args.spawn,
                    odometry=args.odometry, model_path=args.model_path, wall_height=args.wall_height,
                    **sensor_options(args)) as sim:
-        if args.record:
-            Path(args.record).parent.mkdir(parents=True, exist_ok=True)
-        recorder = sim.record(args.record) if args.record else None
-        ConstantCommand(sim.bus, sim.scheduler, args.speed, args.steering, args.rate)
-        trip = _Trip()
-        sim.subscribe("/vesc/odom", trip)
-        bar = tqdm(total=round(args.duration, 3), unit="sim s", disable=args.duration < PROGRESS_MIN_DURATION or None,
-                   bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]", file=sys.stderr)
-        start = time.perf_counter()
-        while sim.time < args.duration - 1e-9:
-            sim.run_until(min(sim.time + CHUNK, args.duration))
-            bar.update(round(sim.time - bar.n, 3))
-            if args.realtime:
-                time.sleep(max(0.0, sim.time - (time.perf_counter() - start)))
-        wall = time.perf_counter() - start
-        bar.close()
-    _summary(args, sim, trip, wall, recorder)
+        _attach_driver(args, sim)
+        out.mkdir(parents=True, exist_ok=True)
+        if record is not None:
+            record.parent.mkdir(parents=True, exist_ok=True)
+            sim.record(record)
+        runlog = RunLog(sim.bus, sim.lidar.topic if sim.lidar else None,
+                        sim.camera.spec.image_topic if sim.camera else None)
+        video = _video(args, sim, out)
+        written: list[Path] = [record] if record is not None else []
+        try:
+            with LiveViews(sim, args.viewer, args.foxglove) as live:
+                wall, interrupted = _drive(args, sim, live)
+        finally:
+            if video is not None and video.frames:
+                written.append(video.close())
+        if sim.lidar is not None and runlog.last_scan is not None:
+            origin, ends = sim.lidar.beam_ends(runlog.last_scan.ranges)
+        else:
+            origin = ends = None
+    if not args.no_summary:
+        from racecar_sim.plots.summary import save_summary  # matplotlib loads only when a summary is drawn
+
+        lines = _summary_lines(sim, runlog, wall)
+        written.insert(0, save_summary(out / "summary.png", sim.world, runlog.trajectory,
+                                       scan_origin=None if origin is None else origin[:2],
+                                       scan_points=None if ends is None else ends[:, :2],
+                                       camera_bgr=runlog.last_frame(), title=_title(args, sim), lines=lines))
+    _print_summary(args, sim, runlog, wall, written)
+    if interrupted:
+        print(f"racecar-sim: interrupted at sim time {sim.time:.2f} s; the files above are complete", file=sys.stderr)
+        return 130
     return 0
 
 
-def _summary(args: argparse.Namespace, sim: Simulator, trip: _Trip, wall: float, recorder: object) -> None:
-    pose = trip.last.pose.pose if trip.last else None
-    print(f"world {sim.world.name}, profile {sim.profile.name}, physics {sim.preset.name} "
+def _video(args: argparse.Namespace, sim: Simulator, out: Path) -> object:
+    if args.no_video or sim.camera is None:
+        return None
+    from racecar_sim.recording.video import VideoWriter  # PyAV loads only when a video is written
+
+    spec = sim.camera.spec
+    video = VideoWriter(out / "camera.mp4", spec.rate_hz, spec.width, spec.height)
+    sim.subscribe(spec.image_topic, lambda msg: video.write(image_array(msg)))
+    return video
+
+
+def _drive(args: argparse.Namespace, sim: Simulator, live: LiveViews) -> tuple[float, bool]:
+    """Run to --duration, until the viewer closes or until Ctrl-C / SIGTERM; returns the wall-clock seconds
+    taken and whether it was interrupted (the run's files are written either way)."""
+    realtime = args.realtime or live.realtime
+    chunk = LIVE_CHUNK if live.realtime else CHUNK
+    bar = tqdm(total=round(args.duration, 3), unit="sim s", disable=args.duration < PROGRESS_MIN_DURATION or None,
+               bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]", file=sys.stderr)
+    pacer = RealTimePacer()
+    start = time.perf_counter()
+    interrupted = False
+    try:
+        while sim.time < args.duration - 1e-9 and not live.closed:
+            sim.run_until(min(sim.time + chunk, args.duration))
+            live.update()
+            bar.update(round(sim.time - bar.n, 3))
+            if realtime:
+                pacer.wait(sim.time)
+    except KeyboardInterrupt:
+        interrupted = True
+    finally:
+        bar.close()
+    return time.perf_counter() - start, interrupted
+
+
+def _title(args: argparse.Namespace, sim: Simulator) -> str:
+    return f"{sim.world.name}: {args.driver}, {sim.time:.0f} s sim, seed {sim.seed}"
+
+
+def _summary_lines(sim: Simulator, runlog: RunLog, wall: float) -> list[str]:
+    lines = [f"distance         {runlog.distance:.1f} m",
+             f"mean speed       {runlog.mean_speed:.2f} m/s",
+             f"real-time factor {sim.time / max(wall, 1e-9):.1f}x"]
+    if runlog.last_scan is not None:
+        lines.append(f"min clearance    {runlog.min_clearance:.2f} m (lidar)")
+    return lines
+
+
+def _print_summary(args: argparse.Namespace, sim: Simulator, runlog: RunLog, wall: float, written: list[Path]) -> None:
+    print(f"world {sim.world.name}, driver {args.driver}, profile {sim.profile.name}, physics {sim.preset.name} "
           f"(step {sim.model.opt.timestep * 1e3:g} ms), seed {sim.seed}")
-    print(f"sim time        {sim.time:.2f} s")
-    print(f"distance        {trip.distance:.3f} m")
-    if pose is not None:
-        q = pose.orientation
-        yaw = yaw_of((q.w, q.x, q.y, q.z))
-        print(f"final pose      x {pose.position.x:.3f} m, y {pose.position.y:.3f} m, yaw {yaw:.3f} rad")
-    print(f"real-time factor {sim.time / wall:.1f}x")
-    if recorder is not None:
-        total = sum(recorder.message_count.values())  # type: ignore[attr-defined]
-        print(f"recorded        {total} messages on {len(recorder.message_count)} topics to {args.record}")  # type: ignore[attr-defined]
+    print(f"sim time         {sim.time:.2f} s")
+    for line in _summary_lines(sim, runlog, wall):
+        print(line)
+    trajectory = runlog.trajectory
+    if len(trajectory) and runlog.last_pose is not None:
+        x, y, yaw = runlog.last_pose
+        print(f"final pose       x {x:.3f} m, y {y:.3f} m, yaw {yaw:.3f} rad")
+    for path in written:
+        print(f"wrote            {path}")

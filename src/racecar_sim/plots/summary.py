@@ -1,0 +1,236 @@
+"""summary.png of a run: the drive on the world map coloured by speed, the last lidar scan, a camera frame, numbers.
+
+A fixed size (FIGSIZE at DPI: 1600x1000 px). The map is zoomed on what the car drove through and saw; the camera
+frame, the legend and the summary text sit right of it (SIDE), or under it when the route is long and flat (WIDE,
+e.g. down the tunnel). Agg only, no pyplot state.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from matplotlib import colormaps
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.cm import ScalarMappable
+from matplotlib.collections import LineCollection
+from matplotlib.colors import Normalize
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.transforms import Bbox
+
+from racecar_sim.plots.world_map import draw_world
+from racecar_sim.worlds.world import World
+
+FIGSIZE = (16.0, 10.0)  # inches
+DPI = 100
+TITLE_Y = 0.975
+GAP = 0.025  # figure fraction between the panel's items
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Where things go, in figure fractions: the map and its colourbar (left, bottom, width, height), and the
+    panel holding the camera frame, legend and text, which flows down from `panel` (SIDE) or right (WIDE)."""
+
+    map: tuple[float, float, float, float]
+    colorbar: tuple[float, float, float, float]
+    panel: tuple[float, float]  # top-left corner
+    flow: str  # "down" or "right"
+    camera_width: float  # of the camera frame, figure fraction
+    camera_height: float  # the most it may take
+
+
+SIDE = Layout((0.045, 0.065, 0.625, 0.855), (0.677, 0.065, 0.011, 0.855), (0.735, 0.92), "down", 0.25, 0.36)
+WIDE = Layout((0.045, 0.45, 0.885, 0.47), (0.94, 0.45, 0.011, 0.47), (0.045, 0.36), "right", 0.3, 0.3)
+WIDE_BELOW = 0.55  # routes flatter than this (height over width) get the WIDE layout
+
+TRAJECTORY_RATE = 20.0  # Hz, the rows of `trajectory`
+TIME_MARK_EVERY = 10.0  # s between the time labels along the path
+SPEED_CMAP = "viridis"
+PATH_WIDTH = 3.0  # points
+HALO = (1.0, 1.0, 1.0, 0.9)  # under the path, so its dark end reads on dark floors too
+SCAN_COLOR = "#e7298a"
+START_COLOR = "#2ca02c"
+VIEW_MARGIN = 0.08  # of the larger side of what is shown, and at least MIN_VIEW_MARGIN
+MIN_VIEW_MARGIN = 1.5  # m
+MIN_VIEW = 6.0  # m, the smallest side shown (a car that stood still)
+# Above draw_world's layers (walls at 2.1, the spawn at 5).
+Z_RAYS, Z_HALO, Z_PATH, Z_SCAN, Z_MARKS = 2.5, 3.0, 3.1, 3.5, 6.0
+
+
+def save_summary(path: str | Path, world: World, trajectory: np.ndarray, *, scan_origin: np.ndarray | None = None,
+                 scan_points: np.ndarray | None = None, camera_bgr: np.ndarray | None = None, title: str = "",
+                 lines: Sequence[str] = ()) -> Path:
+    """Write the run's summary PNG (1600x1000 px) and return its path; see summary_figure for the arguments."""
+    fig, _ = summary_figure(world, trajectory, scan_origin=scan_origin, scan_points=scan_points,
+                            camera_bgr=camera_bgr, title=title, lines=lines)
+    path = Path(path)
+    fig.savefig(path, format="png", dpi=DPI)
+    return path
+
+
+def summary_figure(world: World, trajectory: np.ndarray, *, scan_origin: np.ndarray | None = None,
+                   scan_points: np.ndarray | None = None, camera_bgr: np.ndarray | None = None, title: str = "",
+                   lines: Sequence[str] = ()) -> tuple[Figure, Axes]:
+    """The summary figure (not attached to pyplot) and its map Axes.
+
+    trajectory: (N, 3) x, y (m, world frame) and ground speed (m/s), row i at i / TRAJECTORY_RATE s.
+    scan_origin: (x, y) of the laser; scan_points: (M, 2) world end points of the finite beams.
+    camera_bgr: (H, W, 3) uint8 BGR image. lines: summary text, one item a line. Scan and camera may be None.
+    """
+    traj = np.asarray(trajectory, dtype=float)
+    if traj.size == 0:
+        traj = np.zeros((0, 3))
+    elif traj.ndim != 2 or traj.shape[1] != 3:
+        raise ValueError(f"trajectory must be (N, 3) x, y, speed; got shape {traj.shape}")
+    origin = None if scan_origin is None else np.asarray(scan_origin, dtype=float).reshape(-1)[:2]
+    points = np.zeros((0, 2)) if scan_points is None else np.asarray(scan_points, dtype=float).reshape(-1, 2)
+    image = None if camera_bgr is None else _camera_rgb(camera_bgr)
+
+    lo, hi = _view_bounds(_view_points(traj, origin, points, world))
+    layout = WIDE if (hi[1] - lo[1]) < WIDE_BELOW * (hi[0] - lo[0]) else SIDE
+    fig = Figure(figsize=FIGSIZE, dpi=DPI)
+    FigureCanvasAgg(fig)
+    fig.suptitle(title or world.name, x=0.045, y=TITLE_Y, ha="left", fontsize=16, fontweight="bold")
+    ax = fig.add_axes(layout.map)
+    draw_world(ax, world)
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_axisbelow(True)
+    ax.grid(True, color=(0.3, 0.3, 0.3), alpha=0.35, linewidth=0.5)
+    _set_view(ax, lo, hi)
+
+    handles: list[Line2D] = []
+    if origin is not None and len(points):
+        handles.append(_draw_scan(ax, origin, points))
+    norm = Normalize(0.0, max(float(traj[:, 2].max()) if len(traj) else 0.0, 0.1))
+    handles = _draw_trajectory(ax, traj, norm) + handles
+    colorbar = fig.colorbar(ScalarMappable(norm=norm, cmap=SPEED_CMAP), cax=fig.add_axes(layout.colorbar))
+    colorbar.set_label("speed (m/s)")
+    _fill_panel(fig, layout, image, handles, lines)
+    return fig, ax
+
+
+def _fill_panel(fig: Figure, layout: Layout, image: np.ndarray | None, handles: list[Line2D],
+                lines: Sequence[str]) -> None:
+    """The camera frame, the legend and the text box, one after the other from the panel's corner."""
+    renderer = fig.canvas.get_renderer()
+    x, top = layout.panel
+    to_figure = fig.transFigure.inverted()
+
+    def advance(extent: Bbox) -> None:  # move past an item drawn at (x, top)
+        nonlocal x, top
+        box = extent.transformed(to_figure)
+        if layout.flow == "down":
+            top = box.y0 - GAP
+        else:
+            x = box.x1 + GAP
+
+    if image is not None:
+        width = min(layout.camera_width, layout.camera_height * image.shape[1] / image.shape[0] * FIGSIZE[1]
+                    / FIGSIZE[0])
+        height = width * image.shape[0] / image.shape[1] * FIGSIZE[0] / FIGSIZE[1]
+        title_room = 0.03
+        cam = fig.add_axes((x, top - title_room - height, width, height))
+        _draw_camera(cam, image)
+        advance(cam.get_tightbbox(renderer))
+    if handles:
+        legend = fig.legend(handles=handles, loc="upper left", bbox_to_anchor=(x, top), frameon=False, fontsize=11,
+                            handlelength=2.2, borderaxespad=0.0, borderpad=0.0)
+        advance(legend.get_window_extent(renderer))
+    if lines:
+        fig.text(x + 0.006, top - 0.01, "\n".join(lines), ha="left", va="top", family="monospace", fontsize=11,
+                 linespacing=1.5, bbox={"boxstyle": "round,pad=0.6", "facecolor": (0.96, 0.96, 0.96),
+                                        "edgecolor": (0.7, 0.7, 0.7)})
+
+
+def _view_points(traj: np.ndarray, origin: np.ndarray | None, points: np.ndarray, world: World) -> np.ndarray:
+    """The points the map must show: the path and the scan; the spawn when there is neither."""
+    parts = [traj[:, :2], points] + ([origin[None]] if origin is not None else [])
+    xy = np.vstack(parts)
+    xy = xy[np.all(np.isfinite(xy), axis=1)]
+    return xy if len(xy) else np.array([[world.spawn.x, world.spawn.y]])
+
+
+def _view_bounds(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper corners of the points plus a margin, at least MIN_VIEW a side."""
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    margin = max(MIN_VIEW_MARGIN, VIEW_MARGIN * float((hi - lo).max()))
+    centre, half = (lo + hi) / 2, np.maximum((hi - lo) / 2 + margin, MIN_VIEW / 2)
+    return centre - half, centre + half
+
+
+def _set_view(ax: Axes, lo: np.ndarray, hi: np.ndarray) -> None:
+    """Show lo..hi, widened about the centre to the Axes' own shape, so equal aspect fills the whole box."""
+    box = ax.get_position(original=True)  # the rectangle asked for, before any aspect shrinking
+    shape = box.height * FIGSIZE[1] / (box.width * FIGSIZE[0])  # y extent over x extent that fills the box
+    half = (hi - lo) / 2
+    half = np.maximum(half, [half[1] / shape, half[0] * shape])
+    centre = (lo + hi) / 2
+    ax.set_xlim(centre[0] - half[0], centre[0] + half[0])
+    ax.set_ylim(centre[1] - half[1], centre[1] + half[1])
+    ax.set_aspect("equal", adjustable="box")  # the limits already fit the box
+
+
+def _draw_trajectory(ax: Axes, traj: np.ndarray, norm: Normalize) -> list[Line2D]:
+    """The path as segments coloured by speed over a white halo, start and end markers, a label every 10 s."""
+    if not len(traj):
+        return []
+    xy = traj[:, :2]
+    if len(traj) >= 2:
+        ax.plot(xy[:, 0], xy[:, 1], color=HALO, linewidth=PATH_WIDTH + 2.5, solid_capstyle="round",
+                solid_joinstyle="round", zorder=Z_HALO)
+        segments = np.stack([xy[:-1], xy[1:]], axis=1)
+        speed = (traj[:-1, 2] + traj[1:, 2]) / 2
+        ax.add_collection(LineCollection(segments, array=speed, cmap=SPEED_CMAP, norm=norm, linewidths=PATH_WIDTH,
+                                         capstyle="round", joinstyle="round", zorder=Z_PATH), autolim=False)
+    step = round(TIME_MARK_EVERY * TRAJECTORY_RATE)
+    for i in range(step, len(traj) - step // 4, step):  # none right before the end marker
+        ax.plot(*xy[i], "o", color="white", markeredgecolor="black", markersize=4, zorder=Z_MARKS)
+        ax.annotate(f"{i / TRAJECTORY_RATE:g} s", xy[i], xytext=(5, 5), textcoords="offset points", fontsize=8,
+                    zorder=Z_MARKS, bbox={"boxstyle": "round,pad=0.15", "facecolor": "white", "alpha": 0.7,
+                                          "linewidth": 0})
+    start, = ax.plot(*xy[0], "o", color=START_COLOR, markeredgecolor="white", markeredgewidth=1.5, markersize=11,
+                     zorder=Z_MARKS, label="start")
+    end, = ax.plot(*xy[-1], "s", color="black", markeredgecolor="white", markeredgewidth=1.5, markersize=10,
+                   zorder=Z_MARKS, label="end")
+    mid = float(norm.vmax) / 2
+    path = Line2D([], [], color=_cmap_color(norm, mid), linewidth=PATH_WIDTH, label="path, coloured by speed")
+    return [path, start, end]
+
+
+def _cmap_color(norm: Normalize, value: float) -> tuple[float, float, float, float]:
+    return colormaps[SPEED_CMAP](norm(value))
+
+
+def _draw_scan(ax: Axes, origin: np.ndarray, points: np.ndarray) -> Line2D:
+    """The last scan from the laser: faint rays and the points they hit."""
+    rays = np.stack([np.broadcast_to(origin, points.shape), points], axis=1)
+    ax.add_collection(LineCollection(rays, colors=SCAN_COLOR, linewidths=0.5, alpha=0.18, zorder=Z_RAYS),
+                      autolim=False)
+    ax.scatter(points[:, 0], points[:, 1], s=5, color=SCAN_COLOR, linewidths=0, zorder=Z_SCAN)
+    return Line2D([], [], marker="o", linestyle="", color=SCAN_COLOR, markersize=5,
+                  label=f"last lidar scan ({len(points)} hits)")
+
+
+def _camera_rgb(camera_bgr: np.ndarray) -> np.ndarray:
+    """The camera's BGR image as RGB; ValueError unless it is (H, W, 3) uint8."""
+    image = np.asarray(camera_bgr)
+    if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8:
+        raise ValueError(f"camera_bgr must be an (H, W, 3) uint8 BGR image, got {image.shape} {image.dtype}")
+    return image[..., ::-1]
+
+
+def _draw_camera(ax: Axes, rgb: np.ndarray) -> None:
+    """The camera frame, top row up, in a thin frame."""
+    ax.imshow(rgb, interpolation="antialiased")
+    ax.set_xticks([])
+    ax.set_yticks([])
+    for spine in ax.spines.values():
+        spine.set_linewidth(0.8)
+        spine.set_edgecolor((0.3, 0.3, 0.3))
+    ax.set_title("camera, last frame", fontsize=11, loc="left")

@@ -1,0 +1,172 @@
+"""camera.mp4 of a run: BGR camera frames streamed to an H.264 MP4, or to an animated GIF preview without FFmpeg.
+
+Frames go to the file as they come (nothing is buffered beyond the encoder's lookahead), so a run that fails
+half-way still leaves a playable file once close() runs, e.g. from a `finally` block.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from fractions import Fraction
+from pathlib import Path
+from types import TracebackType
+from typing import Any, BinaryIO
+
+import numpy as np
+
+log = logging.getLogger("racecar_sim")
+
+CODEC = "libx264"
+PIX_FMT = "yuv420p"  # what every player decodes; needs even width and height
+# ultrafast: ~2 ms of CPU a 640x480 sim frame, colour conversion included, 2-5 MB a minute at x264's default
+# quality (crf 23); veryfast halves the size for three times the CPU.
+X264_OPTIONS = {"preset": "ultrafast", "crf": "23"}
+KEYFRAME_INTERVAL = 2.0  # s, so a player seeks within a 60 s run without decoding far
+GIF_MAX_SIZE = (320, 240)  # px; the preview is downscaled to fit
+GIF_MAX_FPS = 10.0
+GIF_COLORS = 128
+
+
+class VideoWriter:
+    """Camera frames to an H.264 MP4 (PyAV / FFmpeg), or an animated GIF preview when no encoder is available.
+
+    Frames are (height, width, 3) uint8 BGR, top row first (the camera's bgr8 image). `path` is the file actually
+    written: its suffix becomes .gif when it fell back. `frames` counts the frames given to write(); the GIF keeps
+    every step-th of them (at most GIF_MAX_FPS). No frame written, no file. Usable as a context manager;
+    close() is idempotent.
+    """
+
+    def __init__(self, path: str | Path, fps: float, width: int, height: int) -> None:
+        if not (fps > 0 and math.isfinite(fps)):
+            raise ValueError(f"fps must be a positive number, got {fps}")
+        if width <= 0 or height <= 0:
+            raise ValueError(f"frame size must be positive, got {width}x{height}")
+        self.fps, self.width, self.height = float(fps), int(width), int(height)
+        self.frames = 0
+        self._closed = False
+        self._encoder: _Mp4Encoder | _GifEncoder
+        reason = _h264_missing()
+        if reason is None:
+            self.path = Path(path)
+            self._encoder = _Mp4Encoder(self.path, self.fps, self.width, self.height)
+        else:
+            self.path = Path(path).with_suffix(".gif")
+            log.warning("no H.264 encoder (%s): writing an animated GIF preview, %s", reason, self.path)
+            self._encoder = _GifEncoder(self.path, self.fps, self.width, self.height)
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        """The shape write() expects: (height, width, 3)."""
+        return self.height, self.width, 3
+
+    def write(self, frame_bgr: np.ndarray) -> None:
+        """Append one frame; raises ValueError when it is not a (height, width, 3) uint8 array."""
+        if self._closed:
+            raise ValueError(f"write() after close() of {self.path}")
+        frame = np.asarray(frame_bgr)
+        if frame.shape != self.shape or frame.dtype != np.uint8:
+            raise ValueError(f"expected a {self.shape} uint8 BGR frame, got {frame.shape} {frame.dtype}")
+        self._encoder.write(frame, self.frames)
+        self.frames += 1
+
+    def close(self) -> Path:
+        """Flush the encoder and finish the file (the MP4 index, the GIF trailer); returns the path written."""
+        if not self._closed:
+            self._closed = True
+            self._encoder.close()
+        return self.path
+
+    def __enter__(self) -> VideoWriter:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close()
+
+
+def _h264_missing() -> str | None:
+    """Why no MP4 can be written (one line), or None when PyAV and its libx264 encoder are both there."""
+    try:
+        import av
+    except ImportError as exc:
+        return f"PyAV is not importable: {exc}"
+    try:
+        av.codec.Codec(CODEC, "w")
+    except Exception as exc:  # UnknownCodecError, or an FFmpeg build without the encoder
+        return f"PyAV {av.__version__} has no {CODEC} encoder: {exc}"
+    return None
+
+
+class _Mp4Encoder:
+    """libx264 in an MP4 container; frame i is stamped i / fps."""
+
+    def __init__(self, path: Path, fps: float, width: int, height: int) -> None:
+        import av
+
+        # yuv420p subsamples chroma 2x2: an odd last row or column is cropped off.
+        self.width, self.height = width - width % 2, height - height % 2
+        rate = Fraction(fps).limit_denominator(1001)  # 30 -> 30/1, 29.97 -> 2997/100
+        self.container = av.open(str(path), mode="w")
+        try:
+            self.stream = self.container.add_stream(CODEC, rate=rate)
+            self.stream.width, self.stream.height, self.stream.pix_fmt = self.width, self.height, PIX_FMT
+            self.time_base = self.stream.time_base = 1 / rate  # the muxer later sets the stream's to its own
+            self.stream.codec_context.gop_size = max(1, round(KEYFRAME_INTERVAL * fps))
+            self.stream.options = dict(X264_OPTIONS)
+        except BaseException:
+            self.container.close()
+            raise
+        self._frame_type = av.VideoFrame
+
+    def write(self, frame: np.ndarray, index: int) -> None:
+        frame = frame[: self.height, : self.width]
+        video_frame = self._frame_type.from_ndarray(np.ascontiguousarray(frame), format="bgr24")
+        video_frame = video_frame.reformat(format=PIX_FMT)
+        video_frame.pts = index
+        video_frame.time_base = self.time_base
+        for packet in self.stream.encode(video_frame):
+            self.container.mux(packet)
+
+    def close(self) -> None:
+        try:
+            for packet in self.stream.encode(None):  # the frames still in x264's lookahead
+                self.container.mux(packet)
+        finally:
+            self.container.close()  # writes the index (moov): without it the file does not play
+
+
+class _GifEncoder:
+    """Pillow, frame by frame: the header with the first kept frame, one block per frame, the trailer at close."""
+
+    def __init__(self, path: Path, fps: float, width: int, height: int) -> None:
+        self.step = max(1, math.ceil(fps / GIF_MAX_FPS))
+        self.delay_ms = round(1000 * self.step / fps)
+        scale = min(1.0, GIF_MAX_SIZE[0] / width, GIF_MAX_SIZE[1] / height)
+        self.size = (max(1, round(width * scale)), max(1, round(height * scale)))
+        self.path = path
+        self.file: BinaryIO | None = None  # opened with the first frame, as the MP4 muxer does
+
+    def write(self, frame: np.ndarray, index: int) -> None:
+        if index % self.step:
+            return
+        from PIL import GifImagePlugin, Image
+
+        image = Image.fromarray(np.ascontiguousarray(frame[..., ::-1]))  # BGR -> RGB
+        if image.size != self.size:
+            image = image.resize(self.size, Image.Resampling.BILINEAR)
+        paletted = image.quantize(GIF_COLORS, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)
+        if self.file is None:
+            header, _ = GifImagePlugin.getheader(paletted, info={"loop": 0, "duration": self.delay_ms})
+            self.file = open(self.path, "wb")  # noqa: SIM115 - closed by close()
+            self.file.writelines(header)
+        params: dict[str, Any] = {"duration": self.delay_ms, "include_color_table": True}
+        self.file.writelines(GifImagePlugin.getdata(paletted, **params))
+        self.file.flush()  # a killed run keeps every frame written so far
+
+    def close(self) -> None:
+        if self.file is not None:
+            try:
+                self.file.write(b";")  # GIF trailer
+            finally:
+                self.file.close()

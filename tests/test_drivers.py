@@ -1,0 +1,192 @@
+"""Autonomous drivers: wall-follow laps the racecourse and holds 60 s in the tunnel, pure-pursuit laps a track,
+each reading only /scan and /vesc/odom, and never touching a wall."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from racecar_sim import Simulator
+from racecar_sim.bus import Bus
+from racecar_sim.core.errors import ConfigError
+from racecar_sim.drivers import (PurePursuit, WallFollower, load_waypoints, pure_pursuit_config,
+                                 wall_follow_config)
+from racecar_sim.drivers.odom import planar_pose
+from racecar_sim.msgs import AckermannDriveStamped, Header, LaserScan
+
+NAVIGATION = "/vesc/ackermann_cmd_mux/input/navigation"
+
+
+class Watch:
+    """Follows a drive: the path from /vesc/odom, the shortest lidar range, and any car-wall contact."""
+
+    def __init__(self, sim: Simulator) -> None:
+        self.sim = sim
+        self.xy: list[tuple[float, float]] = []
+        self.yaw: list[float] = []
+        self.min_range = math.inf
+        self.wall_contacts = 0
+        self._car = sim.model.body(sim.robot.root).id
+        sim.subscribe("/vesc/odom", self._on_odom)
+        sim.subscribe("/scan", self._on_scan)
+
+    def _on_odom(self, msg) -> None:
+        pose = planar_pose(msg)
+        self.xy.append((pose.x, pose.y))
+        self.yaw.append(pose.yaw)
+
+    def _on_scan(self, msg: LaserScan) -> None:
+        ranges = np.asarray(msg.ranges)
+        self.min_range = min(self.min_range, float(np.min(ranges[np.isfinite(ranges)], initial=math.inf)))
+
+    def check_contacts(self) -> None:
+        """A contact between the car and the world with a near-horizontal normal is a wall (the ground's is vertical)."""
+        model, data = self.sim.model, self.sim.data
+        for c in data.contact[: data.ncon]:
+            roots = model.body_rootid[model.geom_bodyid[[c.geom1, c.geom2]]]
+            if (roots == self._car).sum() == 1 and abs(c.frame[2]) < 0.5:
+                self.wall_contacts += 1
+
+    def run(self, duration: float, until=lambda: False) -> None:
+        while self.sim.time < duration and not until():
+            self.sim.run_for(0.05)
+            self.check_contacts()
+
+    @property
+    def turned(self) -> float:
+        """Heading change since the start, unwrapped (rad, + anticlockwise)."""
+        yaw = np.unwrap(self.yaw)
+        return float(yaw[-1] - yaw[0]) if len(yaw) else 0.0
+
+    @property
+    def distance(self) -> float:
+        xy = np.array(self.xy)
+        return float(np.sum(np.hypot(*np.diff(xy, axis=0).T)))
+
+
+@pytest.mark.parametrize("side", ["left", "right"])
+def test_wall_follow_laps_the_walker_course(side):
+    sim = Simulator(world="walker", camera=False)
+    WallFollower(sim.bus, wall_follow_config(side=side))
+    watch = Watch(sim)
+    watch.run(150.0, until=lambda: watch.turned >= 2 * math.pi and math.dist(watch.xy[-1], watch.xy[0]) < 2.0)
+    # a lap: the course turns anticlockwise once, and the car comes back past its start
+    assert watch.turned >= 2 * math.pi and math.dist(watch.xy[-1], watch.xy[0]) < 2.0, (sim.time, watch.xy[-1])
+    assert max(math.dist(p, watch.xy[0]) for p in watch.xy) > 20.0  # it went round, not in a circle at the start
+    assert watch.distance > 90.0  # the course's centreline is about 100 m round
+    assert watch.min_range > 0.15 and watch.wall_contacts == 0, (watch.min_range, watch.wall_contacts)
+
+
+def test_wall_follow_drives_the_tunnel_for_60_s():
+    sim = Simulator(world="tunnel", camera=False)
+    WallFollower(sim.bus)
+    watch = Watch(sim)
+    watch.run(60.0)
+    assert sim.time >= 60.0 and watch.distance > 50.0
+    assert watch.min_range > 0.15 and watch.wall_contacts == 0, (watch.min_range, watch.wall_contacts)
+
+
+def circle_track(folder: Path, radius: float = 6.0, points: int = 200) -> Path:
+    angles = np.linspace(0.0, 2 * math.pi, points, endpoint=False)
+    rows = ["# x_m, y_m, w_tr_right_m, w_tr_left_m"]
+    rows += [f"{radius * math.cos(a):.9f}, {radius * math.sin(a):.9f}, 1.1, 1.1" for a in angles]
+    path = folder / "circle.csv"
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+def test_pure_pursuit_laps_a_centerline_track(tmp_path):
+    track = circle_track(tmp_path)
+    sim = Simulator(world=str(track), camera=False)
+    driver = PurePursuit(sim.bus, load_waypoints(track), pure_pursuit_config(speed=2.0))
+    watch = Watch(sim)
+    watch.run(60.0, until=lambda: watch.turned >= 2 * math.pi)
+    assert watch.turned >= 2 * math.pi and driver.laps == pytest.approx(1.0, abs=0.05)
+    # 2 pi R / v = 18.85 s at 2 m/s, plus the start from rest
+    assert 2 * math.pi * 6.0 / 2.0 < sim.time < 2 * math.pi * 6.0 / 2.0 * 1.15
+    radii = np.hypot(*np.array(watch.xy).T)
+    assert np.abs(radii - 6.0).max() < 0.35  # base_link stays on the centreline
+    assert watch.min_range > 0.15 and watch.wall_contacts == 0
+
+
+def test_pure_pursuit_stops_at_the_end_of_an_open_path(tmp_path):
+    path = tmp_path / "waypoints.csv"
+    path.write_text("# x, y, speed\n0, 0, 1.0\n4, 0, 1.0\n8, 2, 1.0\n10, 6, 1.0\n")
+    sim = Simulator(world="empty", camera=False, lidar=False)
+    waypoints = load_waypoints(path)
+    assert not waypoints.closed and waypoints.speeds is not None
+    PurePursuit(sim.bus, waypoints)
+    watch = Watch(sim)
+    watch.run(30.0)
+    assert math.dist(watch.xy[-1], (10.0, 6.0)) < 0.4
+    assert math.dist(watch.xy[-1], watch.xy[-20]) < 0.01  # stopped for the last second
+
+
+def synthetic_wall_scan(distance: float, approach: float, side: str, stamp_ns: int = 0) -> LaserScan:
+    """A Hokuyo scan of one infinite straight wall `distance` m to one side, the car heading `approach` rad into it."""
+    angles = -2.3561944902 + 0.0043633231 * np.arange(1081)
+    sign = -1.0 if side == "right" else 1.0
+    normal = sign * (math.pi / 2 - approach)  # direction of the wall's nearest point, in the laser frame
+    cos = np.cos(angles - normal)
+    ranges = np.where(cos > 1e-6, distance / np.maximum(cos, 1e-6), np.inf)
+    ranges = np.where(ranges <= 10.0, ranges, np.inf).astype(np.float32)
+    return LaserScan(Header.at(stamp_ns, "laser"), -2.3561944902, 2.3561944902, 0.0043633231, 0.0, 0.025, 0.1, 10.0,
+                     ranges, np.zeros(1081, np.float32))
+
+
+@pytest.mark.parametrize("side", ["left", "right"])
+def test_wall_follow_steers_toward_a_far_wall_and_away_from_a_near_one(side):
+    bus = Bus()
+    commands: list[AckermannDriveStamped] = []
+    bus.subscribe(NAVIGATION, commands.append)
+    follower = WallFollower(bus, wall_follow_config(side=side, ki=0.0))
+    toward = -1.0 if side == "right" else 1.0  # the sign of a steering angle that turns toward the wall
+    bus.publish("/scan", synthetic_wall_scan(2.0, 0.0, side))
+    assert commands[-1].drive.steering_angle * toward > 0.1
+    bus.publish("/scan", synthetic_wall_scan(0.5, 0.0, side, 25_000_000))
+    assert commands[-1].drive.steering_angle * toward < -0.1
+    # parallel at the wanted distance: straight on, fast (the wall's far end inside the front cone slows it a little)
+    bus.publish("/scan", synthetic_wall_scan(follower.config.distance, 0.0, side, 50_000_000))
+    assert abs(commands[-1].drive.steering_angle) < 0.01
+    assert commands[-1].drive.speed > (follower.config.speed + follower.config.min_speed) / 2
+
+
+@pytest.mark.parametrize("approach", [-0.3, 0.0, 0.2, 0.4])
+def test_wall_line_fit_recovers_the_wall_geometry(approach):
+    follower = WallFollower(Bus(), wall_follow_config(side="right"))
+    scan = synthetic_wall_scan(1.2, approach, "right")
+    angles = scan.angle_min + scan.angle_increment * np.arange(1081)
+    ranges = np.nan_to_num(np.asarray(scan.ranges, np.float64), posinf=10.0)
+    measured_approach, distance = follower._wall(ranges, angles)
+    assert measured_approach == pytest.approx(approach, abs=1e-3) and distance == pytest.approx(1.2, abs=1e-3)
+
+
+def test_driver_settings_are_checked(tmp_path):
+    with pytest.raises(ConfigError, match="side must be right or left"):
+        wall_follow_config(side="middle")
+    bad = tmp_path / "wall_follow.yaml"
+    bad.write_text("side: left\ndistance: .nan\n")
+    with pytest.raises(ConfigError, match=r"wall_follow.yaml: .*missing field"):
+        wall_follow_config(bad)
+    with pytest.raises(ConfigError, match="kp: expected a finite number"):
+        wall_follow_config(kp=float("nan"))
+    broken = tmp_path / "path.csv"
+    broken.write_text("0, 0\n1, x\n")
+    with pytest.raises(ConfigError, match="path.csv: line 2"):
+        load_waypoints(broken)
+
+
+def test_cli_driver_errors_are_one_line(tmp_path):
+    for args, expected in ((["--driver", "pure-pursuit"], "needs --path"),
+                           (["--driver", "wall-follow", "--no-lidar"], "steers by the lidar"),
+                           (["--driver", "pure-pursuit", "--path", str(tmp_path / "none.csv")], "none.csv")):
+        result = subprocess.run([sys.executable, "-m", "racecar_sim", "run", "--world", "empty", "--no-camera",
+                                 "--duration", "0.1", "--out", str(tmp_path), *args],
+                                capture_output=True, text=True, timeout=120)
+        assert result.returncode == 2 and len(result.stderr.strip().splitlines()) == 1, result.stderr
+        assert expected in result.stderr
