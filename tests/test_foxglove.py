@@ -29,6 +29,7 @@ from racecar_sim.msgs import String, deserialize
 
 SUBPROTOCOL = "foxglove.sdk.v1"
 MESSAGE_DATA = 0x01  # binary opcode: u32 subscription id, u64 log time, payload
+UNKNOWN_CHANNEL = "Unknown channel ID: "  # the status message refusing a subscription
 TIMEOUT = 60.0  # s of wall time for anything to happen; generous for a 2-core CI machine
 SLICE = 0.05  # s of sim time between client polls
 UST_10LX_ANGLE_MIN = -2.3561944902  # -135 degrees, as racecar.gazebo declares the Hokuyo
@@ -58,6 +59,11 @@ class FoxgloveClient:
                     self.server_info = op
                 elif op["op"] == "advertise":
                     self.channels.update({c["topic"]: c for c in op["channels"]})
+                elif op["op"] == "status" and op["message"].startswith(UNKNOWN_CHANNEL):
+                    # foxglove-sdk 0.30.3 can send a new channel's advertisement a moment before it
+                    # accepts subscriptions to it; a client that subscribes at once is refused. Retry.
+                    channel_id = int(op["message"].removeprefix(UNKNOWN_CHANNEL))
+                    self.subscribe(*[t for t, c in self.channels.items() if c["id"] == channel_id])
             elif frame[0] == MESSAGE_DATA:
                 subscription, log_time = struct.unpack_from("<IQ", frame, 1)
                 self.messages[self._subscriptions[subscription]].append((log_time, frame[13:]))
@@ -68,7 +74,7 @@ class FoxgloveClient:
         for topic in topics:
             sub_id = len(self._subscriptions) + 1
             self._subscriptions[sub_id] = topic
-            self.messages[topic] = []
+            self.messages.setdefault(topic, [])
             subscriptions.append({"id": sub_id, "channelId": self.channels[topic]["id"]})
         self.ws.send(json.dumps({"op": "subscribe", "subscriptions": subscriptions}))
 

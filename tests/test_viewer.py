@@ -7,6 +7,7 @@ on durations: CI is a 2-core machine rendering with software GL.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -27,29 +28,54 @@ needs_x = pytest.mark.skipif(not HAVE_X, reason="needs Xvfb and xdotool (apt-get
 NO_DISPLAY_LINE = "racecar-sim: --viewer: no display (DISPLAY is not set); continuing headless"
 
 
-@pytest.fixture(scope="module")
-def display():
-    """A fresh Xvfb server on a display number it picks itself (-displayfd), killed after the module."""
-    if not HAVE_X:
-        pytest.skip("needs Xvfb and xdotool (apt-get install xvfb xdotool)")
+@contextlib.contextmanager
+def xvfb(*options: str):
+    """A fresh Xvfb server on a display number it picks itself (-displayfd); killed on exit. Tried again when
+    the display it names does not answer (Xvfbs starting at the same moment can trip over each other)."""
+    for _ in range(3):
+        server, name = _start_xvfb(options)
+        try:
+            if name is not None:
+                yield name
+                return
+        finally:
+            server.terminate()
+            try:
+                server.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                server.kill()
+                server.wait()
+    pytest.fail(f"could not start Xvfb {' '.join(options)}")
+
+
+def _start_xvfb(options: tuple[str, ...]) -> tuple[subprocess.Popen, str | None]:
+    """The server and its display name, or None for the name when it did not come up and answer."""
     read_end, write_end = os.pipe()
     server = subprocess.Popen(["Xvfb", "-displayfd", str(write_end), "-screen", "0", "1280x1024x24",
-                               "-nolisten", "tcp"], pass_fds=(write_end,),
+                               "-nolisten", "tcp", *options], pass_fds=(write_end,),
                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     os.close(write_end)
     try:
         number = _read_line(read_end, WAIT)
-        if not number.isdigit():
-            pytest.fail(f"Xvfb did not report a display number within {WAIT:g} s (exit code {server.poll()})")
-        yield f":{number}"
     finally:
         os.close(read_end)
-        server.terminate()
-        try:
-            server.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            server.kill()
-            server.wait()
+    if not number.isdigit():
+        return server, None
+    deadline = time.monotonic() + 20
+    while time.monotonic() < deadline and server.poll() is None:
+        if xdotool(f":{number}", "getdisplaygeometry").returncode == 0:
+            return server, f":{number}"
+        time.sleep(0.5)
+    return server, None
+
+
+@pytest.fixture(scope="module")
+def display():
+    """An X display for the module's tests."""
+    if not HAVE_X:
+        pytest.skip("needs Xvfb and xdotool (apt-get install xvfb xdotool)")
+    with xvfb() as name:
+        yield name
 
 
 def _read_line(fd: int, timeout: float) -> str:
@@ -147,23 +173,36 @@ def test_wasd_in_the_viewer_drives_the_car(display, tmp_path):
     assert yaw > forward[2] + 0.2 and y > 0.05, f"a did not turn the car left: last pose {poses[-1]}"
 
 
-@pytest.mark.parametrize("display", [None, ":dead"])
-def test_viewer_without_a_display_runs_headless(tmp_path, display):
-    if display == ":dead":
-        taken = {p.name[1:] for p in Path("/tmp/.X11-unix").glob("X*")} if Path("/tmp/.X11-unix").is_dir() else set()
-        display = f":{next(n for n in range(987, 2000) if str(n) not in taken)}"  # a display nobody serves
+def run_headless(tmp_path: Path, display: str | None) -> list[str]:
+    """`racecar-sim run --viewer` on `display`: it must finish (exit code 0) without a window; its stderr lines
+    about the viewer."""
     result = subprocess.run([sys.executable, "-m", "racecar_sim", "run", "--world", "empty", "--no-camera",
                              "--duration", "2", "--viewer", "--out", str(tmp_path)],
                             env=x_env(display), stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr
     assert "Traceback" not in result.stderr and "ERROR" not in result.stderr, result.stderr
-    lines = [line for line in result.stderr.splitlines() if "viewer" in line.lower() or "glfw" in line.lower()]
-    if display is None:
-        assert lines == [NO_DISPLAY_LINE], result.stderr
-    else:
-        assert len(lines) == 1, result.stderr
-        assert lines[0].startswith("racecar-sim: --viewer: no display (GLFW: "), result.stderr
-        assert lines[0].endswith("; continuing headless"), result.stderr
+    return [line for line in result.stderr.splitlines() if "viewer" in line.lower() or "glfw" in line.lower()]
+
+
+def test_viewer_without_a_display_runs_headless(tmp_path):
+    assert run_headless(tmp_path, None) == [NO_DISPLAY_LINE]
+
+
+def test_viewer_on_a_display_nobody_serves_runs_headless(tmp_path):
+    taken = {p.name[1:] for p in Path("/tmp/.X11-unix").glob("X*")} if Path("/tmp/.X11-unix").is_dir() else set()
+    lines = run_headless(tmp_path, f":{next(n for n in range(987, 2000) if str(n) not in taken)}")
+    assert len(lines) == 1, lines
+    assert lines[0].startswith("racecar-sim: --viewer: no display (GLFW: ") and lines[0].endswith(
+        "; continuing headless"), lines
+
+
+@needs_x
+def test_viewer_on_a_display_without_glx_runs_headless(tmp_path):
+    """MuJoCo's viewer thread would end the process ('ERROR: could not create window', exit code 1)."""
+    with xvfb("-extension", "GLX") as no_glx:
+        lines = run_headless(tmp_path, no_glx)
+    assert len(lines) == 1, lines
+    assert lines[0].startswith("racecar-sim: --viewer: no OpenGL window on this display (GLFW: "), lines
 
 
 CAMERA_AND_VIEWER = """
@@ -218,5 +257,5 @@ def test_camera_and_viewer_share_the_process(display):
     assert with_window["variety"] > 20, "the camera images look blank"
     headless = run_camera_script(None)
     assert not headless["viewer"]
-    assert len(with_window["frames"]) == 60
+    assert len(with_window["frames"]) >= 50  # 2 s at 30 Hz
     assert with_window["frames"] == headless["frames"]

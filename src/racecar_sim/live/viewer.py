@@ -1,13 +1,14 @@
 """--viewer: MuJoCo's own viewer window on a running sim, following the car and drawing the lidar beams.
 
 The window shows a private copy of the model and data, refreshed by each sync(). Whatever a person does in it
-(Backspace resets, the physics panel, joint sliders, Ctrl-drag perturbations) changes only that copy, so a run
+(its Reset button, the physics panel, joint sliders, Ctrl-drag perturbations) changes only that copy, so a run
 with a window gives the same messages as one without.
 
 Keys: MuJoCo's viewer passes only presses to us (no auto-repeat), so poll_keys() repeats a key itself while
 GLFW reports it held. MuJoCo also acts on some letters itself, panels hidden or not: W wireframe, S shadows,
 A auto-connect, D static bodies, X textures. Those are driving keys here, so their flags are put back at once
-(option flags, in the key callback) or at the next sync() (render flags): at most a frame shows the toggle.
+(option flags, in the key callback, before the next frame; render flags at the next sync(), so a frame or two
+may show them).
 Other MuJoCo shortcuts keep working (Tab panels, F1 help, C contacts, ...), and also stop the car.
 """
 
@@ -194,16 +195,23 @@ def _launch(model: mujoco.MjModel, data: mujoco.MjData,
             on_key: Any) -> tuple[Any, threading.Thread | None, str | None]:
     """(mujoco.viewer.Handle, the viewer's thread, None), or (None, None, why not).
 
-    launch_passive() opens the window on a thread of its own and waits for it without a timeout: if that
-    thread fails (no GLX on the X server, say), it would wait forever. So it runs on a helper thread, the
-    viewer thread's exception is caught from threading.excepthook, and we give up after OPEN_TIMEOUT.
+    The known failures (no X server, no GLX) are found first by _glfw_problem(): in MuJoCo's viewer thread
+    they end the process. launch_passive() then opens the window on a thread of its own and waits for it
+    without a timeout, forever if that thread raises; so it runs on a helper thread, the viewer thread's
+    exception is caught from threading.excepthook, and we give up after OPEN_TIMEOUT.
     """
     try:
         import glfw
         import mujoco.viewer
     except Exception as exc:  # noqa: BLE001 - ImportError, or RuntimeError when libglfw is missing
         return None, None, f"the MuJoCo viewer cannot load ({_one_line(exc)})"
-    problem = _glfw_problem(glfw)
+    # on a thread of its own: probed on the main thread, where the camera's EGL context is current, the probe
+    # window made the viewer's glXMakeCurrent fail later (X error BadAccess, which ends the process)
+    probe: list[str | None] = []
+    thread = threading.Thread(target=lambda: probe.append(_glfw_problem(glfw)), name="racecar-viewer-probe")
+    thread.start()
+    thread.join()
+    problem = probe[0] if probe else "the display check failed"
     if problem is not None:
         return None, None, problem
 
@@ -256,19 +264,31 @@ def _viewer_thread(before: set[threading.Thread]) -> threading.Thread | None:
 
 
 def _glfw_problem(glfw: Any) -> str | None:
-    """Initialise GLFW here, where its failure has a reason we can print (MuJoCo's own attempt only says
-    'could not initialize GLFW'); None when it works. MuJoCo's viewer then reuses this initialisation."""
+    """Initialise GLFW and make a hidden window like the viewer's, here, where a failure has a reason we can
+    print; None when both work. MuJoCo's viewer thread would fail with 'ERROR: could not create window' and end
+    the whole process (exit code 1), e.g. on an X server without GLX. The viewer reuses this initialisation."""
+    problem = None
     with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
+        warnings.simplefilter("always")  # pyGLFW reports GLFW's errors as warnings
         try:
-            ok = glfw.init()
+            if not glfw.init():
+                problem = "no display"
+            else:
+                glfw.window_hint(glfw.VISIBLE, glfw.FALSE)
+                glfw.window_hint(glfw.SAMPLES, 4)  # as the viewer asks
+                window = glfw.create_window(64, 64, "racecar-sim", None, None)
+                glfw.default_window_hints()
+                if window:
+                    glfw.destroy_window(window)
+                else:
+                    problem = "no OpenGL window on this display"
         except Exception as exc:  # noqa: BLE001 - glfw.ERROR_REPORTING = 'raise'
             caught.append(warnings.WarningMessage(exc, type(exc), "", 0))
-            ok = False
-    if ok:
+            problem = problem or "no display"
+    if problem is None:
         return None
-    reasons = [_glfw_text(str(w.message)) for w in caught] or ["glfwInit failed"]
-    return f"no display (GLFW: {'; '.join(reasons)})"
+    reasons = [_glfw_text(str(w.message)) for w in caught] or ["no reason given"]
+    return f"{problem} (GLFW: {'; '.join(reasons)})"
 
 
 def _glfw_text(text: str) -> str:
