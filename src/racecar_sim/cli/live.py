@@ -72,8 +72,8 @@ class LiveViews:
 
     @property
     def realtime(self) -> bool:
-        """Whether a person is watching, so sim time should follow the wall clock."""
-        return self.viewer is not None
+        """Whether a person is watching (the viewer or Foxglove), so sim time should follow the wall clock."""
+        return self.viewer is not None or self.bridge is not None
 
     @property
     def closed(self) -> bool:
