@@ -19,6 +19,7 @@ from racecar_sim.cli.args import add_sensor_arguments, add_world_arguments, fini
 from racecar_sim.cli.live import LiveViews, RealTimePacer, add_live_arguments
 from racecar_sim.control.profiles import profile_names
 from racecar_sim.core.errors import ConfigError
+from racecar_sim.description.vehicle import VehicleGeometry
 from racecar_sim.drivers import (ConstantCommand, PurePursuit, WallFollower, load_waypoints, pure_pursuit_config,
                                  wall_follow_config)
 from racecar_sim.physics import preset_names
@@ -72,7 +73,8 @@ def _attach_driver(args: argparse.Namespace, sim: Simulator) -> object:
     path = args.path or (args.world if str(args.world).endswith(".csv") else None)
     if path is None:
         raise ConfigError("--driver pure-pursuit needs --path FILE.csv (or a track .csv as --world)")
-    return PurePursuit(sim.bus, load_waypoints(path), pure_pursuit_config(speed=args.speed))
+    wheelbase = VehicleGeometry.from_robot(sim.robot).wheelbase  # the loaded xacro's, not the YAML's default
+    return PurePursuit(sim.bus, load_waypoints(path), pure_pursuit_config(speed=args.speed, wheelbase=wheelbase))
 
 
 def _terminate(signum: int, frame: object) -> None:
