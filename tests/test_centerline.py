@@ -279,7 +279,14 @@ def test_walls_stop_a_car_driving_straight(tmp_path):
 
 GOOD = "0, 0, 1, 1\n5, 0, 1, 1\n5, 5, 1, 1\n0, 5, 1, 1\n"
 BAD_TRACKS = {
-    "two_columns.csv": ("# x_m, y_m\n0, 0\n5, 0\n5, 5\n", "line 2: expected 4 comma-separated columns"),
+    "two_columns.csv": ("0, 0\n5, 0\n5, 5\n", "line 1: expected 4 comma-separated columns"),
+    "no_widths.csv": ("# x_m, y_m\n0, 0\n5, 0\n5, 5\n", "line 1: no track-width columns"),
+    "ragged.csv": ("x,y,w_right,w_left\n0, 0, 1, 1\n5, 0, 1\n5, 5, 1, 1\n",
+                   "line 3: 3 comma-separated columns, the header (line 1) has 4"),
+    "bad_after_header.csv": ("x,y,w_right,w_left\n0, 0, 1, 1\n5, 0, 1, wide\n5, 5, 1, 1\n",
+                             "line 3: w_left: not a number"),
+    "bad_semicolon.csv": ("# x_m; y_m; w_tr_right_m; w_tr_left_m\n0;0;1;1\n5;nan;1;1\n5;5;1;1\n",
+                          "line 3: y: must be finite"),
     "nan.csv": ("0, 0, 1, 1\n5, nan, 1, 1\n5, 5, 1, 1\n", "line 2: y: must be finite"),
     "inf.csv": ("0, 0, 1, 1\n5, 0, inf, 1\n5, 5, 1, 1\n", "line 2: w_right: must be finite"),
     "word.csv": ("0, 0, 1, 1\n5, 0, 1, wide\n5, 5, 1, 1\n", "line 2: w_left: not a number"),
@@ -290,7 +297,7 @@ BAD_TRACKS = {
 }
 
 
-@pytest.mark.parametrize("name", ["two_columns.csv", "nan.csv"])
+@pytest.mark.parametrize("name", ["two_columns.csv", "nan.csv", "bad_semicolon.csv"])
 def test_malformed_track_fails_in_one_line_from_the_cli(tmp_path, name):
     content, message = BAD_TRACKS[name]
     (tmp_path / name).write_text(content)
@@ -315,3 +322,53 @@ def test_repeated_closing_point_and_blank_lines_are_accepted(tmp_path):
     (tmp_path / "square.csv").write_text("#x,y,wr,wl\n\n" + GOOD + "0,0,1,1\n")
     world = load_world(tmp_path / "square.csv")
     assert len([g for g in world.bodies[-1].geoms if g.collides]) == 8  # 4 sides x 2 borders
+
+
+# --- header rows and the F1TENTH formats ----------------------------------------------------------------------------
+
+SQUARE = [(0, 0, 1, 1), (5, 0, 1, 1), (5, 5, 1, 1), (0, 5, 1, 1)]  # x, y, w_right, w_left
+# The first lines of an F1TENTH raceline (f1tenth_racetracks, Austin/Austin_raceline.csv): two `#` lines of ids, a
+# `#` header, `;`-separated rows of s, x, y, heading, curvature, speed and acceleration; no track widths.
+RACELINE = """# 8288b625-90b8-4275-83ed-3842478966d0
+# 603fd3987364b09f9aacb70d1ed12c268e24dd56
+# s_m; x_m; y_m; psi_rad; kappa_radpm; vx_mps; ax_mps2
+0.0000000;0.0000000;0.0000000;0.0000000;0.0000000;3.0000000;0.0000000
+5.0000000;5.0000000;0.0000000;1.5707963;0.0000000;2.5000000;0.0000000
+10.0000000;5.0000000;5.0000000;3.1415927;0.0000000;2.0000000;0.0000000
+15.0000000;0.0000000;5.0000000;4.7123890;0.0000000;2.5000000;0.0000000
+20.0000000;0.0000000;0.0000000;0.0000000;0.0000000;3.0000000;0.0000000
+"""
+
+
+def square_track(header: str, delimiter: str = ",", order=(0, 1, 2, 3)) -> str:
+    return header + "".join(delimiter.join(str(row[i]) for i in order) + "\n" for row in SQUARE)
+
+
+def walls_of(world) -> list[tuple]:
+    return sorted((tuple(np.round(g.pos, 9)), tuple(np.round(g.size, 9))) for g in world.bodies[-1].geoms if g.collides)
+
+
+@pytest.mark.parametrize(("header", "delimiter", "order"), [
+    ("x,y,w_right,w_left\n", ",", (0, 1, 2, 3)),  # a plain header row
+    ("x_m, y_m, w_tr_right_m, w_tr_left_m\n", ",", (0, 1, 2, 3)),
+    ("# x_m,y_m,w_tr_right_m,w_tr_left_m\n", ",", (0, 1, 2, 3)),  # the F1TENTH centerline header
+    ("# x_m; y_m; w_tr_right_m; w_tr_left_m\n", ";", (0, 1, 2, 3)),  # semicolons
+    ("# w_tr_left_m,x_m,w_tr_right_m,y_m\n", ",", (3, 0, 2, 1)),  # columns found by name, in any order
+    ("# id\n# x_m, y_m, w_tr_right_m, w_tr_left_m\n\n", ",", (0, 1, 2, 3)),  # the last # line is the header
+])
+def test_track_headers_and_delimiters(tmp_path, header, delimiter, order):
+    (tmp_path / "plain.csv").write_text(square_track(""))
+    (tmp_path / "headed.csv").write_text(square_track(header, delimiter, order))
+    reference, world = load_world(tmp_path / "plain.csv"), load_world(tmp_path / "headed.csv")
+    assert len(walls_of(world)) == 8 and walls_of(world) == walls_of(reference)
+    assert (world.spawn.x, world.spawn.y, world.spawn.yaw) == (0.0, 0.0, 0.0)
+
+
+def test_raceline_as_a_world_says_to_use_it_as_a_path(tmp_path):
+    (tmp_path / "Track_raceline.csv").write_text(RACELINE)
+    with pytest.raises(WorldError) as error:
+        load_world(tmp_path / "Track_raceline.csv")
+    message = str(error.value)
+    assert "\n" not in message and "Track_raceline.csv: line 3: no track-width columns" in message
+    assert "--path" in message and "pure-pursuit" in message
+    assert "--path" in run_cli_error(tmp_path / "Track_raceline.csv")

@@ -127,6 +127,50 @@ def test_pure_pursuit_stops_at_the_end_of_an_open_path(tmp_path):
     assert math.dist(watch.xy[-1], watch.xy[-20]) < 0.01  # stopped for the last second
 
 
+# An F1TENTH raceline as f1tenth_racetracks' Austin/Austin_raceline.csv is laid out (its last row repeats the first),
+# shrunk to a 6 m square loop.
+RACELINE = """# 8288b625-90b8-4275-83ed-3842478966d0
+# 603fd3987364b09f9aacb70d1ed12c268e24dd56
+# s_m; x_m; y_m; psi_rad; kappa_radpm; vx_mps; ax_mps2
+0.0000000;0.0000000;0.0000000;0.0000000;0.0000000;1.5000000;0.0000000
+3.0000000;3.0000000;0.0000000;0.0000000;0.0000000;1.2000000;0.0000000
+6.0000000;6.0000000;0.0000000;1.5707963;0.0000000;1.0000000;0.0000000
+12.0000000;6.0000000;6.0000000;3.1415927;0.0000000;1.0000000;0.0000000
+18.0000000;0.0000000;6.0000000;4.7123890;0.0000000;1.0000000;0.0000000
+24.0000000;0.0000000;0.0000000;0.0000000;0.0000000;1.5000000;0.0000000
+"""
+
+
+def test_raceline_and_headed_csvs_are_paths(tmp_path):
+    raceline = tmp_path / "Track_raceline.csv"
+    raceline.write_text(RACELINE)
+    waypoints = load_waypoints(raceline)  # x_m, y_m and vx_mps found by name among seven ;-separated columns
+    np.testing.assert_array_equal(waypoints.points, [[0, 0], [3, 0], [6, 0], [6, 6], [0, 6]])
+    np.testing.assert_array_equal(waypoints.speeds, [1.5, 1.2, 1.0, 1.0, 1.0])
+    assert waypoints.closed
+    for name, text in (("plain.csv", "x,y,speed\n0,0,1\n4,0,2\n8,2,3\n"),
+                       ("renamed.csv", "# speed_mps, y_m, x_m\n1, 0, 0\n2, 0, 4\n3, 2, 8\n"),
+                       ("centerline.csv", "x_m, y_m, w_tr_right_m, w_tr_left_m\n0, 0, 1, 1\n4, 0, 1, 1\n8, 2, 1, 1\n")):
+        (tmp_path / name).write_text(text)
+        path = load_waypoints(tmp_path / name)
+        np.testing.assert_array_equal(path.points, [[0, 0], [4, 0], [8, 2]])
+        assert path.speeds is None if name == "centerline.csv" else path.speeds.tolist() == [1, 2, 3]
+    (tmp_path / "bad.csv").write_text(RACELINE.replace("6.0000000;6.0000000;0.0000000", "6.0000000;6.0000000;zero"))
+    with pytest.raises(ConfigError, match=r"bad\.csv: line 6: y: not a number: 'zero'"):
+        load_waypoints(tmp_path / "bad.csv")
+
+
+def test_cli_pure_pursuit_follows_a_raceline(tmp_path):
+    (tmp_path / "Track_raceline.csv").write_text(RACELINE)
+    result = subprocess.run([sys.executable, "-m", "racecar_sim", "run", "--world", "empty", "--no-camera",
+                             "--no-record", "--no-summary", "--driver", "pure-pursuit",
+                             "--path", str(tmp_path / "Track_raceline.csv"), "--duration", "4", "--out", str(tmp_path)],
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    distance = float(next(line for line in result.stdout.splitlines() if line.startswith("distance")).split()[1])
+    assert 3.0 < distance < 4 * 1.5  # at the raceline's speeds, 1.5 m/s at most
+
+
 def synthetic_wall_scan(distance: float, approach: float, side: str, stamp_ns: int = 0) -> LaserScan:
     """A Hokuyo scan of one infinite straight wall `distance` m to one side, the car heading `approach` rad into it."""
     angles = -2.3561944902 + 0.0043633231 * np.arange(1081)

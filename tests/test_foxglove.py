@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import logging
 import queue
 import re
 import signal
@@ -18,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from rosbags.typesys import Stores, get_typestore
+from websockets.exceptions import InvalidStatus
 from websockets.sync.client import connect
 
 from racecar_sim import Simulator
@@ -220,6 +222,24 @@ def test_bridges_in_one_process_are_independent():
             until(lambda: "/only_b" in client.channels, lambda: client.poll(1.0), "/only_b to be advertised")
             assert "/only_a" not in client.channels
         assert a.port != b.port
+
+
+def test_a_foxglove_websocket_v1_client_is_told_which_subprotocol_to_speak(caplog):
+    """Lichtblick <= 1.21 (and @foxglove/ws-protocol) offers only foxglove.websocket.v1: refused, with a hint."""
+    caplog.set_level(logging.WARNING)
+    with FoxgloveBridge(Bus(), lambda: 0, port=0) as bridge:
+        with pytest.raises(InvalidStatus) as refused:
+            connect(f"ws://127.0.0.1:{bridge.port}", subprotocols=["foxglove.websocket.v1"], open_timeout=TIMEOUT)
+        assert refused.value.response.status_code == 400
+        until(lambda: any("handshake failed" in r.getMessage() for r in caplog.records), lambda: time.sleep(0.05),
+              "the SDK to log the failed handshake")
+    [record] = [r for r in caplog.records if "handshake failed" in r.getMessage()]
+    message = record.getMessage()
+    assert record.levelno == logging.WARNING and "\n" not in message
+    assert SUBPROTOCOL in message and "foxglove.websocket.v1" in message and "Lichtblick 1.22 or newer" in message
+    with FoxgloveBridge(Bus(), lambda: 0, port=0) as bridge, FoxgloveClient(bridge.port) as client:
+        until(lambda: client.server_info is not None, lambda: client.poll(1.0), "serverInfo")  # still one filter
+    assert len(logging.getLogger(foxglove_bridge.SDK_SERVER_LOGGER).filters) == 1
 
 
 def test_cli_run_serves_scan_until_sigterm(tmp_path):

@@ -172,9 +172,13 @@ def test_map_modes_mark_occupied_cells_as_map_server_does(mode, negate, expected
     assert occupied_cells(grey, None, meta).tolist() == [expected]
 
 
-def test_spawn_in_a_wall_warns_naming_the_file(tmp_path):
-    with pytest.warns(UserWarning, match=r"room\.yaml: the spawn point \(0, 0\) lies in an occupied cell"):
-        load_world(write_map(tmp_path, room_image(), (0.0, 0.0, 0.0)))
+def test_spawn_in_a_wall_is_an_error_naming_the_file(tmp_path):
+    """An occupied cell is an obstacle: a car spawned on one is refused, as in every world (issue 10)."""
+    path = write_map(tmp_path, room_image(), (0.0, 0.0, 0.0))  # the origin is the bottom-left wall corner
+    load_world(path)  # the map itself loads; the car cannot start there
+    with pytest.raises(WorldError, match=r"room\.yaml: spawn pose \(0, 0, 0\.05, 0\) is inside an obstacle: .* into "
+                                         r"map_wall"):
+        Simulator(world=str(path), lidar=False, camera=False)
 
 
 # --- malformed maps: one line on stderr, exit code 2 --------------------------------------------------------------

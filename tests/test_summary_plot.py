@@ -4,13 +4,16 @@ the sensors."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 from matplotlib import colormaps
 from PIL import Image
 
+from racecar_sim.plots import world_figure
 from racecar_sim.plots.summary import DPI, FIGSIZE, SPEED_CMAP, save_summary, summary_figure
+from racecar_sim.plots.world_map import footprint
 from racecar_sim.worlds import load_world
 
 SIZE = (round(FIGSIZE[0] * DPI), round(FIGSIZE[1] * DPI))  # 1600x1000
@@ -89,7 +92,8 @@ def test_summary_shows_path_scan_and_camera(tmp_path, walker):
     (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
     shown = np.vstack([trajectory[:, :2], scan_around(origin)])
     assert np.all((shown[:, 0] > x0) & (shown[:, 0] < x1) & (shown[:, 1] > y0) & (shown[:, 1] < y1))
-    assert (x1 - x0) < 40 and (y1 - y0) < 40  # zoomed in: walker is about 35 m x 33 m
+    assert_frames_the_world(ax, walker)
+    assert (x1 - x0) < 55 and (y1 - y0) < 40  # the whole of walker (32 m x 29 m) with margins, no more
 
 
 def test_summary_without_lidar_or_camera(tmp_path):
@@ -102,6 +106,50 @@ def test_summary_without_lidar_or_camera(tmp_path):
     _, ax = summary_figure(tunnel, trajectory, lines=["distance 60.0 m"])
     assert_path_drawn(rgb, ax, trajectory, [100, 300, 500, 700, 900, 1100])
     assert len(pixels_like(rgb, (0xE7, 0x29, 0x8A), tol=10)) == 0
+
+
+def assert_frames_the_world(ax, world) -> None:
+    """Every geom but the ground planes lies inside the Axes' limits (the whole world is shown)."""
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    shown = 0
+    for body, geom in world.geoms():
+        if geom.kind == "plane":
+            continue
+        xy = footprint(body, geom).xy
+        assert np.all((xy[:, 0] >= x0) & (xy[:, 0] <= x1) & (xy[:, 1] >= y0) & (xy[:, 1] <= y1)), (
+            geom.name, xy.min(axis=0), xy.max(axis=0), (x0, x1, y0, y1))
+        shown += 1
+    assert shown > 0
+
+
+def room_map(folder: Path) -> Path:
+    """A ROS map: a 12 m x 10 m room (walls 0.2 m thick) from (-2, -5), a pillar inside; the spawn at the origin."""
+    cells = np.full((200, 240), 254, np.uint8)  # 0.05 m cells, row 0 at the top (y = 5 m)
+    cells[:4], cells[-4:], cells[:, :4], cells[:, -4:] = 0, 0, 0, 0
+    cells[40:80, 100:110] = 0
+    Image.fromarray(cells).save(folder / "room.pgm")
+    (folder / "room.yaml").write_text("image: room.pgm\nresolution: 0.05\norigin: [-2.0, -5.0, 0.0]\nnegate: 0\n"
+                                      "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
+    return folder / "room.yaml"
+
+
+@pytest.mark.parametrize("name", ["map", "tunnel"])
+def test_summary_and_world_map_frame_the_whole_world(tmp_path, name):
+    """A short drive near the spawn still shows every wall: the map's bottom wall, the tunnel's far arms."""
+    world = load_world(room_map(tmp_path) if name == "map" else "tunnel")
+    n = 200
+    if name == "map":  # 1 m along the room's middle, far from its bottom wall
+        trajectory = np.c_[np.linspace(0.0, 1.0, n), np.zeros(n), np.full(n, 1.0)]
+    else:  # 10 m down the corridor from the spawn
+        trajectory = np.c_[np.linspace(0.0, 10.0, n), np.full(n, -0.8), np.full(n, 1.0)]
+    origin = trajectory[-1, :2]
+    scan = scan_around(origin, radius=1.5)
+    _, ax = summary_figure(world, trajectory, scan_origin=origin, scan_points=scan)
+    assert_frames_the_world(ax, world)
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    assert np.all((scan[:, 0] > x0) & (scan[:, 0] < x1) & (scan[:, 1] > y0) & (scan[:, 1] < y1))
+    _, ax = world_figure(world)  # racecar-sim worlds --show
+    assert_frames_the_world(ax, world)
 
 
 def test_summary_of_a_car_that_never_moved(tmp_path, walker):

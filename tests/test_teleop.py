@@ -22,8 +22,9 @@ from conftest import TELEOP, Log
 
 from racecar_sim import Simulator
 from racecar_sim.cli.terminal import RawTerminal, StopSignals
-from racecar_sim.control.teleop import KeyboardTeleop
-from racecar_sim.drivers import ConstantCommand
+from racecar_sim.control.teleop import IDLE_ZERO, ActiveInput, KeyboardTeleop, in_control
+from racecar_sim.drivers import NAVIGATION, ConstantCommand
+from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header
 
 LOW = "/vesc/low_level/ackermann_cmd_mux"
 ACTIVE, OUTPUT = f"{LOW}/active", f"{LOW}/output"
@@ -127,6 +128,43 @@ def test_stop_sends_one_zero_command_and_ends_the_repeats():
     assert log[OUTPUT][-1] is log[TELEOP][-1] and not teleop.active
     sim.run_until(1.0)
     assert len(log[TELEOP]) == count
+
+
+def test_status_shows_who_drives_not_the_default_commands_route():
+    """The 6 Hz zero command holds the low-level mux through its Navigation input: that is idle, not Navigation."""
+    sim, teleop, _, changes = teleop_sim()
+    control = ActiveInput(sim.bus)
+    labels: list[tuple[float, str]] = []
+    sim.scheduler.every(100.0, lambda now: labels.append((now * 1e-9, control.label)), "watch")
+
+    def driver(now_ns: int) -> None:  # a driver that drives from 2 s to 4 s, then stops
+        if 2.0 <= now_ns * 1e-9 < 4.0:
+            sim.publish(NAVIGATION, AckermannDriveStamped(Header.at(now_ns, "base_link"), AckermannDrive(speed=1.0)))
+
+    sim.scheduler.every(20.0, driver, "driver")
+    sim.run_until(1.0)
+    assert holder_at(changes, 1.0) == "Navigation"  # the low-level mux: the default command's route
+    assert control.label == IDLE_ZERO
+    teleop.key("w")
+    assert control.label == "Teleoperation"
+    sim.run_until(6.0)
+
+    def shown(t0: float, t1: float) -> set[str]:
+        return {label for t, label in labels if t0 < t < t1}
+
+    assert shown(0.2, 1.0) == {IDLE_ZERO}  # from the first default command, at 1/6 s
+    assert shown(1.0, 1.75) == {"Teleoperation"}  # the key's 0.6 s hold, then the mux's 0.2 s timeout
+    assert shown(2.0, 4.0) == {"Navigation"}
+    assert shown(4.5, 6.0) == {IDLE_ZERO}
+    assert {t for t, label in labels if label == "Navigation"} <= {t for t, _ in labels if 2.0 <= t < 4.25}
+
+
+@pytest.mark.parametrize(("low", "high", "shown"), [
+    ("Navigation", "Default", IDLE_ZERO), ("Navigation", "Navigation 0", "Navigation"),
+    ("Navigation", "Navigation 2", "Navigation 2"), ("Teleoperation", "Default", "Teleoperation"),
+    ("Safety", "Navigation 0", "Safety"), ("idle", "Default", "idle")])
+def test_in_control_reads_both_muxes(low, high, shown):
+    assert in_control(low, high) == shown
 
 
 # --- the terminal layer, on a pseudo-terminal -------------------------------------------------------------

@@ -27,11 +27,31 @@ def positive_float(text: str) -> float:
     return value
 
 
+def _whole_number(text: str, minimum: int) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a whole number") from None
+    if value < minimum:
+        raise argparse.ArgumentTypeError(f"'{text}' must be {minimum} or more")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """A whole number >= 1."""
+    return _whole_number(text, 1)
+
+
+def seed_value(text: str) -> int:
+    """A random seed: a whole number >= 0 (numpy takes no negative seeds)."""
+    return _whole_number(text, 0)
+
+
 def spawn_pose(text: str) -> Spawn:
     """'x,y,yaw' (or 'x,y,z,yaw')."""
     parts = text.split(",")
     if len(parts) not in (3, 4):
-        raise argparse.ArgumentTypeError(f"'{text}' is not x,y,yaw")
+        raise argparse.ArgumentTypeError(f"'{text}' is not x,y,yaw or x,y,z,yaw")
     values = [finite_float(p) for p in parts]
     if len(values) == 3:
         return Spawn(values[0], values[1], Spawn().z, values[2])
@@ -52,7 +72,9 @@ def add_world_arguments(p: argparse.ArgumentParser, world_option: bool = True, d
         p.add_argument("--world", default=default_world, metavar="NAME|PATH",
                        help="built-in world (see `racecar-sim worlds`), SDF .world/.sdf file, ROS map .yaml, "
                             f"or race-track centerline .csv (default: {default_world})")
-    p.add_argument("--spawn", type=spawn_pose, help="spawn pose x,y,yaw (default: the world's own)")
+    p.add_argument("--spawn", type=spawn_pose, help="spawn pose x,y,yaw or x,y,z,yaw (default: the world's own); "
+                                                     "checked against the world: inside an obstacle or over nothing "
+                                                     "is an error")
     p.add_argument("--model-path", action="append", default=[], metavar="DIR",
                    help="folder holding model:// models, searched before GAZEBO_MODEL_PATH (repeatable)")
     p.add_argument("--wall-height", type=positive_float, default=DEFAULT_WALL_HEIGHT, metavar="M",

@@ -11,7 +11,7 @@ import time
 
 import mujoco
 
-from racecar_sim.cli.args import positive_float
+from racecar_sim.cli.args import positive_float, positive_int
 from racecar_sim.core.errors import RacecarSimError
 from racecar_sim.drivers import ConstantCommand
 from racecar_sim.physics import preset_names
@@ -23,7 +23,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--world", default="empty")
     p.add_argument("--physics", default="default", choices=preset_names())
     p.add_argument("--duration", type=positive_float, default=30.0, help="sim seconds per measurement (default 30)")
-    p.add_argument("--repeat", type=int, default=3, help="measurements; the best is reported (default 3)")
+    p.add_argument("--repeat", type=positive_int, default=3, help="measurements; the best is reported (default 3)")
     p.add_argument("--no-camera", action="store_true", help="skip the lidar + camera measurement (no OpenGL)")
 
 

@@ -8,10 +8,10 @@ import sys
 import warnings
 
 from racecar_sim import __version__
-from racecar_sim.cli import bench, describe, run, teleop, worlds
+from racecar_sim.cli import bench, describe, recover, run, teleop, worlds
 from racecar_sim.core.errors import RacecarSimError
 
-SUBCOMMANDS = {"run": run, "teleop": teleop, "describe": describe, "bench": bench, "worlds": worlds}
+SUBCOMMANDS = {"run": run, "teleop": teleop, "describe": describe, "bench": bench, "worlds": worlds, "recover": recover}
 
 
 class _Parser(argparse.ArgumentParser):

@@ -7,6 +7,7 @@ camera on, then runs/<timestamp>/ holds run.mcap, summary.png and camera.mp4, an
 from __future__ import annotations
 
 import argparse
+import os
 import signal
 import sys
 import time
@@ -15,7 +16,8 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from racecar_sim.cli.args import add_sensor_arguments, add_world_arguments, finite_float, positive_float, sensor_options
+from racecar_sim.cli.args import (add_sensor_arguments, add_world_arguments, finite_float, positive_float, seed_value,
+                                  sensor_options)
 from racecar_sim.cli.live import LiveViews, RealTimePacer, add_live_arguments
 from racecar_sim.control.profiles import profile_names
 from racecar_sim.core.errors import ConfigError
@@ -27,6 +29,10 @@ from racecar_sim.runtime import Simulator
 from racecar_sim.runtime.run_log import RunLog, image_array
 
 DRIVERS = ("wall-follow", "pure-pursuit", "constant")
+CONSTANT_DEFAULTS = {"speed": 1.0, "steering": 0.0, "rate": 20.0}
+# the drivers each option applies to; an option given for another driver is an error, not silently ignored
+OPTION_DRIVERS = {"speed": DRIVERS, "steering": ("constant",), "rate": ("constant",), "side": ("wall-follow",),
+                  "distance": ("wall-follow",), "path": ("pure-pursuit",)}
 PROGRESS_MIN_DURATION = 5.0  # s of sim time; shorter runs finish before a bar is worth drawing
 CHUNK = 0.1  # s of sim time between progress updates
 LIVE_CHUNK = 0.02  # s of sim time between viewer updates
@@ -36,22 +42,29 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help="the main job: a driver drives a world; writes runs/<time>/ (MCAP, summary.png, "
                                    "camera.mp4)")
     add_world_arguments(p, default_world="walker")
-    p.add_argument("--driver", default="wall-follow", choices=DRIVERS,
-                   help="wall-follow (lidar PID), pure-pursuit (a path CSV), constant (--speed/--steering); "
-                        "default wall-follow")
+    wall_follow, pure_pursuit = wall_follow_config(), pure_pursuit_config()
+    p.add_argument("--driver", choices=DRIVERS,
+                   help="wall-follow (lidar PID), pure-pursuit (a path CSV), constant (--speed/--steering); default "
+                        "wall-follow, or constant when --steering or --rate is given or --speed is 0")
     p.add_argument("--duration", type=positive_float, default=60.0, help="sim seconds to run (default 60)")
-    p.add_argument("--speed", type=finite_float, help="m/s: the constant command, or the drivers' top speed")
-    p.add_argument("--steering", type=finite_float, default=0.0, help="rad, for --driver constant (default 0)")
-    p.add_argument("--rate", type=positive_float, default=20.0, help="Hz of --driver constant's commands")
-    p.add_argument("--side", choices=["right", "left"], help="wall-follow: the wall to follow (default left)")
-    p.add_argument("--distance", type=positive_float, help="wall-follow: metres to keep from the wall")
+    p.add_argument("--speed", type=finite_float,
+                   help=f"m/s: the constant command (default {CONSTANT_DEFAULTS['speed']:g}; 0 stands still), or the "
+                        f"top speed of wall-follow (default {wall_follow.speed:g}) and pure-pursuit (default "
+                        f"{pure_pursuit.speed:g} where the path has no speed column)")
+    p.add_argument("--steering", type=finite_float,
+                   help=f"rad, the constant command's steering angle (default {CONSTANT_DEFAULTS['steering']:g})")
+    p.add_argument("--rate", type=positive_float,
+                   help=f"Hz of the constant command (default {CONSTANT_DEFAULTS['rate']:g}; at most the physics rate)")
+    p.add_argument("--side", choices=["right", "left"], help=f"wall-follow: the wall to follow (default {wall_follow.side})")
+    p.add_argument("--distance", type=positive_float,
+                   help=f"wall-follow: metres to keep from the wall (default {wall_follow.distance:g})")
     p.add_argument("--path", metavar="FILE.csv",
                    help="pure-pursuit: waypoint CSV (x,y[,speed]) or track centerline (default: the --world CSV)")
     p.add_argument("--profile", default="seed", choices=profile_names(), help="driving profile (default seed)")
     p.add_argument("--physics", default="default", choices=preset_names(), help="physics preset (default: default)")
     p.add_argument("--odometry", default="original", choices=["original", "ros"],
                    help="original: map->odom as the 2017 sim; ros: odom->base_link, body twist")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=seed_value, default=0, help="random seed, a whole number >= 0 (default 0)")
     p.add_argument("--out", metavar="DIR", help="folder for the run's files (default runs/<date-time>)")
     p.add_argument("--record", metavar="FILE.mcap", help="the MCAP's path (default OUT/run.mcap)")
     p.add_argument("--no-record", action="store_true", help="no MCAP recording")
@@ -62,10 +75,30 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--realtime", action="store_true", help="run no faster than real time")
 
 
+def choose_driver(args: argparse.Namespace) -> str:
+    """The driver the options ask for. Without --driver: constant when --steering or --rate is given (or --speed
+    is 0: a car that stands still), else wall-follow. An option that does not apply to it is an error."""
+    given = [name for name in OPTION_DRIVERS if getattr(args, name) is not None]
+    driver = args.driver
+    if driver is None:
+        wants_constant = "steering" in given or "rate" in given or args.speed == 0
+        driver = "constant" if wants_constant else "wall-follow"
+    for name in given:
+        if driver not in OPTION_DRIVERS[name]:
+            why = "--driver" if args.driver else "the driver chosen by the other options:"
+            raise ConfigError(f"--{name} does not apply to {why} {driver} (it is for --driver "
+                              f"{' or '.join(OPTION_DRIVERS[name])})")
+    return driver
+
+
 def _attach_driver(args: argparse.Namespace, sim: Simulator) -> object:
     if args.driver == "constant":
-        return ConstantCommand(sim.bus, sim.scheduler, 1.0 if args.speed is None else args.speed, args.steering,
-                               args.rate)
+        options = {k: default if getattr(args, k) is None else getattr(args, k) for k, default in CONSTANT_DEFAULTS.items()}
+        physics_rate = 1.0 / sim.model.opt.timestep
+        if options["rate"] > physics_rate:
+            raise ConfigError(f"--rate {options['rate']:g} Hz is faster than the physics ({physics_rate:g} steps/s); "
+                              "a command can change at most once per step")
+        return ConstantCommand(sim.bus, sim.scheduler, options["speed"], options["steering"], options["rate"])
     if args.driver == "wall-follow":
         if sim.lidar is None:
             raise ConfigError("--driver wall-follow steers by the lidar: drop --no-lidar (or DISABLE_GAZEBO_LASER)")
@@ -77,21 +110,53 @@ def _attach_driver(args: argparse.Namespace, sim: Simulator) -> object:
     return PurePursuit(sim.bus, load_waypoints(path), pure_pursuit_config(speed=args.speed, wheelbase=wheelbase))
 
 
+def _output_paths(args: argparse.Namespace) -> tuple[Path, Path | None]:
+    """The run's folder and the MCAP path, checked before the sim is built: a bad --out or --record is one line,
+    never a traceback after a minute of simulation."""
+    out = Path(args.out) if args.out else Path("runs") / datetime.now().strftime("%Y%m%d-%H%M%S")
+    record = None if args.no_record else Path(args.record) if args.record else out / "run.mcap"
+    _check_folder("--out", out)
+    if record is not None:
+        if record.is_dir():
+            raise ConfigError(f"--record {record}: is a folder; give a file name such as {record / 'run.mcap'}")
+        _check_folder("--record", record.parent)
+    return out, record
+
+
+def _check_folder(flag: str, folder: Path) -> None:
+    """`folder` exists as a writable folder, or can be made inside one."""
+    existing = folder
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        raise ConfigError(f"{flag} {folder}: {existing} is not a folder")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise ConfigError(f"{flag} {folder}: {existing} is not writable")
+
+
+def _make_folder(flag: str, folder: Path) -> None:
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"{flag} {folder}: cannot create the folder ({exc.strerror or exc})") from None
+
+
 def _terminate(signum: int, frame: object) -> None:
     raise KeyboardInterrupt  # unwinds through the recorder's close, like Ctrl-C
 
 
 def main(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGTERM, _terminate)
-    out = Path(args.out) if args.out else Path("runs") / datetime.now().strftime("%Y%m%d-%H%M%S")
-    record = None if args.no_record else Path(args.record) if args.record else out / "run.mcap"
+    args.driver = choose_driver(args)
+    out, record = _output_paths(args)
     with Simulator(world=args.world, profile=args.profile, seed=args.seed, physics=args.physics, spawn=args.spawn,
                    odometry=args.odometry, model_path=args.model_path, wall_height=args.wall_height,
                    **sensor_options(args)) as sim:
         _attach_driver(args, sim)
-        out.mkdir(parents=True, exist_ok=True)
+        if not args.no_summary or (sim.camera is not None and not args.no_video):
+            _make_folder("--out", out)
         if record is not None:
-            record.parent.mkdir(parents=True, exist_ok=True)
+            _make_folder("--record", record.parent)
             sim.record(record)
         runlog = RunLog(sim.bus, sim.lidar.topic if sim.lidar else None,
                         sim.camera.spec.image_topic if sim.camera else None)
@@ -147,7 +212,8 @@ def _drive(args: argparse.Namespace, sim: Simulator, live: LiveViews) -> tuple[f
         while sim.time < args.duration - 1e-9 and not live.closed:
             sim.run_until(min(sim.time + chunk, args.duration))
             live.update()
-            bar.update(round(sim.time - bar.n, 3))
+            bar.n = min(round(sim.time, 3), bar.total)  # never past the total: tqdm would warn and count down below 0
+            bar.refresh()
             if realtime:
                 pacer.wait(sim.time)
     except KeyboardInterrupt:

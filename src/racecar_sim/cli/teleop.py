@@ -16,21 +16,21 @@ from racecar_sim.cli.args import (
     add_world_arguments,
     finite_float,
     positive_float,
+    seed_value,
     sensor_options,
 )
 from racecar_sim.cli.live import LiveViews, RealTimePacer, add_live_arguments
 from racecar_sim.cli.terminal import RawTerminal, StopSignals, stdin_is_tty
-from racecar_sim.control.teleop import TELEOP, KeyboardTeleop, load_teleop_config
+from racecar_sim.control.teleop import LOW_MUX, TELEOP, ActiveInput, KeyboardTeleop, load_teleop_config
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.transforms import yaw_of
-from racecar_sim.msgs import AckermannDriveStamped, Odometry, String
+from racecar_sim.msgs import AckermannDriveStamped, Odometry
 from racecar_sim.runtime import Simulator
 
 SLICE = 0.02  # s of sim time between two looks at the keyboard
 STATUS_PERIOD = 0.1  # s of wall time between status line redraws
 SETTLE = 0.05  # s of sim time after the final zero command, so that it reaches the wheels
 QUIT_KEYS = ("q", "Q", "\x03")  # raw mode hands Ctrl-C over as "\x03"
-LOW_MUX = "/vesc/low_level/ackermann_cmd_mux"
 NOT_A_TTY = "teleop reads keys from a terminal (stdin is not a TTY); use --viewer, or run it in a terminal"
 NO_KEYBOARD = "teleop has no keyboard: stdin is not a TTY and the viewer did not open"
 
@@ -56,28 +56,27 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         f"(default {config.hold:g}; 0: one message per key, as the original)")
     p.add_argument("--duration", type=positive_float, metavar="S",
                    help="end the session after S sim seconds (default: at q or Ctrl-C)")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=seed_value, default=0, help="random seed (default 0)")
     p.add_argument("--record", metavar="FILE.mcap", help="record every topic to an MCAP file")
     add_sensor_arguments(p)
     add_live_arguments(p)
 
 
 class Dashboard:
-    """What the status line and the summary show, from /vesc/odom and the low-level mux."""
+    """What the status line and the summary show, from /vesc/odom and both muxes."""
 
     def __init__(self, sim: Simulator, record: str | None, stream: TextIO) -> None:
         self.sim, self.record, self.stream = sim, record, stream
         self.odom: Odometry | None = None
         self.distance = 0.0
         self.steering = 0.0
-        self.active = "idle"
+        self.control = ActiveInput(sim.bus)
         self._live = stream.isatty()
         self._next_draw = 0.0
         self._last: tuple[float, float] | None = None  # (wall, sim) at the last redraw
         self._rtf = 0.0
         sim.subscribe("/vesc/odom", self._on_odom)
         sim.subscribe(f"{LOW_MUX}/output", self._on_output)
-        sim.subscribe(f"{LOW_MUX}/active", self._on_active)
 
     def _on_odom(self, msg: Odometry) -> None:
         if self.odom is not None:
@@ -87,9 +86,6 @@ class Dashboard:
 
     def _on_output(self, msg: AckermannDriveStamped) -> None:
         self.steering = msg.drive.steering_angle
-
-    def _on_active(self, msg: String) -> None:
-        self.active = msg.data
 
     def pose(self) -> tuple[float, float, float]:
         """x, y, yaw of the last odometry (zeros before the first)."""
@@ -126,7 +122,7 @@ class Dashboard:
         x, y, yaw = self.pose()
         speed = self.odom.twist.twist.linear.x if self.odom is not None else 0.0
         line = (f"t {self.sim.time:7.2f} s | v {speed:+5.2f} m/s | steer {self.steering:+5.2f} rad | "
-                f"x {x:+7.2f} y {y:+7.2f} yaw {yaw:+5.2f} | {self._rtf:4.2f}x | {self.active}")
+                f"x {x:+7.2f} y {y:+7.2f} yaw {yaw:+5.2f} | {self._rtf:4.2f}x | {self.control.label}")
         if self.record:
             line += f" | rec {self.record}"
         with contextlib.suppress(OSError, ValueError):

@@ -13,6 +13,7 @@ from racecar_sim.worlds import BUILTIN_WORLDS, load_world, world_names, world_su
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("worlds", help="list the built-in worlds, or draw one from above to a PNG (--show)")
     p.add_argument("--show", metavar="NAME|PATH", help="draw this world (built-in name or world file) to a PNG")
+    p.add_argument("--names", action="store_true", help="only the built-in worlds' names, one a line (for scripts)")
     p.add_argument("--out", metavar="FILE.png", help="PNG to write (default: <world name or file stem>.png)")
     add_world_arguments(p, world_option=False)
 
@@ -30,6 +31,9 @@ def listing() -> str:
 
 
 def main(args: argparse.Namespace) -> int:
+    if args.names:
+        print("\n".join(world_names()))
+        return 0
     if args.show is None:
         print(listing())
         return 0

@@ -8,6 +8,7 @@ from functools import partial
 
 from racecar_sim.bus import Bus
 from racecar_sim.control.controllers import VELOCITY, ControllerConfig, JointController
+from racecar_sim.core.throttle import ThrottledWarning
 from racecar_sim.description.urdf import Robot
 from racecar_sim.msgs import Float64
 from racecar_sim.physics.state import CarState
@@ -20,6 +21,7 @@ class ControllerCommands:
 
     def __init__(self, bus: Bus, state: CarState, config: ControllerConfig, robot: Robot) -> None:
         self.state = state
+        self.warn = ThrottledWarning(log)
         self.limits: dict[str, tuple[float, float]] = {}
         for c in config.controllers:
             limit = robot.joints[c.joint].limit
@@ -33,8 +35,9 @@ class ControllerCommands:
 
     def _on_command(self, controller: JointController, msg: Float64) -> None:
         value = msg.data
-        if not math.isfinite(value):
-            log.warning("%s: ignored command %s (not a finite number)", controller.command_topic, value)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            self.warn(controller.command_topic, "%s: ignored command %r (not a finite number)", controller.command_topic,
+                  value)
             return
         lo, hi = self.limits.get(controller.name, (-math.inf, math.inf))
         self.state.set_command(controller.name, min(max(value, lo), hi))

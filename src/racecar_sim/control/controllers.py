@@ -17,6 +17,7 @@ import mujoco
 import yaml
 
 from racecar_sim.core.errors import ConfigError
+from racecar_sim.core.tables import finite_number
 from racecar_sim.description.urdf import Robot
 
 VELOCITY = "effort_controllers/JointVelocityController"
@@ -73,13 +74,19 @@ def load_controller_config(path: str | Path, robot: Robot) -> ControllerConfig:
     if not isinstance(data, dict) or len(data) != 1:
         raise ConfigError(f"{path}: expected one top-level namespace (e.g. 'racecar:')")
     namespace, entries = next(iter(data.items()))
+    if not isinstance(entries, dict):
+        raise ConfigError(f"{path}: {namespace}: expected a mapping of controller names to their parameters")
     effort_joints = {t.joint for t in robot.transmissions if t.hardware_interface in _EFFORT_INTERFACES}
     controllers, rate = [], 0.0
     for name, entry in entries.items():
         where = f"{path}: {namespace}/{name}"
+        if not isinstance(entry, dict):
+            raise ConfigError(f"{where}: expected a mapping with type, joint and pid")
         kind = entry.get("type")
         if kind == JOINT_STATE:
-            rate = float(entry.get("publish_rate", 50))
+            rate = finite_number(entry.get("publish_rate", 50), f"{where}/publish_rate")
+            if rate <= 0:
+                raise ConfigError(f"{where}/publish_rate: must be positive, got {rate:g}")
             continue
         if kind not in (VELOCITY, POSITION):
             raise ConfigError(f"{where}: controller type '{kind}' is not supported")
@@ -89,14 +96,21 @@ def load_controller_config(path: str | Path, robot: Robot) -> ControllerConfig:
         if joint not in effort_joints:
             raise ConfigError(f"{where}: joint '{joint}' has no EffortJointInterface transmission")
         pid = entry.get("pid") or {}
-        try:
-            gains = Gains(*(float(pid.get(k, 0.0)) for k in ("p", "i", "d", "i_clamp")))
-        except (TypeError, ValueError):
-            raise ConfigError(f"{where}: pid gains must be numbers, got {pid}") from None
+        if not isinstance(pid, dict):
+            raise ConfigError(f"{where}/pid: expected a mapping of gains (p, i, d, i_clamp), got {pid!r}")
+        gains = Gains(*(_gain(pid, k, f"{where}/pid/{k}") for k in ("p", "i", "d", "i_clamp")))
         if kind == VELOCITY and gains.d != 0.0:
             raise ConfigError(f"{where}: a d gain on a JointVelocityController (acceleration feedback) is not supported")
         controllers.append(JointController(name, kind, joint, gains, f"/{namespace}"))
     return ControllerConfig(f"/{namespace}", tuple(controllers), rate)
+
+
+def _gain(pid: dict, key: str, where: str) -> float:
+    """A ros_control gain: a finite number >= 0 (a negative gain pushes away from the set point)."""
+    value = finite_number(pid.get(key, 0.0), where)
+    if value < 0:
+        raise ConfigError(f"{where}: must not be negative, got {value:g}")
+    return value
 
 
 def add_actuators(spec: mujoco.MjSpec, config: ControllerConfig, robot: Robot) -> None:

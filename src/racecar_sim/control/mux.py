@@ -8,10 +8,13 @@ re-publishes on its own.
 
 from __future__ import annotations
 
+import logging
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
+from typing import Any
 
 import yaml
 
@@ -20,8 +23,43 @@ from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.time import to_ns
 from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header, String
 from racecar_sim.core.scheduler import Scheduler, Task
+from racecar_sim.core.tables import finite_number
+from racecar_sim.core.throttle import ThrottledWarning
 
 DATA = Path(__file__).parent / "data"
+log = logging.getLogger("racecar_sim.ackermann_cmd_mux")
+_DRIVE_FIELDS = ("speed", "steering_angle", "steering_angle_velocity", "acceleration", "jerk")
+
+
+def non_finite_field(msg: AckermannDriveStamped) -> str | None:
+    """The first drive field of `msg` that is NaN or infinite (or not a number at all), else None."""
+    for name in _DRIVE_FIELDS:
+        value = getattr(msg.drive, name, None)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            return f"drive.{name} = {value!r}"
+    return None
+
+
+def accept_command(topic: str, msg: AckermannDriveStamped, warn: ThrottledWarning) -> bool:
+    """Whether a command may enter the command path; a non-finite one is dropped with a throttled warning,
+    so it neither drives the car nor refreshes any mux timeout (a NaN driver stops the car like a silent one)."""
+    bad = non_finite_field(msg)
+    if bad is None:
+        return True
+    warn(topic, "%s: ignored a command with %s (not a finite number)", topic, bad)
+    return False
+
+
+def _number(entry: dict[str, Any], key: str, where: str, integer: bool = False, positive: bool = False) -> float:
+    value = entry.get(key) if isinstance(entry, dict) else None
+    if integer:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(f"{where}: {key} must be a whole number, got {value!r}")
+        return value
+    number = finite_number(value, f"{where}: {key}")
+    if positive and number <= 0:
+        raise ConfigError(f"{where}: {key} must be positive, got {value!r}")
+    return number
 
 
 @dataclass(frozen=True)
@@ -38,10 +76,22 @@ def load_mux_inputs(path: Path) -> tuple[list[MuxInput], str]:
     """Read a yocs-style mux YAML: the subscribers and the output topic name."""
     try:
         data = yaml.safe_load(path.read_text())
-        inputs = [MuxInput(s["name"], s["topic"], float(s["timeout"]), int(s["priority"])) for s in data["subscribers"]]
-        return inputs, data.get("publisher", "output")
-    except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError) as exc:
+        subscribers = data["subscribers"]
+        output = data.get("publisher", "output")
+    except (OSError, yaml.YAMLError, KeyError, TypeError, AttributeError) as exc:
         raise ConfigError(f"{path}: malformed mux config: {' '.join(str(exc).split())}") from None
+    if not isinstance(subscribers, list) or not subscribers:
+        raise ConfigError(f"{path}: subscribers must be a non-empty list")
+    inputs = []
+    for i, entry in enumerate(subscribers):
+        where = f"{path}: subscribers[{i}]"
+        for key in ("name", "topic"):
+            if not isinstance(entry, dict) or not isinstance(entry.get(key), str) or not entry[key]:
+                raise ConfigError(f"{where}: {key} must be a non-empty string")
+        where = f"{path}: subscribers[{i}] ({entry['name']})"
+        inputs.append(MuxInput(entry["name"], entry["topic"], float(_number(entry, "timeout", where, positive=True)),
+                               int(_number(entry, "priority", where, integer=True))))
+    return inputs, str(output)
 
 
 class AckermannCmdMux:
@@ -54,6 +104,7 @@ class AckermannCmdMux:
         self.output_topic = f"{namespace}/{output}"
         self.active_topic = f"{namespace}/active"
         self.holder: MuxInput | None = None
+        self.warn = ThrottledWarning(log)
         self._timers: dict[str, Task] = {}
         bus.latch(self.active_topic)
         bus.publish(self.active_topic, String("idle"))
@@ -61,6 +112,8 @@ class AckermannCmdMux:
             bus.subscribe(f"{namespace}/{inp.topic}", partial(self._on_command, inp))
 
     def _on_command(self, inp: MuxInput, msg: AckermannDriveStamped) -> None:
+        if not accept_command(f"{self.namespace}/{inp.topic}", msg, self.warn):
+            return
         timer = self._timers.get(inp.name)
         if timer is not None:
             timer.cancel()
@@ -91,15 +144,25 @@ class CommandChain:
             muxes, relays = data["muxes"], data["relays"]
         except (OSError, yaml.YAMLError, KeyError, TypeError) as exc:
             raise ConfigError(f"{config}: malformed mux wiring: {' '.join(str(exc).split())}") from None
+        self.warn = ThrottledWarning(log)
+        where = f"{config}: default_command"
+        rate = _number(default, "rate", where, positive=True)
+        speed, steering = _number(default, "speed", where), _number(default, "steering_angle", where)
         self.muxes = []
         for namespace, file in muxes.items():
             inputs, output = load_mux_inputs(config.parent / file)
             self.muxes.append(AckermannCmdMux(bus, scheduler, now, namespace, inputs, output))
         for source, target in relays:
-            bus.subscribe(source, partial(bus.publish, target))
-        command = AckermannDrive(steering_angle=float(default["steering_angle"]), speed=float(default["speed"]))
+            bus.subscribe(source, partial(self._relay, source, target))
+        self.bus = bus
+        command = AckermannDrive(steering_angle=float(steering), speed=float(speed))
 
         def publish_default(now_ns: int) -> None:
             bus.publish(default["topic"], AckermannDriveStamped(Header.at(now_ns), command))
 
-        scheduler.every(float(default["rate"]), publish_default, "zero_ackermann_cmd")
+        scheduler.every(float(rate), publish_default, "zero_ackermann_cmd")
+
+    def _relay(self, source: str, target: str, msg: AckermannDriveStamped) -> None:
+        """topic_tools relay; a non-finite command is dropped here, naming the topic it was published on."""
+        if accept_command(source, msg, self.warn):
+            self.bus.publish(target, msg)

@@ -17,6 +17,8 @@ import numpy as np
 
 from racecar_sim.bus import Bus
 from racecar_sim.control.controllers import ControllerConfig
+from racecar_sim.control.mux import accept_command
+from racecar_sim.core.throttle import ThrottledWarning
 from racecar_sim.description.urdf import Robot
 from racecar_sim.description.vehicle import VehicleGeometry
 from racecar_sim.msgs import AckermannDriveStamped, Float64
@@ -58,6 +60,8 @@ class ServoCommands:
                                             hinge_limits))
         self.max_curvature = self._max_curvature()
         self._warned = False
+        self.input_topic = input_topic
+        self.warn = ThrottledWarning(log)
         bus.subscribe(input_topic, self._on_drive)
 
     def _max_curvature(self) -> float:
@@ -71,11 +75,9 @@ class ServoCommands:
         return limit
 
     def _on_drive(self, msg: AckermannDriveStamped) -> None:
+        if not accept_command(self.input_topic, msg, self.warn):
+            return
         speed, steer = msg.drive.speed, msg.drive.steering_angle
-        for name, value in (("drive.speed", speed), ("drive.steering_angle", steer)):
-            if not math.isfinite(value):
-                log.warning("servo_commands: ignored a command with %s = %s (not a finite number)", name, value)
-                return
         commands = self.parallel(speed, steer) if self.mode == "parallel" else self.ackermann(speed, steer)
         for topic, value in commands:
             self.bus.publish(topic, Float64(float(value)))

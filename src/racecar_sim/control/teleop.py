@@ -1,20 +1,23 @@
-"""keyboard_teleop.py as a node: keys to AckermannDriveStamped on the mux's teleop input."""
+"""keyboard_teleop.py as a node: keys to AckermannDriveStamped on the mux's teleop input; what is in control."""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-import yaml
-
 from racecar_sim.bus import Bus
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.scheduler import Scheduler
+from racecar_sim.core.tables import finite_number, load_record
 from racecar_sim.core.time import to_ns
-from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header
+from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header, String
 
 TELEOP = "/vesc/ackermann_cmd_mux/input/teleop"
+HIGH_MUX = "/vesc/high_level/ackermann_cmd_mux"
+LOW_MUX = "/vesc/low_level/ackermann_cmd_mux"
+IDLE_ZERO = "idle (zero command)"
 DEFAULTS = Path(__file__).parent / "data" / "keyboard_teleop.yaml"
 
 
@@ -33,15 +36,18 @@ class TeleopConfig:
 
 
 def load_teleop_config(path: Path = DEFAULTS) -> TeleopConfig:
-    """Read a keyboard_teleop.yaml; ConfigError names the file and the problem."""
-    try:
-        data = yaml.safe_load(path.read_text())
-        bindings = {str(k): (float(v[0]), float(v[1])) for k, v in data["bindings"].items()}
-        return TeleopConfig(float(data["speed"]), float(data["turn"]), bindings, float(data["hold"]),
-                            float(data["repeat_rate"]), float(data["acceleration"]), float(data["jerk"]),
-                            float(data["steering_angle_velocity"]))
-    except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError, IndexError) as exc:
-        raise ConfigError(f"{path}: malformed teleop config: {' '.join(str(exc).split())}") from None
+    """Read a keyboard_teleop.yaml; ConfigError names the file and the field."""
+    path = Path(path)
+    config = load_record(path, TeleopConfig)
+    bindings = {}
+    for key, factors in (config.bindings or {}).items():
+        if not isinstance(factors, (list, tuple)) or len(factors) != 2:
+            raise ConfigError(f"{path}: bindings: {key}: expected [speed factor, steering factor], got {factors!r}")
+        bindings[str(key)] = tuple(finite_number(f, f"{path}: bindings: {key}") for f in factors)
+    if config.hold < 0 or config.repeat_rate <= 0:
+        raise ConfigError(f"{path}: hold must be >= 0 and repeat_rate positive, got {config.hold:g}, "
+                          f"{config.repeat_rate:g}")
+    return dataclasses.replace(config, bindings=bindings)
 
 
 class KeyboardTeleop:
@@ -91,3 +97,40 @@ class KeyboardTeleop:
 
     def _publish(self, now_ns: int) -> None:
         self.bus.publish(self.topic, AckermannDriveStamped(Header.at(now_ns, "base_link"), self.drive))
+
+
+def in_control(low: str, high: str) -> str:
+    """What drives the car, from the low-level mux's holder and the high-level holder that last fed it.
+
+    The 6 Hz default zero command reaches the low-level mux through its Navigation input, so a low-level
+    "Navigation" fed by the high-level "Default" is nobody driving: IDLE_ZERO. Fed by "Navigation 0" (the
+    drivers' /vesc/ackermann_cmd_mux/input/navigation) it is "Navigation"; another high-level input is named as
+    the mux names it. Any other low-level holder ("Teleoperation", "Safety", "idle") is shown as it is.
+    """
+    if low != "Navigation":
+        return low
+    if high == "Default":
+        return IDLE_ZERO
+    return "Navigation" if high in ("Navigation 0", "idle") else high
+
+
+class ActiveInput:
+    """Follows both muxes' latched `active` topics; `label` says what is in control (see in_control)."""
+
+    def __init__(self, bus: Bus, low_mux: str = LOW_MUX, high_mux: str = HIGH_MUX) -> None:
+        self.low = "idle"
+        self.high = "idle"  # the high-level holder whose command the low-level mux last got
+        bus.subscribe(f"{high_mux}/active", self._on_high)
+        bus.subscribe(f"{low_mux}/active", self._on_low)
+
+    def _on_high(self, msg: String) -> None:
+        if msg.data != "idle":  # a timed-out holder's last command may still hold the low-level mux
+            self.high = msg.data
+
+    def _on_low(self, msg: String) -> None:
+        self.low = msg.data
+
+    @property
+    def label(self) -> str:
+        """What drives the car now: "Teleoperation", "Navigation", IDLE_ZERO, "idle", ..."""
+        return in_control(self.low, self.high)

@@ -23,5 +23,13 @@ class CommandError(RacecarSimError):
     """A command message carries a NaN, an infinity or an out-of-range value."""
 
 
+class PhysicsError(RacecarSimError):
+    """The physics diverged (NaN or a huge acceleration): the run stops rather than publish NaN."""
+
+
 class RenderingError(RacecarSimError):
     """No headless OpenGL context (EGL or OSMesa) could be created for the camera."""
+
+
+class RecordingError(RacecarSimError):
+    """An MCAP recording cannot be written, or a file given to recover is missing or not MCAP."""

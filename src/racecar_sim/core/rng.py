@@ -6,6 +6,15 @@ import zlib
 
 import numpy as np
 
+from racecar_sim.core.errors import ConfigError
+
+
+def check_seed(seed: object) -> int:
+    """A run's seed: a whole number >= 0 (numpy's seed sequences take no negative or fractional seeds)."""
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ConfigError(f"seed must be a whole number >= 0, got {seed!r}")
+    return int(seed)
+
 
 def stream(seed: int, name: str) -> np.random.Generator:
     """An independent generator for the consumer called `name` (a sensor, a driver) in run `seed`.

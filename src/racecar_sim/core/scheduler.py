@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import heapq
 import itertools
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from fractions import Fraction
 
+from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.time import NS_PER_S, ceil_to_step
 
 
@@ -51,8 +53,11 @@ class Scheduler:
 
     def every(self, rate_hz: float, callback: Callable[[int], None], name: str, start_ns: int = 0) -> Task:
         """Call `callback(now_ns)` at start + k/rate for k = 1, 2, ..."""
-        if not rate_hz > 0:
-            raise ValueError(f"task {name}: rate must be positive, got {rate_hz}")
+        if not rate_hz > 0 or not math.isfinite(rate_hz):
+            raise ConfigError(f"task {name}: rate must be a positive number, got {rate_hz}")
+        if rate_hz * self.step_ns > NS_PER_S:  # it would fire several times per step, or forever at 1 ns
+            raise ConfigError(f"task {name}: rate {rate_hz:g} Hz is faster than the physics "
+                              f"({NS_PER_S / self.step_ns:g} steps/s)")
         period = Fraction(NS_PER_S) / Fraction(rate_hz).limit_denominator(1_000_000)
         task = Task(name, callback, period, start_ns, index=1)
         self._push(start_ns + _ceil(period), task)

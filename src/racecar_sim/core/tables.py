@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from functools import lru_cache
 from pathlib import Path
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import yaml
 
@@ -28,12 +30,52 @@ def read_table(path: Path) -> dict[str, dict]:
 def table_entry(path: Path, name: str, cls: type[T], kind: str) -> T:
     """Entry `name` of the table as a `cls`; ConfigError names the file, the entry and the known names."""
     table = read_table(path)
-    if name not in table:
-        raise ConfigError(f"unknown {kind} '{name}' (choose from: {', '.join(table)}; {path})")
+    if not isinstance(name, str) or name not in table:
+        raise ConfigError(f"unknown {kind} {name!r} (choose from: {', '.join(table)}; {path})")
+    entry = table[name]
+    where = f"{path}: {kind} '{name}'"
+    if not isinstance(entry, dict):
+        raise ConfigError(f"{where}: expected a mapping of fields")
+    fields = {f.name: f for f in dataclasses.fields(cls) if f.name != "name"}  # type: ignore[arg-type]
+    unknown = sorted(set(entry) - set(fields))
+    if unknown:
+        raise ConfigError(f"{where}: unknown field {', '.join(unknown)}")
+    values = {key: checked_value(fields[key], value, f"{where}: {key}") for key, value in entry.items()}
     try:
-        return cls(name=name, **table[name])  # type: ignore[call-arg]
+        return cls(name=name, **values)  # type: ignore[call-arg]
     except TypeError as exc:
-        raise ConfigError(f"{path}: {kind} '{name}': {exc}") from None
+        raise ConfigError(f"{where}: {exc}") from None
+
+
+def finite_number(value: Any, where: str) -> float:
+    """A YAML value as a finite float. PyYAML (YAML 1.1, as rosparam) reads `1e-3` as a string: accept it."""
+    number = value
+    if isinstance(value, str):
+        try:
+            number = float(value)
+        except ValueError:
+            pass
+    if isinstance(number, bool) or not isinstance(number, (int, float)) or not math.isfinite(number):
+        raise ConfigError(f"{where}: expected a finite number, got {value!r}")
+    return float(number)
+
+
+def checked_value(f: dataclasses.Field, value: Any, where: str) -> Any:
+    """`value` for dataclass field `f`, checked against its annotation: float fields take finite numbers,
+    int fields whole numbers, str fields strings; `| None` allows null. ConfigError names `where`."""
+    annotation = str(f.type).replace(" ", "")
+    if value is None and annotation.endswith("|None"):
+        return None
+    base = annotation.removesuffix("|None")
+    if base == "float":
+        return finite_number(value, where)
+    if base == "int" and (isinstance(value, bool) or not isinstance(value, int)):
+        raise ConfigError(f"{where}: expected a whole number, got {value!r}")
+    if base == "str" and not isinstance(value, str):
+        raise ConfigError(f"{where}: expected a string, got {value!r}")
+    if base.startswith("dict") and not isinstance(value, dict):
+        raise ConfigError(f"{where}: expected a mapping, got {value!r}")
+    return value
 
 
 def load_record(path: Path, cls: type[T], overrides: dict[str, object] | None = None) -> T:
@@ -41,9 +83,6 @@ def load_record(path: Path, cls: type[T], overrides: dict[str, object] | None = 
 
     Every field must be given; float fields must be finite numbers. ConfigError names the file and field.
     """
-    import dataclasses
-    import math
-
     data = dict(read_table(path))
     for key, value in (overrides or {}).items():
         if value is not None:
@@ -55,11 +94,5 @@ def load_record(path: Path, cls: type[T], overrides: dict[str, object] | None = 
         what = "; ".join(filter(None, [unknown and f"unknown field {', '.join(unknown)}",
                                        missing and f"missing field {', '.join(missing)}"]))
         raise ConfigError(f"{path}: {what}")
-    values = {}
-    for name, value in data.items():
-        if fields[name].type in ("float", float):
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise ConfigError(f"{path}: {name}: expected a finite number, got {value!r}")
-            value = float(value)
-        values[name] = value
+    values = {name: checked_value(fields[name], value, f"{path}: {name}") for name, value in data.items()}
     return cls(**values)

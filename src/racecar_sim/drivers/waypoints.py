@@ -1,4 +1,4 @@
-"""The paths pure-pursuit follows: a race-track centerline CSV or a waypoint CSV."""
+"""The paths pure-pursuit follows: a race-track centerline, an F1TENTH raceline or a waypoint CSV."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from racecar_sim.core.errors import ConfigError
+from racecar_sim.worlds.centerline import SPEED_NAMES, X_NAMES, Y_NAMES, read_csv_table
 
 
 @dataclass(frozen=True)
@@ -21,41 +22,40 @@ class Waypoints:
 
 
 def load_waypoints(path: str | Path) -> Waypoints:
-    """Read `x, y` (waypoints), `x, y, speed`, or `x, y, w_right, w_left` (an F1TENTH centerline) rows.
+    """Read a path CSV: `x, y` (waypoints), `x, y, speed`, `x, y, w_right, w_left` (an F1TENTH centerline), or any
+    table whose header names the columns, as the F1TENTH racelines' `# s_m; x_m; y_m; psi_rad; kappa_radpm;
+    vx_mps; ax_mps2` (x_m, y_m, and vx_mps as the speed).
 
-    `#` lines are comments; a path whose ends lie within two mean spacings of each other is a loop.
+    Comma or semicolon separated; the header is a plain first row or the last `#` line before the data
+    (read_csv_table, shared with the track loader). Without a header naming x and y, the first two columns are
+    x, y and a third of exactly three is the speed. A path whose ends lie within two mean spacings of each
+    other is a loop.
     """
-    path = Path(path)
-    rows: list[list[float]] = []
-    try:
-        lines = path.read_text().splitlines()
-    except OSError as exc:
-        raise ConfigError(f"{path}: cannot read the path: {exc.strerror or exc}") from None
-    for number, line in enumerate(lines, 1):
-        text = line.split("#", 1)[0].strip()
-        if not text:
-            continue
-        try:
-            values = [float(v) for v in text.replace(";", ",").split(",")]
-        except ValueError:
-            raise ConfigError(f"{path}: line {number}: not a row of numbers: {line.strip()!r}") from None
-        if len(values) < 2 or not np.all(np.isfinite(values)):
-            raise ConfigError(f"{path}: line {number}: need finite x, y (got {line.strip()!r})")
-        if rows and len(values) != len(rows[0]):
-            raise ConfigError(f"{path}: line {number}: {len(values)} columns, the first row has {len(rows[0])}")
-        rows.append(values)
-    if len(rows) < 2:
-        raise ConfigError(f"{path}: a path needs at least 2 points, got {len(rows)}")
-    table = np.array(rows)
-    points = table[:, :2]
-    speeds = table[:, 2] if table.shape[1] == 3 else None
+    table = read_csv_table(path, ConfigError)
+    path = table.path
+    x, y = table.find(X_NAMES), table.find(Y_NAMES)
+    if x is not None and y is not None:
+        speed = table.find(SPEED_NAMES)
+    elif table.rows and table.width < 2:
+        raise table.fail(table.lines[0], f"need at least 2 columns (x, y), got {table.width}")
+    else:
+        x, y, speed = 0, 1, 2 if table.width == 3 else None
+    columns = [(x, "x"), (y, "y")] + ([(speed, "speed")] if speed is not None else [])
+    values = table.numbers(columns)
+    if len(values) < 2:
+        raise ConfigError(f"{path}: a path needs at least 2 points, got {len(values)}")
+    points = values[:, :2]
+    speeds = values[:, 2] if speed is not None else None
     if speeds is not None and np.any(speeds <= 0):
-        raise ConfigError(f"{path}: the speed column must be positive")
+        line = table.lines[int(np.flatnonzero(speeds <= 0)[0])]
+        raise table.fail(line, f"speed: must be positive, got {speeds[speeds <= 0][0]:g}")
     steps = np.hypot(*np.diff(points, axis=0).T)
     if np.any(steps == 0):
         keep = np.concatenate([[True], steps > 0])
         points, speeds = points[keep], None if speeds is None else speeds[keep]
         steps = steps[steps > 0]
+        if len(points) < 2:
+            raise ConfigError(f"{path}: a path needs at least 2 distinct points, got {len(points)}")
     gap = float(np.hypot(*(points[-1] - points[0])))
     closed = len(points) > 2 and gap <= 2 * float(np.mean(steps))
     if closed and gap == 0:

@@ -2,10 +2,16 @@
 
 Each topic becomes a channel with message encoding ``cdr`` and a ``ros2msg`` schema (the same text
 our MCAP recorder embeds), so Foxglove and Lichtblick decode it as they decode a ROS 2 topic.
+
+foxglove-sdk speaks only the ``foxglove.sdk.v1`` subprotocol and refuses, before any message, a client that
+offers only ``foxglove.websocket.v1`` (Lichtblick 1.21 and older, the ``@foxglove/ws-protocol`` client); it
+logs just "Dropping client ...: handshake failed". A filter on its logger turns that line into a warning
+that names the subprotocol and the clients that speak it.
 """
 
 from __future__ import annotations
 
+import logging
 import threading
 from collections.abc import Callable
 from typing import Any
@@ -19,6 +25,12 @@ from racecar_sim.core.errors import ConfigError
 from racecar_sim.msgs import msgtype_of, schema_text, serialize
 
 SERVER_NAME = "racecar_sim"
+SUBPROTOCOL = "foxglove.sdk.v1"
+SDK_SERVER_LOGGER = "foxglove.websocket.server"  # the Rust server's log target, through Python's logging
+HANDSHAKE_FAILED = "handshake failed"
+HANDSHAKE_HINT = (f"this server speaks the {SUBPROTOCOL} WebSocket subprotocol only: a client that offers only "
+                  "foxglove.websocket.v1 (Lichtblick 1.21 or older) cannot connect; use Foxglove, or Lichtblick "
+                  "1.22 or newer")
 
 
 class FoxgloveBridge:
@@ -49,6 +61,7 @@ class FoxgloveBridge:
         self._lock = threading.Lock()
         self._now = clock()
         self._closed = False
+        _explain_failed_handshakes()
         self._server = _start_server(host, port, self._context, _SubscribeListener(self))
         self.port: int = self._server.port
         for topic, msg in bus.latched_messages().items():
@@ -121,6 +134,25 @@ class _SubscribeListener(ServerListener):
 
     def on_subscribe(self, client: Client, channel: ChannelView) -> None:
         self._bridge._resend_latched(channel.id)
+
+
+class _HandshakeHint(logging.Filter):
+    """Makes the SDK's "Dropping client ...: handshake failed" a one-line warning that says which
+    subprotocol the server speaks (the SDK cannot tell us what the client offered)."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        message = record.getMessage()
+        if message.endswith(HANDSHAKE_FAILED):
+            record.msg, record.args = f"Foxglove: {message}: {HANDSHAKE_HINT}", ()
+            record.levelno, record.levelname = logging.WARNING, logging.getLevelName(logging.WARNING)
+        return True
+
+
+def _explain_failed_handshakes() -> None:
+    """Put the _HandshakeHint filter on the SDK server's logger, once per process."""
+    logger = logging.getLogger(SDK_SERVER_LOGGER)
+    if not any(isinstance(f, _HandshakeHint) for f in logger.filters):
+        logger.addFilter(_HandshakeHint())
 
 
 def _start_server(host: str, port: int, context: Context, listener: _SubscribeListener) -> WebSocketServer:

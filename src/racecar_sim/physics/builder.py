@@ -7,6 +7,7 @@ Gazebo merges links joined by fixed joints into their parent; MuJoCo's `fusestat
 from __future__ import annotations
 
 import itertools
+import logging
 import warnings
 
 import mujoco
@@ -16,17 +17,13 @@ from racecar_sim.core.errors import DescriptionError
 from racecar_sim.core.transforms import quat_from_axis_angle, quat_from_rpy
 from racecar_sim.description.urdf import Link, Robot, Shape
 from racecar_sim.physics.contact import solref_solimp
-from racecar_sim.physics.presets import PhysicsPreset
+from racecar_sim.physics.presets import CONES, INTEGRATORS, SOLVERS, PhysicsPreset
 from racecar_sim.physics.world_geoms import COLLISION_GROUP, GEOM_TYPES, VISUAL_GROUP, add_world, mj_size
 from racecar_sim.worlds.materials import gazebo_material_rgba
 from racecar_sim.worlds.world import World
 
 ROOT_JOINT = "root"
 
-_INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
-                "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT, "rk4": mujoco.mjtIntegrator.mjINT_RK4}
-_SOLVERS = {"newton": mujoco.mjtSolver.mjSOL_NEWTON, "cg": mujoco.mjtSolver.mjSOL_CG, "pgs": mujoco.mjtSolver.mjSOL_PGS}
-_CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
 
 
 def build_spec(robot: Robot, world: World, preset: PhysicsPreset) -> mujoco.MjSpec:
@@ -44,10 +41,12 @@ def _options(spec: mujoco.MjSpec, world: World, preset: PhysicsPreset) -> None:
     opt = spec.option
     opt.timestep = world.physics.max_step_size or preset.timestep
     opt.gravity = list(world.physics.gravity)
-    opt.integrator = _INTEGRATORS[preset.integrator]
-    opt.solver = _SOLVERS[preset.solver]
+    opt.integrator = INTEGRATORS[preset.integrator]
+    opt.solver = SOLVERS[preset.solver]
     opt.iterations = world.physics.iterations or preset.iterations
-    opt.cone = _CONES[preset.cone]
+    opt.cone = CONES[preset.cone]
+    # A diverging state is an error the run reports and stops on (runtime), not one MuJoCo silently resets.
+    opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
     spec.compiler.fusestatic = True
     spec.compiler.discardvisual = False
     spec.compiler.autolimits = True
@@ -152,3 +151,17 @@ def _friction_min_rule(spec: mujoco.MjSpec) -> None:
     levels = sorted({g.friction[0] for g in colliding}, reverse=True)
     for g in colliding:
         g.priority = levels.index(g.friction[0])
+
+
+def route_mujoco_warnings() -> None:
+    """Send MuJoCo's C-level warnings to the `racecar_sim.mujoco` logger (INFO) instead of raw stderr lines.
+
+    The simulator reports what matters (a diverged state) as one error of its own; MuJoCo would otherwise
+    print its own line per reset, which is how a NaN gain once produced 1,600 lines in 2 s.
+    """
+    if mujoco.get_mju_user_warning() is None:
+        mujoco.set_mju_user_warning(_log_mujoco_warning)
+
+
+def _log_mujoco_warning(message: str) -> None:
+    logging.getLogger("racecar_sim.mujoco").info("MuJoCo: %s", message.strip())

@@ -5,10 +5,16 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+import mujoco
+
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.tables import read_table, table_entry
 
 _FILE = Path(__file__).parent / "data" / "presets.yaml"
+INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+               "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT, "rk4": mujoco.mjtIntegrator.mjINT_RK4}
+SOLVERS = {"newton": mujoco.mjtSolver.mjSOL_NEWTON, "cg": mujoco.mjtSolver.mjSOL_CG, "pgs": mujoco.mjtSolver.mjSOL_PGS}
+CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
 
 
 @dataclass(frozen=True)
@@ -33,8 +39,13 @@ def preset_names() -> list[str]:
 def load_preset(name: str) -> PhysicsPreset:
     """A preset by name; ConfigError names the file and the preset."""
     preset = table_entry(_FILE, name, PhysicsPreset, "physics preset")
-    if preset.wheel_contact not in ("ellipsoid", "cylinder"):
-        raise ConfigError(f"{_FILE}: preset '{name}': wheel_contact must be ellipsoid or cylinder")
+    where = f"{_FILE}: preset '{name}'"
+    for field, choices in (("integrator", INTEGRATORS), ("solver", SOLVERS), ("cone", CONES),
+                           ("wheel_contact", ("ellipsoid", "cylinder"))):
+        if getattr(preset, field) not in choices:
+            raise ConfigError(f"{where}: {field} must be one of {', '.join(choices)}, got {getattr(preset, field)!r}")
+    if preset.timestep <= 0 or preset.iterations < 1:
+        raise ConfigError(f"{where}: timestep must be positive and iterations at least 1")
     if preset.contact_timeconst < 2 * preset.timestep:
         raise ConfigError(f"{_FILE}: preset '{name}': contact_timeconst must be >= 2 * timestep")
     return preset

@@ -1,8 +1,8 @@
 """summary.png of a run: the drive on the world map coloured by speed, the last lidar scan, a camera frame, numbers.
 
-A fixed size (FIGSIZE at DPI: 1600x1000 px). The map is zoomed on what the car drove through and saw; the camera
-frame, the legend and the summary text sit right of it (SIDE), or under it when the route is long and flat (WIDE,
-e.g. down the tunnel). Agg only, no pyplot state.
+A fixed size (FIGSIZE at DPI: 1600x1000 px). The map frames the whole world (every geom but the ground planes), the
+path and the last scan; the camera frame, the legend and the summary text sit right of it (SIDE), or under it when
+the view is long and flat (WIDE, e.g. the tunnel). Agg only, no pyplot state.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.transforms import Bbox
 
-from racecar_sim.plots.world_map import draw_world
+from racecar_sim.plots.world_map import draw_world, finite_points, footprints
 from racecar_sim.worlds.world import World
 
 FIGSIZE = (16.0, 10.0)  # inches
@@ -55,7 +55,7 @@ PATH_WIDTH = 3.0  # points
 HALO = (1.0, 1.0, 1.0, 0.9)  # under the path, so its dark end reads on dark floors too
 SCAN_COLOR = "#e7298a"
 START_COLOR = "#2ca02c"
-VIEW_MARGIN = 0.08  # of the larger side of what is shown, and at least MIN_VIEW_MARGIN
+VIEW_MARGIN = 0.05  # of the larger side of what is shown, and at least MIN_VIEW_MARGIN
 MIN_VIEW_MARGIN = 1.5  # m
 MIN_VIEW = 6.0  # m, the smallest side shown (a car that stood still)
 # Above draw_world's layers (walls at 2.1, the spawn at 5).
@@ -91,13 +91,14 @@ def summary_figure(world: World, trajectory: np.ndarray, *, scan_origin: np.ndar
     points = np.zeros((0, 2)) if scan_points is None else np.asarray(scan_points, dtype=float).reshape(-1, 2)
     image = None if camera_bgr is None else _camera_rgb(camera_bgr)
 
-    lo, hi = _view_bounds(_view_points(traj, origin, points, world))
+    prints = footprints(world)
+    lo, hi = _view_bounds(np.vstack([finite_points(prints), _view_points(traj, origin, points, world)]))
     layout = WIDE if (hi[1] - lo[1]) < WIDE_BELOW * (hi[0] - lo[0]) else SIDE
     fig = Figure(figsize=FIGSIZE, dpi=DPI)
     FigureCanvasAgg(fig)
     fig.suptitle(title or world.name, x=0.045, y=TITLE_Y, ha="left", fontsize=16, fontweight="bold")
     ax = fig.add_axes(layout.map)
-    draw_world(ax, world)
+    draw_world(ax, world, prints)
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_axisbelow(True)
@@ -149,11 +150,10 @@ def _fill_panel(fig: Figure, layout: Layout, image: np.ndarray | None, handles: 
 
 
 def _view_points(traj: np.ndarray, origin: np.ndarray | None, points: np.ndarray, world: World) -> np.ndarray:
-    """The points the map must show: the path and the scan; the spawn when there is neither."""
-    parts = [traj[:, :2], points] + ([origin[None]] if origin is not None else [])
+    """The points the map must show besides the world's geoms: the spawn, the path and the scan."""
+    parts = [[[world.spawn.x, world.spawn.y]], traj[:, :2], points] + ([origin[None]] if origin is not None else [])
     xy = np.vstack(parts)
-    xy = xy[np.all(np.isfinite(xy), axis=1)]
-    return xy if len(xy) else np.array([[world.spawn.x, world.spawn.y]])
+    return xy[np.all(np.isfinite(xy), axis=1)]
 
 
 def _view_bounds(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

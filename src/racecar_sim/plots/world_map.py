@@ -109,6 +109,13 @@ def footprints(world: World) -> list[Footprint]:
     return [f for body, geom in world.geoms() if (f := footprint(body, geom)) is not None]
 
 
+def finite_points(prints: list[Footprint]) -> np.ndarray:
+    """(K, 2) corners of every footprint but the planes' (a ground plane is drawn, never framed): what a
+    picture of the whole world must show."""
+    points = [f.xy for f in prints if f.geom.kind != "plane" and len(f.xy)]
+    return np.vstack(points) if points else np.zeros((0, 2))
+
+
 def world_extent(world: World) -> tuple[float, float, float, float]:
     """(xmin, xmax, ymin, ymax) of the non-plane geoms and the spawn point, plus a margin; ±5 m if only planes.
 
@@ -118,10 +125,10 @@ def world_extent(world: World) -> tuple[float, float, float, float]:
 
 
 def _extent(prints: list[Footprint], s: Spawn) -> tuple[float, float, float, float]:
-    points = [f.xy for f in prints if f.geom.kind != "plane"]
-    if not points:
+    points = finite_points(prints)
+    if not len(points):
         return s.x - EMPTY_HALF_WIDTH, s.x + EMPTY_HALF_WIDTH, s.y - EMPTY_HALF_WIDTH, s.y + EMPTY_HALF_WIDTH
-    xy = np.vstack([*points, [[s.x, s.y]]])
+    xy = np.vstack([points, [[s.x, s.y]]])
     lo, hi = xy.min(axis=0), xy.max(axis=0)
     margin = max(MIN_MARGIN, MARGIN * float((hi - lo).max()))
     lo, hi = lo - margin, hi + margin
@@ -169,13 +176,14 @@ def _is_floor(f: Footprint, spawn: Spawn) -> bool:
     return f.zmax < spawn.z - FLOOR_DEPTH or f.height < FLAT
 
 
-def draw_world(ax: Axes, world: World) -> None:
+def draw_world(ax: Axes, world: World, prints: list[Footprint] | None = None) -> None:
     """Draw the world from above on `ax` (metres, x right, y up, equal aspect) and mark its spawn pose.
 
     Visual geoms are filled with their colour, collision geoms outlined in black, and collision geoms no visual
     covers filled dark grey. Planes lie underneath everything, floors and flat markings under the walls.
+    prints: the world's footprints, when the caller has them already.
     """
-    _draw(ax, footprints(world), world.spawn)
+    _draw(ax, footprints(world) if prints is None else prints, world.spawn)
 
 
 def _draw(ax: Axes, prints: list[Footprint], spawn: Spawn) -> None:

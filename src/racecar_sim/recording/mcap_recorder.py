@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import os
 import signal
 import threading
@@ -12,6 +13,7 @@ from typing import Any
 
 from mcap.writer import CompressionType, Writer
 
+from racecar_sim.core.errors import RecordingError
 from racecar_sim.msgs import msgtype_of, schema_text, serialize
 
 _COMPRESSION = {
@@ -20,6 +22,28 @@ _COMPRESSION = {
     "none": CompressionType.NONE,
 }
 _UINT64_MAX = 2**64 - 1
+CHUNK_DURATION_NS = 1_000_000_000
+"""A chunk is closed before it would span this much log time (sim time): what a crash can lose."""
+
+
+class RecordingFileError(RecordingError, OSError):
+    """The recording's file cannot be created: one line naming the path.
+
+    It is a :class:`RecordingError` (so the CLI prints it as one line and exits 2) and
+    also an instance of the ``OSError`` subclass ``open()`` raised
+    (``FileNotFoundError``, ``PermissionError``, ``IsADirectoryError``...), with its
+    ``errno``, ``strerror`` and ``filename``.
+    """
+
+    def __str__(self) -> str:
+        return f"{self.filename}: cannot create the MCAP file ({self.strerror})"
+
+
+@functools.cache
+def _file_error_type(os_error: type[OSError]) -> type[RecordingFileError]:
+    if os_error is OSError or not issubclass(os_error, OSError):
+        return RecordingFileError
+    return type(f"Recording{os_error.__name__}", (RecordingFileError, os_error), {})
 
 
 def _qos_profiles_v8(durability: int, depth: int) -> str:
@@ -120,12 +144,18 @@ class McapRecorder:
     Interruption: use it as a context manager. An exception or KeyboardInterrupt inside
     the ``with`` block still closes the file with its summary and footer, and SIGINT
     arriving during ``write()`` or ``close()`` is delivered once the writer is consistent
-    again. Each completed chunk is flushed to the OS at once, so a SIGKILL (or a crash
-    of the interpreter) loses only the chunk in progress. Such a file has no summary
-    or footer: readers that seek to the footer (rosbags, ``ros2 bag``) reject it, while
-    a streaming reader gets every completed chunk and then fails at the cut, e.g.
-    ``make_reader(stream).iter_messages(log_time_order=False)`` on a non-seekable
-    stream, or ``mcap recover`` to rewrite it as a complete file.
+    again.
+
+    Crashes: a chunk is closed when it reaches ``chunk_size`` bytes and also before it
+    would span :data:`CHUNK_DURATION_NS` (1 s) of log time, and each closed chunk is
+    flushed to the OS at once. A SIGKILL, the OOM killer or a crash of the interpreter
+    therefore loses only the chunk in progress: less than one second of sim time. Such
+    a file has no summary or footer: readers that seek to the footer (rosbags,
+    ``ros2 bag``) reject it, while a streaming reader gets every closed chunk and then
+    fails at the cut. :func:`racecar_sim.recording.recover_mcap` (``racecar-sim
+    recover``) or ``mcap recover`` rewrite it as a complete file. Chunk boundaries
+    depend only on the messages and their log times, so same-seed runs still give
+    byte-identical files.
 
     Args:
         path: Output file; it is created or truncated.
@@ -134,7 +164,9 @@ class McapRecorder:
         latched_topics: Topics recorded with TRANSIENT_LOCAL durability.
 
     Raises:
-        OSError: The file cannot be created; the message names the path.
+        RecordingFileError: The file cannot be created (a directory, a missing or
+            read-only folder): a one-line :class:`RecordingError` naming the path that
+            is also the ``OSError`` subclass ``open()`` raised.
         ValueError: Unknown compression.
     """
 
@@ -157,11 +189,12 @@ class McapRecorder:
         self._channels: dict[str, tuple[int, str]] = {}
         self._counts: dict[str, int] = {}
         self._flushed = 0
+        self._chunk_times: tuple[int, int] | None = None  # log-time span of the chunk in progress
         try:
             self._stream = open(self.path, "wb")  # noqa: SIM115  # closed in close()
         except OSError as exc:
-            reason = f"cannot create MCAP file: {exc.strerror}"
-            raise OSError(exc.errno, reason, self.path) from None
+            reason = exc.strerror or str(exc)
+            raise _file_error_type(type(exc))(exc.errno, reason, self.path) from None
         self._interrupt = _DeferredInterrupt()
         self._interrupt.hold()
         try:
@@ -172,6 +205,8 @@ class McapRecorder:
             # With a 'rosbag2' record lacking 'serialized_metadata', rosbag2 (Jazzy and
             # later) decodes offered_qos_profiles as metadata version 8, our integer form.
             self._writer.add_metadata("rosbag2", {"ROS_DISTRO": "racecar_sim"})
+            self._stream.flush()  # the header is on disk from the start
+            self._flushed = self._stream.tell()
         except BaseException:
             self._stream.close()
             self._interrupt.uninstall()
@@ -222,16 +257,37 @@ class McapRecorder:
                 self._interrupt.release()
 
     def _append(self, topic: str, msgtype: str, data: bytes, log_time: int, publish: int) -> None:
+        if self._chunk_times is not None:
+            first, last = self._chunk_times
+            if max(last, log_time) - min(first, log_time) >= CHUNK_DURATION_NS:
+                # Writer.flush() is mcap's public way to end the chunk in progress: it
+                # compresses and writes it with its message indexes, then flushes the file.
+                self._writer.flush()  # type: ignore[no-untyped-call]
+                self._chunk_written()
         channel = self._channels.get(topic)
         if channel is None or channel[1] != msgtype:
             channel = self._channel(topic, msgtype)
+            self._chunk_written()  # registering may close a full chunk too
         count = self._counts[topic] + 1
         self._writer.add_message(channel[0], log_time, data, publish, count & 0xFFFFFFFF)
         self._counts[topic] = count
-        if self._stream.tell() != self._flushed:
-            # A chunk was completed: hand it to the OS so that a SIGKILL cannot lose it.
-            self._stream.flush()
-            self._flushed = self._stream.tell()
+        if not self._chunk_written():
+            first, last = self._chunk_times or (log_time, log_time)
+            self._chunk_times = (min(first, log_time), max(last, log_time))
+
+    def _chunk_written(self) -> bool:
+        """Whether the writer wrote a chunk since the last call; if so, hand it to the OS.
+
+        Bytes reach the file only when a chunk is closed (by size inside ``add_message``
+        or ``register_*``, or by time through ``Writer.flush()``), so a moved position
+        means the chunk in progress was written: flush it so a SIGKILL cannot lose it.
+        """
+        if self._stream.tell() == self._flushed:
+            return False
+        self._stream.flush()
+        self._flushed = self._stream.tell()
+        self._chunk_times = None
+        return True
 
     def _channel(self, topic: str, msgtype: str) -> tuple[int, str]:
         if topic in self._channels:

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import mujoco
+import numpy as np
 
 from racecar_sim.bus import Bus, Subscription
 from racecar_sim.control.commands import ControllerCommands
@@ -19,15 +20,16 @@ from racecar_sim.control.controllers import add_actuators, load_controller_confi
 from racecar_sim.control.mux import CommandChain
 from racecar_sim.control.profiles import load_profile
 from racecar_sim.control.servo import ServoCommands
-from racecar_sim.core.errors import ConfigError
+from racecar_sim.core.errors import ConfigError, PhysicsError
+from racecar_sim.core.rng import check_seed
 from racecar_sim.core.time import NS_PER_S, ceil_to_step, to_ns
 from racecar_sim.description import DEFAULT_XACRO, load_robot, package_path
 from racecar_sim.msgs import Clock, Time
-from racecar_sim.physics import build_spec, load_preset
+from racecar_sim.physics import build_spec, check_spawn, load_preset, route_mujoco_warnings
 from racecar_sim.physics.state import CarState
 from racecar_sim.core.scheduler import Scheduler
 from racecar_sim.sensors.joint_states import JointStatePublisher
-from racecar_sim.sensors.odometry import OdometryPublisher
+from racecar_sim.sensors.odometry import FRAMES as ODOMETRY_MODES, OdometryPublisher
 from racecar_sim.sensors.robot_state import RobotStatePublisher
 from racecar_sim.worlds import DEFAULT_WALL_HEIGHT, Spawn, World, load_world
 
@@ -56,7 +58,10 @@ class Simulator:
                  xacro_args: Mapping[str, str] | None = None, controllers: str | Path | None = None,
                  model_path: list[str | Path] | None = None, wall_height: float = DEFAULT_WALL_HEIGHT,
                  lidar: bool = True, camera: bool = True, sensor_noise: bool = True) -> None:
-        self.seed = seed
+        self.seed = check_seed(seed)
+        if odometry not in ODOMETRY_MODES:
+            raise ConfigError(f"odometry mode {odometry!r} is not one of {', '.join(ODOMETRY_MODES)}")
+        self.controllers_file = Path(controllers or package_path("racecar_control") / "config" / "racecar_control.yaml")
         self.sensor_noise = sensor_noise
         self.profile = load_profile(profile)
         self.robot = load_robot(xacro, {**self.profile.xacro_args, **(xacro_args or {})})
@@ -67,8 +72,8 @@ class Simulator:
         if spawn is not None:
             self.world.spawn = spawn
         self.preset = load_preset(physics)
-        controllers = controllers or package_path("racecar_control") / "config" / "racecar_control.yaml"
-        self.controllers = load_controller_config(controllers, self.robot)
+        route_mujoco_warnings()
+        self.controllers = load_controller_config(self.controllers_file, self.robot)
         spec = build_spec(self.robot, self.world, self.preset)
         add_actuators(spec, self.controllers, self.robot)
         self._lidar_on = lidar and self.robot.sensor("ray") is not None
@@ -86,6 +91,7 @@ class Simulator:
         if abs(self.step_ns / NS_PER_S - self.model.opt.timestep) > 1e-15:
             raise ConfigError(f"physics step {self.model.opt.timestep} s is not a whole number of nanoseconds")
         mujoco.mj_forward(self.model, self.data)
+        check_spawn(self.model, self.data, self.world, self.robot)  # WorldError: inside an obstacle, no ground
         self._qpos0 = self.data.qpos.copy()
         self._odometry_mode = odometry
         self._user_subscriptions: list[tuple[str, Callable[[Any], None]]] = []
@@ -100,7 +106,7 @@ class Simulator:
         self.bus = Bus()
         self.scheduler = Scheduler(self.step_ns)
         self.state = CarState(self.model, self.data, self.robot.root)
-        self._diverged = self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number
+        self._divergence: str | None = None
         now = lambda: self.time_ns  # noqa: E731
         for recorder in self._recorders:
             self._attach_recorder(recorder)
@@ -155,6 +161,8 @@ class Simulator:
     def run_until(self, t: float) -> None:
         """Advance sim time to `t` seconds (rounded up to a physics step), firing every event on the way."""
         end = ceil_to_step(to_ns(t), self.step_ns)
+        if self._divergence is not None:
+            raise PhysicsError(self._divergence)
         while self.time_ns < end:
             due = self.scheduler.next_time()
             target = end if due is None else max(min(due, end), self.time_ns)
@@ -204,7 +212,13 @@ class Simulator:
         self.bus.tap(lambda topic, msg: recorder.write(topic, msg, self.time_ns))
 
     def _check_physics(self) -> None:
-        count = self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number
-        if count != self._diverged:
-            self._diverged = count
-            log.error("physics diverged before t = %.3f s (NaN or huge acceleration); MuJoCo reset the state", self.time)
+        """Stop at the first sign of divergence, before any node publishes the broken state."""
+        warning = self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC]
+        if warning.number == 0 and np.isfinite(self.data.qpos).all() and np.isfinite(self.data.qvel).all():
+            return
+        dof = warning.lastinfo if warning.number else int(np.flatnonzero(~np.isfinite(self.data.qvel))[:1].sum())
+        joint = mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_JOINT, int(self.model.dof_jntid[dof])) or "root"
+        self._divergence = (f"the physics diverged before t = {self.time:.3f} s (NaN or huge acceleration at joint "
+                            f"'{joint}'); the run stops. Check the controller gains in {self.controllers_file}, the "
+                            f"physics step ({self.model.opt.timestep:g} s) and the world's <physics> block")
+        raise PhysicsError(self._divergence)

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from racecar_sim.bus import Bus
+from racecar_sim.core.errors import ConfigError
 from racecar_sim.msgs import (Header, Odometry, Point, Pose, PoseWithCovariance, Quaternion, TFMessage, Twist,
                               TwistWithCovariance, Vector3)
 from racecar_sim.physics.state import CarState
@@ -24,7 +25,7 @@ class OdometryPublisher:
     def __init__(self, bus: Bus, scheduler: Scheduler, state: CarState, mode: str = "original", rate: float = 20.0,
                  topic: str = "/vesc/odom", relay_topic: str | None = "/pf/pose/odom") -> None:
         if mode not in FRAMES:
-            raise ValueError(f"odometry mode '{mode}' is not one of {', '.join(FRAMES)}")
+            raise ConfigError(f"odometry mode {mode!r} is not one of {', '.join(FRAMES)}")
         self.bus, self.state, self.mode, self.topic = bus, state, mode, topic
         self.frame, self.child = FRAMES[mode]
         if relay_topic:

@@ -9,7 +9,6 @@ corner of the bottom-left cell, its yaw a rotation of the whole map about that c
 from __future__ import annotations
 
 import math
-import warnings
 from pathlib import Path
 from typing import Any
 
@@ -49,8 +48,7 @@ def load_map(path: str | Path, wall_height: float, spawn: Spawn | None = None) -
     world.cover_ground([map_body.pos[:2] + quat_rotate(map_body.quat, c)[:2] for c in corners])
     if spawn is not None:
         world.spawn = spawn
-    _warn_if_spawn_blocked(path, occupied, meta, world.spawn.x, world.spawn.y)
-    return world
+    return world  # a spawn pose on a wall is refused once the model is built (physics.check_spawn), as in any world
 
 
 def map_walls(occupied: np.ndarray, resolution: float, height: float, name: str = "map_wall") -> list[WorldGeom]:
@@ -160,13 +158,3 @@ def _grey_levels(img: Image.Image) -> tuple[np.ndarray, np.ndarray | None]:
     colour = pixels[..., :-1] if has_alpha else pixels
     return colour.mean(axis=2), pixels[..., -1] if has_alpha else None
 
-
-def _warn_if_spawn_blocked(path: Path, occupied: np.ndarray, meta: dict[str, Any], x: float, y: float) -> None:
-    """A warning naming the file when the spawn point lies in an occupied cell."""
-    ox, oy, yaw = meta["origin"]
-    dx, dy = x - ox, y - oy
-    mx, my = math.cos(yaw) * dx + math.sin(yaw) * dy, -math.sin(yaw) * dx + math.cos(yaw) * dy
-    col, row = math.floor(mx / meta["resolution"]), occupied.shape[0] - 1 - math.floor(my / meta["resolution"])
-    if 0 <= row < occupied.shape[0] and 0 <= col < occupied.shape[1] and occupied[row, col]:
-        warnings.warn(f"{path}: the spawn point ({x:g}, {y:g}) lies in an occupied cell; give a spawn pose",
-                      stacklevel=2)

@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
+
+BUILTIN_DATA = Path(__file__).resolve().parent / "data"  # the built-in worlds' SDF files
 
 
 @dataclass
@@ -107,6 +110,16 @@ class World:
     physics: Physics = field(default_factory=Physics)
     scene: Scene = field(default_factory=Scene)
     spawn: Spawn = field(default_factory=Spawn)
+
+    @property
+    def label(self) -> str:
+        """How messages name the world: its file as given, a built-in world by its name and file name."""
+        if not self.source:
+            return self.name
+        path = Path(self.source)
+        if path.resolve().parent == BUILTIN_DATA:
+            return f"{self.name} ({path.name})"
+        return self.source
 
     def cover_ground(self, points: np.ndarray, margin: float = 5.0) -> None:
         """Grow the ground planes to reach `margin` beyond every xy point given (a plane collides everywhere in

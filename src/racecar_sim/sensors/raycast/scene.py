@@ -58,8 +58,11 @@ class Footprints:
 
 
 def seen_geoms(model: mujoco.MjModel, group: int) -> np.ndarray:
-    """Ids of the geoms a ray cast with only `group` enabled can hit (mj_ray also skips invisible ones)."""
-    alpha = np.where(model.geom_matid >= 0, model.mat_rgba[np.maximum(model.geom_matid, 0), 3], model.geom_rgba[:, 3])
+    """Ids of the geoms a ray cast with only `group` enabled can hit (mj_ray also skips invisible ones: alpha 0 in
+    the geom's material, or in its own rgba when it has none; a model may have no materials at all)."""
+    alpha = model.geom_rgba[:, 3].copy()
+    with_material = np.flatnonzero(model.geom_matid >= 0)
+    alpha[with_material] = model.mat_rgba[model.geom_matid[with_material], 3]
     groups = np.clip(model.geom_group, 0, mujoco.mjNGROUP - 1)
     return np.flatnonzero((groups == group) & (alpha != 0))
 
