@@ -8,7 +8,6 @@ import math
 import re
 import subprocess
 import sys
-import time
 import warnings
 from pathlib import Path
 
@@ -108,7 +107,7 @@ def test_spawn_two_metres_up_warns_of_the_fall(tmp_path):
         result.stderr
 
 
-# --- the built-in worlds' own spawn poses pass, quietly and cheaply --------------------------------------------------
+# --- the built-in worlds' own spawn poses pass, quietly ------------------------------------------------------------
 @pytest.mark.parametrize("name", world_names())
 def test_default_spawns_of_the_builtin_worlds_pass_without_a_warning(name):
     from racecar_sim.physics import check_spawn
@@ -116,12 +115,7 @@ def test_default_spawns_of_the_builtin_worlds_pass_without_a_warning(name):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         sim = simulator(name)
-    costs = []
-    for _ in range(3):
-        start = time.perf_counter()
-        check_spawn(sim.model, sim.data, sim.world, sim.robot)
-        costs.append(time.perf_counter() - start)
-    assert min(costs) < 0.05, f"the spawn check took {min(costs) * 1e3:.1f} ms"
+        check_spawn(sim.model, sim.data, sim.world, sim.robot)  # called again on the built model: still quiet
 
 
 # --- item 8: no materials anywhere -----------------------------------------------------------------------------------

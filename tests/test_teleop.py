@@ -22,7 +22,8 @@ from conftest import TELEOP, Log
 
 from racecar_sim import Simulator
 from racecar_sim.cli.terminal import RawTerminal, StopSignals
-from racecar_sim.control.teleop import IDLE_ZERO, ActiveInput, KeyboardTeleop, in_control
+from racecar_sim.control.mux import IDLE_ZERO
+from racecar_sim.control.teleop import KeyboardTeleop
 from racecar_sim.drivers import NAVIGATION, ConstantCommand
 from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header
 
@@ -133,9 +134,8 @@ def test_stop_sends_one_zero_command_and_ends_the_repeats():
 def test_status_shows_who_drives_not_the_default_commands_route():
     """The 6 Hz zero command holds the low-level mux through its Navigation input: that is idle, not Navigation."""
     sim, teleop, _, changes = teleop_sim()
-    control = ActiveInput(sim.bus)
     labels: list[tuple[float, str]] = []
-    sim.scheduler.every(100.0, lambda now: labels.append((now * 1e-9, control.label)), "watch")
+    sim.scheduler.every(100.0, lambda now: labels.append((now * 1e-9, sim.chain.in_control())), "watch")
 
     def driver(now_ns: int) -> None:  # a driver that drives from 2 s to 4 s, then stops
         if 2.0 <= now_ns * 1e-9 < 4.0:
@@ -144,9 +144,9 @@ def test_status_shows_who_drives_not_the_default_commands_route():
     sim.scheduler.every(20.0, driver, "driver")
     sim.run_until(1.0)
     assert holder_at(changes, 1.0) == "Navigation"  # the low-level mux: the default command's route
-    assert control.label == IDLE_ZERO
+    assert sim.chain.in_control() == IDLE_ZERO
     teleop.key("w")
-    assert control.label == "Teleoperation"
+    assert sim.chain.in_control() == "Teleoperation"
     sim.run_until(6.0)
 
     def shown(t0: float, t1: float) -> set[str]:
@@ -157,14 +157,6 @@ def test_status_shows_who_drives_not_the_default_commands_route():
     assert shown(2.0, 4.0) == {"Navigation"}
     assert shown(4.5, 6.0) == {IDLE_ZERO}
     assert {t for t, label in labels if label == "Navigation"} <= {t for t, _ in labels if 2.0 <= t < 4.25}
-
-
-@pytest.mark.parametrize(("low", "high", "shown"), [
-    ("Navigation", "Default", IDLE_ZERO), ("Navigation", "Navigation 0", "Navigation"),
-    ("Navigation", "Navigation 2", "Navigation 2"), ("Teleoperation", "Default", "Teleoperation"),
-    ("Safety", "Navigation 0", "Safety"), ("idle", "Default", "idle")])
-def test_in_control_reads_both_muxes(low, high, shown):
-    assert in_control(low, high) == shown
 
 
 # --- the terminal layer, on a pseudo-terminal -------------------------------------------------------------

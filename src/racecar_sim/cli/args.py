@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
+from pathlib import Path
 
+from racecar_sim.core.errors import ConfigError
 from racecar_sim.worlds import DEFAULT_WALL_HEIGHT, Spawn
 
 
@@ -91,3 +94,29 @@ def add_sensor_arguments(p: argparse.ArgumentParser) -> None:
 def sensor_options(args: argparse.Namespace) -> dict[str, bool]:
     """Simulator keyword arguments from the sensor switches."""
     return {"lidar": not args.no_lidar, "camera": not args.no_camera, "sensor_noise": not args.no_noise}
+
+
+def check_folder(flag: str, folder: Path) -> None:
+    """`folder` exists as a writable folder, or can be made inside one."""
+    existing = folder
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        raise ConfigError(f"{flag} {folder}: {existing} is not a folder")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise ConfigError(f"{flag} {folder}: {existing} is not writable")
+
+
+def make_folder(flag: str, folder: Path) -> None:
+    """Create `folder` (and its parents); ConfigError naming the flag if that fails."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"{flag} {folder}: cannot create the folder ({exc.strerror or exc})") from None
+
+
+def check_record_path(record: Path, flag: str = "--record") -> None:
+    """An MCAP path that can be written: not a folder, in a folder that exists or can be made."""
+    if record.is_dir():
+        raise ConfigError(f"{flag} {record}: is a folder; give a file name such as {record / 'run.mcap'}")
+    check_folder(flag, record.parent)

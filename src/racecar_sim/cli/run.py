@@ -16,8 +16,8 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from racecar_sim.cli.args import (add_sensor_arguments, add_world_arguments, finite_float, positive_float, seed_value,
-                                  sensor_options)
+from racecar_sim.cli.args import (add_sensor_arguments, add_world_arguments, check_folder, check_record_path,
+                                  finite_float, make_folder, positive_float, seed_value, sensor_options)
 from racecar_sim.cli.live import LiveViews, RealTimePacer, add_live_arguments
 from racecar_sim.control.profiles import profile_names
 from racecar_sim.core.errors import ConfigError
@@ -94,11 +94,10 @@ def choose_driver(args: argparse.Namespace) -> str:
 def _attach_driver(args: argparse.Namespace, sim: Simulator) -> object:
     if args.driver == "constant":
         options = {k: default if getattr(args, k) is None else getattr(args, k) for k, default in CONSTANT_DEFAULTS.items()}
-        physics_rate = 1.0 / sim.model.opt.timestep
-        if options["rate"] > physics_rate:
-            raise ConfigError(f"--rate {options['rate']:g} Hz is faster than the physics ({physics_rate:g} steps/s); "
-                              "a command can change at most once per step")
-        return ConstantCommand(sim.bus, sim.scheduler, options["speed"], options["steering"], options["rate"])
+        try:
+            return ConstantCommand(sim.bus, sim.scheduler, options["speed"], options["steering"], options["rate"])
+        except ConfigError as exc:  # the scheduler refuses a rate above the physics rate
+            raise ConfigError(f"--rate: {exc}") from None
     if args.driver == "wall-follow":
         if sim.lidar is None:
             raise ConfigError("--driver wall-follow steers by the lidar: drop --no-lidar (or DISABLE_GAZEBO_LASER)")
@@ -115,30 +114,10 @@ def _output_paths(args: argparse.Namespace) -> tuple[Path, Path | None]:
     never a traceback after a minute of simulation."""
     out = Path(args.out) if args.out else Path("runs") / datetime.now().strftime("%Y%m%d-%H%M%S")
     record = None if args.no_record else Path(args.record) if args.record else out / "run.mcap"
-    _check_folder("--out", out)
+    check_folder("--out", out)
     if record is not None:
-        if record.is_dir():
-            raise ConfigError(f"--record {record}: is a folder; give a file name such as {record / 'run.mcap'}")
-        _check_folder("--record", record.parent)
+        check_record_path(record)
     return out, record
-
-
-def _check_folder(flag: str, folder: Path) -> None:
-    """`folder` exists as a writable folder, or can be made inside one."""
-    existing = folder
-    while not existing.exists() and existing != existing.parent:
-        existing = existing.parent
-    if not existing.is_dir():
-        raise ConfigError(f"{flag} {folder}: {existing} is not a folder")
-    if not os.access(existing, os.W_OK | os.X_OK):
-        raise ConfigError(f"{flag} {folder}: {existing} is not writable")
-
-
-def _make_folder(flag: str, folder: Path) -> None:
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ConfigError(f"{flag} {folder}: cannot create the folder ({exc.strerror or exc})") from None
 
 
 def _terminate(signum: int, frame: object) -> None:
@@ -154,9 +133,9 @@ def main(args: argparse.Namespace) -> int:
                    **sensor_options(args)) as sim:
         _attach_driver(args, sim)
         if not args.no_summary or (sim.camera is not None and not args.no_video):
-            _make_folder("--out", out)
+            make_folder("--out", out)
         if record is not None:
-            _make_folder("--record", record.parent)
+            make_folder("--record", record.parent)
             sim.record(record)
         runlog = RunLog(sim.bus, sim.lidar.topic if sim.lidar else None,
                         sim.camera.spec.image_topic if sim.camera else None)
@@ -213,7 +192,7 @@ def _drive(args: argparse.Namespace, sim: Simulator, live: LiveViews) -> tuple[f
             sim.run_until(min(sim.time + chunk, args.duration))
             live.update()
             bar.n = min(round(sim.time, 3), bar.total)  # never past the total: tqdm would warn and count down below 0
-            bar.refresh()
+            bar.update(0)  # redraws no more often than tqdm's mininterval
             if realtime:
                 pacer.wait(sim.time)
     except KeyboardInterrupt:

@@ -14,14 +14,16 @@ from typing import TextIO
 from racecar_sim.cli.args import (
     add_sensor_arguments,
     add_world_arguments,
+    check_record_path,
     finite_float,
+    make_folder,
     positive_float,
     seed_value,
     sensor_options,
 )
 from racecar_sim.cli.live import LiveViews, RealTimePacer, add_live_arguments
 from racecar_sim.cli.terminal import RawTerminal, StopSignals, stdin_is_tty
-from racecar_sim.control.teleop import LOW_MUX, TELEOP, ActiveInput, KeyboardTeleop, load_teleop_config
+from racecar_sim.control.teleop import TELEOP, KeyboardTeleop, load_teleop_config
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.transforms import yaw_of
 from racecar_sim.msgs import AckermannDriveStamped, Odometry
@@ -70,13 +72,12 @@ class Dashboard:
         self.odom: Odometry | None = None
         self.distance = 0.0
         self.steering = 0.0
-        self.control = ActiveInput(sim.bus)
         self._live = stream.isatty()
         self._next_draw = 0.0
         self._last: tuple[float, float] | None = None  # (wall, sim) at the last redraw
         self._rtf = 0.0
         sim.subscribe("/vesc/odom", self._on_odom)
-        sim.subscribe(f"{LOW_MUX}/output", self._on_output)
+        sim.subscribe(sim.chain.output_topic, self._on_output)
 
     def _on_odom(self, msg: Odometry) -> None:
         if self.odom is not None:
@@ -122,7 +123,7 @@ class Dashboard:
         x, y, yaw = self.pose()
         speed = self.odom.twist.twist.linear.x if self.odom is not None else 0.0
         line = (f"t {self.sim.time:7.2f} s | v {speed:+5.2f} m/s | steer {self.steering:+5.2f} rad | "
-                f"x {x:+7.2f} y {y:+7.2f} yaw {yaw:+5.2f} | {self._rtf:4.2f}x | {self.control.label}")
+                f"x {x:+7.2f} y {y:+7.2f} yaw {yaw:+5.2f} | {self._rtf:4.2f}x | {self.sim.chain.in_control()}")
         if self.record:
             line += f" | rec {self.record}"
         with contextlib.suppress(OSError, ValueError):
@@ -177,11 +178,13 @@ def main(args: argparse.Namespace) -> int:
     interactive = stdin_is_tty()
     if not interactive and not args.viewer:
         raise ConfigError(NOT_A_TTY)
+    if args.record:
+        check_record_path(Path(args.record))
     with StopSignals() as signals, Simulator(world=args.world, seed=args.seed, spawn=args.spawn,
                                              model_path=args.model_path, wall_height=args.wall_height,
                                              **sensor_options(args)) as sim:
         if args.record:
-            Path(args.record).parent.mkdir(parents=True, exist_ok=True)
+            make_folder("--record", Path(args.record).parent)
         recorder = sim.record(args.record) if args.record else None
         teleop = KeyboardTeleop(sim.bus, sim.scheduler, lambda: sim.time_ns, args.speed, args.turn, args.hold)
         dashboard = Dashboard(sim, args.record, sys.stderr)

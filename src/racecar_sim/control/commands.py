@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Callable
 from functools import partial
 
 from racecar_sim.bus import Bus
 from racecar_sim.control.controllers import VELOCITY, ControllerConfig, JointController
-from racecar_sim.core.throttle import ThrottledWarning
+from racecar_sim.core.throttle import ThrottledWarning, is_finite_number
 from racecar_sim.description.urdf import Robot
 from racecar_sim.msgs import Float64
 from racecar_sim.physics.state import CarState
@@ -19,9 +20,10 @@ log = logging.getLogger("racecar_sim.controller_manager")
 class ControllerCommands:
     """Holds each controller's last command, as ros_control does, and writes it to the actuator."""
 
-    def __init__(self, bus: Bus, state: CarState, config: ControllerConfig, robot: Robot) -> None:
+    def __init__(self, bus: Bus, state: CarState, config: ControllerConfig, robot: Robot,
+                 now: Callable[[], int] = lambda: 0) -> None:
         self.state = state
-        self.warn = ThrottledWarning(log)
+        self.warn = ThrottledWarning(log, now)
         self.limits: dict[str, tuple[float, float]] = {}
         for c in config.controllers:
             limit = robot.joints[c.joint].limit
@@ -35,7 +37,7 @@ class ControllerCommands:
 
     def _on_command(self, controller: JointController, msg: Float64) -> None:
         value = msg.data
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        if not is_finite_number(value):
             self.warn(controller.command_topic, "%s: ignored command %r (not a finite number)", controller.command_topic,
                   value)
             return

@@ -9,7 +9,6 @@ re-publishes on its own.
 from __future__ import annotations
 
 import logging
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
@@ -24,9 +23,10 @@ from racecar_sim.core.time import to_ns
 from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header, String
 from racecar_sim.core.scheduler import Scheduler, Task
 from racecar_sim.core.tables import finite_number
-from racecar_sim.core.throttle import ThrottledWarning
+from racecar_sim.core.throttle import ThrottledWarning, is_finite_number
 
 DATA = Path(__file__).parent / "data"
+IDLE_ZERO = "idle (zero command)"  # nobody drives: the 6 Hz default zero command holds the car
 log = logging.getLogger("racecar_sim.ackermann_cmd_mux")
 _DRIVE_FIELDS = ("speed", "steering_angle", "steering_angle_velocity", "acceleration", "jerk")
 
@@ -35,7 +35,7 @@ def non_finite_field(msg: AckermannDriveStamped) -> str | None:
     """The first drive field of `msg` that is NaN or infinite (or not a number at all), else None."""
     for name in _DRIVE_FIELDS:
         value = getattr(msg.drive, name, None)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        if not is_finite_number(value):
             return f"drive.{name} = {value!r}"
     return None
 
@@ -100,11 +100,12 @@ class AckermannCmdMux:
     def __init__(self, bus: Bus, scheduler: Scheduler, now: Callable[[], int], namespace: str,
                  inputs: list[MuxInput], output: str = "output") -> None:
         self.bus, self.scheduler, self.now = bus, scheduler, now
+        self.warn = ThrottledWarning(log, now)
         self.namespace = namespace
         self.output_topic = f"{namespace}/{output}"
         self.active_topic = f"{namespace}/active"
         self.holder: MuxInput | None = None
-        self.warn = ThrottledWarning(log)
+        self.last_forwarded: MuxInput | None = None  # whose command went out last (it still drives downstream)
         self._timers: dict[str, Task] = {}
         bus.latch(self.active_topic)
         bus.publish(self.active_topic, String("idle"))
@@ -124,6 +125,7 @@ class AckermannCmdMux:
             if holder is not inp:
                 self.holder = inp
                 self.bus.publish(self.active_topic, String(inp.name))
+            self.last_forwarded = inp
             self.bus.publish(self.output_topic, msg)
 
     def _on_timeout(self, inp: MuxInput, _now: int) -> None:
@@ -144,9 +146,12 @@ class CommandChain:
             muxes, relays = data["muxes"], data["relays"]
         except (OSError, yaml.YAMLError, KeyError, TypeError) as exc:
             raise ConfigError(f"{config}: malformed mux wiring: {' '.join(str(exc).split())}") from None
-        self.warn = ThrottledWarning(log)
+        self.warn = ThrottledWarning(log, now)
         where = f"{config}: default_command"
         rate = _number(default, "rate", where, positive=True)
+        if not isinstance(default.get("topic"), str):
+            raise ConfigError(f"{where}: topic must be a topic name, got {default.get('topic')!r}")
+        self.default_topic: str = default["topic"]
         speed, steering = _number(default, "speed", where), _number(default, "steering_angle", where)
         self.muxes = []
         for namespace, file in muxes.items():
@@ -155,12 +160,28 @@ class CommandChain:
         for source, target in relays:
             bus.subscribe(source, partial(self._relay, source, target))
         self.bus = bus
+        self._feeders = {target: mux for source, target in relays for mux in self.muxes if mux.output_topic == source}
+        self._final = next((m for m in self.muxes if m.output_topic == self.output_topic), None)
+        if self._final is None:
+            raise ConfigError(f"{config}: output {self.output_topic} is no mux's output")
         command = AckermannDrive(steering_angle=float(steering), speed=float(speed))
 
         def publish_default(now_ns: int) -> None:
             bus.publish(default["topic"], AckermannDriveStamped(Header.at(now_ns), command))
 
         scheduler.every(float(rate), publish_default, "zero_ackermann_cmd")
+
+    def in_control(self) -> str:
+        """What drives the car: the final mux's input in control, or IDLE_ZERO when that input only carries the
+        default zero command (which reaches the low-level mux through its Navigation input), or "idle"."""
+        holder = self._final.holder
+        if holder is None:
+            return "idle"
+        upstream = self._feeders.get(f"{self._final.namespace}/{holder.topic}")
+        source = upstream.last_forwarded if upstream is not None else None
+        if source is not None and f"{upstream.namespace}/{source.topic}" == self.default_topic:
+            return IDLE_ZERO
+        return holder.name
 
     def _relay(self, source: str, target: str, msg: AckermannDriveStamped) -> None:
         """topic_tools relay; a non-finite command is dropped here, naming the topic it was published on."""

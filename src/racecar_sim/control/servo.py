@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -41,7 +42,7 @@ class ServoCommands:
     """The servo_commands node for one profile."""
 
     def __init__(self, bus: Bus, robot: Robot, controllers: ControllerConfig, mode: str, input_topic: str,
-                 wheel_rate_per_speed: float | None = None) -> None:
+                 wheel_rate_per_speed: float | None = None, now: Callable[[], int] = lambda: 0) -> None:
         if mode not in ("ackermann", "parallel"):
             raise ValueError(f"servo mode '{mode}' is not ackermann or parallel")
         self.bus, self.mode = bus, mode
@@ -61,7 +62,7 @@ class ServoCommands:
         self.max_curvature = self._max_curvature()
         self._warned = False
         self.input_topic = input_topic
-        self.warn = ThrottledWarning(log)
+        self.warn = ThrottledWarning(log, now)
         bus.subscribe(input_topic, self._on_drive)
 
     def _max_curvature(self) -> float:

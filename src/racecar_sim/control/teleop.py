@@ -1,4 +1,4 @@
-"""keyboard_teleop.py as a node: keys to AckermannDriveStamped on the mux's teleop input; what is in control."""
+"""keyboard_teleop.py as a node: keys to AckermannDriveStamped on the mux's teleop input."""
 
 from __future__ import annotations
 
@@ -12,12 +12,9 @@ from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.scheduler import Scheduler
 from racecar_sim.core.tables import finite_number, load_record
 from racecar_sim.core.time import to_ns
-from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header, String
+from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header
 
 TELEOP = "/vesc/ackermann_cmd_mux/input/teleop"
-HIGH_MUX = "/vesc/high_level/ackermann_cmd_mux"
-LOW_MUX = "/vesc/low_level/ackermann_cmd_mux"
-IDLE_ZERO = "idle (zero command)"
 DEFAULTS = Path(__file__).parent / "data" / "keyboard_teleop.yaml"
 
 
@@ -97,40 +94,3 @@ class KeyboardTeleop:
 
     def _publish(self, now_ns: int) -> None:
         self.bus.publish(self.topic, AckermannDriveStamped(Header.at(now_ns, "base_link"), self.drive))
-
-
-def in_control(low: str, high: str) -> str:
-    """What drives the car, from the low-level mux's holder and the high-level holder that last fed it.
-
-    The 6 Hz default zero command reaches the low-level mux through its Navigation input, so a low-level
-    "Navigation" fed by the high-level "Default" is nobody driving: IDLE_ZERO. Fed by "Navigation 0" (the
-    drivers' /vesc/ackermann_cmd_mux/input/navigation) it is "Navigation"; another high-level input is named as
-    the mux names it. Any other low-level holder ("Teleoperation", "Safety", "idle") is shown as it is.
-    """
-    if low != "Navigation":
-        return low
-    if high == "Default":
-        return IDLE_ZERO
-    return "Navigation" if high in ("Navigation 0", "idle") else high
-
-
-class ActiveInput:
-    """Follows both muxes' latched `active` topics; `label` says what is in control (see in_control)."""
-
-    def __init__(self, bus: Bus, low_mux: str = LOW_MUX, high_mux: str = HIGH_MUX) -> None:
-        self.low = "idle"
-        self.high = "idle"  # the high-level holder whose command the low-level mux last got
-        bus.subscribe(f"{high_mux}/active", self._on_high)
-        bus.subscribe(f"{low_mux}/active", self._on_low)
-
-    def _on_high(self, msg: String) -> None:
-        if msg.data != "idle":  # a timed-out holder's last command may still hold the low-level mux
-            self.high = msg.data
-
-    def _on_low(self, msg: String) -> None:
-        self.low = msg.data
-
-    @property
-    def label(self) -> str:
-        """What drives the car now: "Teleoperation", "Navigation", IDLE_ZERO, "idle", ..."""
-        return in_control(self.low, self.high)

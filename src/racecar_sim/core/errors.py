@@ -11,8 +11,10 @@ class DescriptionError(RacecarSimError):
     """A robot description (xacro, URDF, gazebo tag) is malformed."""
 
 
-class ConfigError(RacecarSimError):
-    """A configuration file (controllers, mux, profile, physics preset) is malformed."""
+class ConfigError(RacecarSimError, ValueError):
+    """A configuration file (controllers, mux, profile, physics preset) or value is malformed.
+
+    Also a ValueError: code that caught the ValueError a bad rate or mode once raised keeps working."""
 
 
 class WorldError(RacecarSimError):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import typing
 from functools import lru_cache
 from pathlib import Path
 from typing import Any, TypeVar
@@ -36,11 +37,12 @@ def table_entry(path: Path, name: str, cls: type[T], kind: str) -> T:
     where = f"{path}: {kind} '{name}'"
     if not isinstance(entry, dict):
         raise ConfigError(f"{where}: expected a mapping of fields")
-    fields = {f.name: f for f in dataclasses.fields(cls) if f.name != "name"}  # type: ignore[arg-type]
-    unknown = sorted(set(entry) - set(fields))
+    hints = typing.get_type_hints(cls)
+    known = {f.name for f in dataclasses.fields(cls)} - {"name"}  # type: ignore[arg-type]
+    unknown = sorted(set(entry) - known)
     if unknown:
         raise ConfigError(f"{where}: unknown field {', '.join(unknown)}")
-    values = {key: checked_value(fields[key], value, f"{where}: {key}") for key, value in entry.items()}
+    values = {key: checked_value(hints[key], value, f"{where}: {key}") for key, value in entry.items()}
     try:
         return cls(name=name, **values)  # type: ignore[call-arg]
     except TypeError as exc:
@@ -60,20 +62,21 @@ def finite_number(value: Any, where: str) -> float:
     return float(number)
 
 
-def checked_value(f: dataclasses.Field, value: Any, where: str) -> Any:
-    """`value` for dataclass field `f`, checked against its annotation: float fields take finite numbers,
-    int fields whole numbers, str fields strings; `| None` allows null. ConfigError names `where`."""
-    annotation = str(f.type).replace(" ", "")
-    if value is None and annotation.endswith("|None"):
-        return None
-    base = annotation.removesuffix("|None")
-    if base == "float":
+def checked_value(hint: Any, value: Any, where: str) -> Any:
+    """`value` checked against a dataclass field's type hint: float fields take finite numbers, int fields whole
+    numbers, str fields strings, dict fields mappings; an optional field (`X | None`) also takes null."""
+    args = typing.get_args(hint)
+    if type(None) in args:
+        if value is None:
+            return None
+        hint = next(a for a in args if a is not type(None))
+    if hint is float:
         return finite_number(value, where)
-    if base == "int" and (isinstance(value, bool) or not isinstance(value, int)):
+    if hint is int and (isinstance(value, bool) or not isinstance(value, int)):
         raise ConfigError(f"{where}: expected a whole number, got {value!r}")
-    if base == "str" and not isinstance(value, str):
+    if hint is str and not isinstance(value, str):
         raise ConfigError(f"{where}: expected a string, got {value!r}")
-    if base.startswith("dict") and not isinstance(value, dict):
+    if typing.get_origin(hint) is dict and not isinstance(value, dict):
         raise ConfigError(f"{where}: expected a mapping, got {value!r}")
     return value
 
@@ -94,5 +97,6 @@ def load_record(path: Path, cls: type[T], overrides: dict[str, object] | None = 
         what = "; ".join(filter(None, [unknown and f"unknown field {', '.join(unknown)}",
                                        missing and f"missing field {', '.join(missing)}"]))
         raise ConfigError(f"{path}: {what}")
-    values = {name: checked_value(fields[name], value, f"{path}: {name}") for name, value in data.items()}
+    hints = typing.get_type_hints(cls)
+    values = {name: checked_value(hints[name], value, f"{path}: {name}") for name, value in data.items()}
     return cls(**values)

@@ -12,7 +12,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import mujoco
-import numpy as np
 
 from racecar_sim.bus import Bus, Subscription
 from racecar_sim.control.commands import ControllerCommands
@@ -29,7 +28,7 @@ from racecar_sim.physics import build_spec, check_spawn, load_preset, route_mujo
 from racecar_sim.physics.state import CarState
 from racecar_sim.core.scheduler import Scheduler
 from racecar_sim.sensors.joint_states import JointStatePublisher
-from racecar_sim.sensors.odometry import FRAMES as ODOMETRY_MODES, OdometryPublisher
+from racecar_sim.sensors.odometry import OdometryPublisher
 from racecar_sim.sensors.robot_state import RobotStatePublisher
 from racecar_sim.worlds import DEFAULT_WALL_HEIGHT, Spawn, World, load_world
 
@@ -39,6 +38,8 @@ if TYPE_CHECKING:
     from racecar_sim.sensors.lidar import LidarPublisher
 
 log = logging.getLogger("racecar_sim")
+_DIVERGENCE_WARNINGS = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,
+                        mujoco.mjtWarning.mjWARN_BADQACC)
 CLOCK_RATE = 100.0  # gazebo_ros publishes /clock at pub_clock_frequency, 100 Hz by default
 
 
@@ -59,8 +60,6 @@ class Simulator:
                  model_path: list[str | Path] | None = None, wall_height: float = DEFAULT_WALL_HEIGHT,
                  lidar: bool = True, camera: bool = True, sensor_noise: bool = True) -> None:
         self.seed = check_seed(seed)
-        if odometry not in ODOMETRY_MODES:
-            raise ConfigError(f"odometry mode {odometry!r} is not one of {', '.join(ODOMETRY_MODES)}")
         self.controllers_file = Path(controllers or package_path("racecar_control") / "config" / "racecar_control.yaml")
         self.sensor_noise = sensor_noise
         self.profile = load_profile(profile)
@@ -111,10 +110,10 @@ class Simulator:
         for recorder in self._recorders:
             self._attach_recorder(recorder)
         self.scheduler.every(CLOCK_RATE, lambda t: self.bus.publish("/clock", Clock(Time.from_ns(t))), "clock")
-        self.commands = ControllerCommands(self.bus, self.state, self.controllers, self.robot)
+        self.commands = ControllerCommands(self.bus, self.state, self.controllers, self.robot, now)
         self.chain = CommandChain(self.bus, self.scheduler, now)
         self.servo = ServoCommands(self.bus, self.robot, self.controllers, self.profile.servo, self.chain.output_topic,
-                                   self.profile.wheel_rate_per_speed)
+                                   self.profile.wheel_rate_per_speed, now)
         joints = [c.joint for c in self.controllers.controllers]
         self.joint_states = JointStatePublisher(self.bus, self.scheduler, self.state, joints,
                                                 self.controllers.joint_state_rate)
@@ -212,13 +211,22 @@ class Simulator:
         self.bus.tap(lambda topic, msg: recorder.write(topic, msg, self.time_ns))
 
     def _check_physics(self) -> None:
-        """Stop at the first sign of divergence, before any node publishes the broken state."""
-        warning = self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC]
-        if warning.number == 0 and np.isfinite(self.data.qpos).all() and np.isfinite(self.data.qvel).all():
+        """Stop at the first sign of divergence, before any node publishes the broken state.
+
+        MuJoCo flags NaN or huge positions, velocities and accelerations in its warning counters; with its
+        auto-reset off (physics.builder) the state stays as it diverged instead of silently jumping back.
+        """
+        fired = [(kind, self.data.warning[kind].lastinfo) for kind in _DIVERGENCE_WARNINGS
+                 if self.data.warning[kind].number]
+        if not fired:
             return
-        dof = warning.lastinfo if warning.number else int(np.flatnonzero(~np.isfinite(self.data.qvel))[:1].sum())
-        joint = mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_JOINT, int(self.model.dof_jntid[dof])) or "root"
-        self._divergence = (f"the physics diverged before t = {self.time:.3f} s (NaN or huge acceleration at joint "
+        kind, index = fired[0]
+        if kind == mujoco.mjtWarning.mjWARN_BADQPOS:  # a qpos index: the joint whose coordinates start at or before it
+            jid = int((self.model.jnt_qposadr <= index).nonzero()[0][-1])
+        else:  # a dof index
+            jid = int(self.model.dof_jntid[min(index, self.model.nv - 1)])
+        joint = mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_JOINT, jid) or "root"
+        self._divergence = (f"the physics diverged before t = {self.time:.3f} s (NaN or huge value at joint "
                             f"'{joint}'); the run stops. Check the controller gains in {self.controllers_file}, the "
                             f"physics step ({self.model.opt.timestep:g} s) and the world's <physics> block")
         raise PhysicsError(self._divergence)

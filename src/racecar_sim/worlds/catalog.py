@@ -5,16 +5,15 @@ A path is read by its suffix: .world/.sdf → SDF, .yaml/.yml → ROS occupancy 
 
 from __future__ import annotations
 
-from importlib import resources
 from pathlib import Path
 
 import yaml
 
 from racecar_sim.core.errors import WorldError
 from racecar_sim.worlds.sdf import load_sdf
-from racecar_sim.worlds.world import Spawn, World
+from racecar_sim.worlds.world import BUILTIN_DATA, Spawn, World
 
-DATA = Path(str(resources.files("racecar_sim.worlds") / "data"))
+DATA = BUILTIN_DATA
 BUILTIN_WORLDS: dict[str, dict] = yaml.safe_load((DATA / "worlds.yaml").read_text())
 DEFAULT_WALL_HEIGHT = 1.0  # m, walls extruded from maps and track borders
 MAP_SUFFIXES = (".yaml", ".yml")
