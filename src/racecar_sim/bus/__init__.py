@@ -1,5 +1,5 @@
-"""The in-process topic bus: the spine every node publishes to and subscribes from."""
+"""The in-process topic bus: the spine every node publishes to and subscribes from, with ROS-style services."""
 
-from racecar_sim.bus.bus import Bus, Subscription
+from racecar_sim.bus.bus import Bus, ServiceError, Subscription
 
-__all__ = ["Bus", "Subscription"]
+__all__ = ["Bus", "ServiceError", "Subscription"]

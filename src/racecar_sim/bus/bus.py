@@ -36,12 +36,40 @@ class _Topic:
     count: int = 0
 
 
+class ServiceError(LookupError):
+    """A call to a service nobody offers."""
+
+
 class Bus:
-    """Topics by name; latched topics (like /tf_static) hand their last message to late subscribers."""
+    """Topics by name; latched topics (like /tf_static) hand their last message to late subscribers.
+
+    Services (ROS request/response, e.g. /racecar/controller_manager/list_controllers) are offered with
+    advertise_service() and answered synchronously by call(), like everything else on the bus.
+    """
 
     def __init__(self) -> None:
         self._topics: dict[str, _Topic] = {}
         self._taps: list[Tap] = []
+        self._services: dict[str, Callable[[Any], Any]] = {}
+
+    def advertise_service(self, name: str, handler: Callable[[Any], Any]) -> None:
+        """Offer service `name`: call(name, request) returns handler(request)."""
+        if not name.startswith("/"):
+            raise ValueError(f"service '{name}' must be absolute (start with '/')")
+        if name in self._services:
+            raise ValueError(f"service {name} is already offered")
+        self._services[name] = handler
+
+    def call(self, name: str, request: Any) -> Any:
+        """Call service `name` with `request` and return its response; ServiceError if nobody offers it."""
+        handler = self._services.get(name)
+        if handler is None:
+            raise ServiceError(f"no service {name} (offered: {', '.join(sorted(self._services)) or 'none'})")
+        return handler(request)
+
+    def services(self) -> list[str]:
+        """The names of the services offered, sorted."""
+        return sorted(self._services)
 
     def _topic(self, name: str) -> _Topic:
         if not name.startswith("/"):

@@ -9,6 +9,7 @@ from functools import partial
 
 from racecar_sim.bus import Bus
 from racecar_sim.control.controllers import VELOCITY, ControllerConfig, JointController
+from racecar_sim.core.names import CarNames
 from racecar_sim.core.throttle import ThrottledWarning, is_finite_number
 from racecar_sim.description.urdf import Robot
 from racecar_sim.msgs import Float64
@@ -21,7 +22,7 @@ class ControllerCommands:
     """Holds each controller's last command, as ros_control does, and writes it to the actuator."""
 
     def __init__(self, bus: Bus, state: CarState, config: ControllerConfig, robot: Robot,
-                 now: Callable[[], int] = lambda: 0) -> None:
+                 now: Callable[[], int] = lambda: 0, names: CarNames = CarNames()) -> None:
         self.state = state
         self.warn = ThrottledWarning(log, now)
         self.limits: dict[str, tuple[float, float]] = {}
@@ -33,7 +34,7 @@ class ControllerCommands:
                 self.limits[c.name] = (-limit.velocity, limit.velocity)
             elif c.type != VELOCITY and robot.joints[c.joint].type == "revolute":
                 self.limits[c.name] = (limit.lower, limit.upper)  # JointPositionController enforces joint limits
-            bus.subscribe(c.command_topic, partial(self._on_command, c))
+            bus.subscribe(names.topic(c.command_topic), partial(self._on_command, c))
 
     def _on_command(self, controller: JointController, msg: Float64) -> None:
         value = msg.data

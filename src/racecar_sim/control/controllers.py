@@ -17,6 +17,7 @@ import mujoco
 import yaml
 
 from racecar_sim.core.errors import ConfigError
+from racecar_sim.core.names import CarNames
 from racecar_sim.core.tables import finite_number
 from racecar_sim.description.urdf import Robot
 
@@ -113,16 +114,16 @@ def _gain(pid: dict, key: str, where: str) -> float:
     return value
 
 
-def add_actuators(spec: mujoco.MjSpec, config: ControllerConfig, robot: Robot) -> None:
+def add_actuators(spec: mujoco.MjSpec, config: ControllerConfig, robot: Robot, names: CarNames = CarNames()) -> None:
     """Add one actuator per controller (two for a velocity controller with an I-term) to the spec."""
     for c in config.controllers:
         limit = robot.joints[c.joint].limit
         effort = limit.effort if limit and limit.effort > 0 else 0.0
-        act = spec.add_actuator(name=c.name, target=c.joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        act = spec.add_actuator(name=names.mj(c.name), target=names.mj(c.joint), trntype=mujoco.mjtTrn.mjTRN_JOINT)
         if c.type == VELOCITY:
             act.set_to_pid(kp=0.0, kv=c.gains.p, ctrlspec=_input_mask("vel"))
             if c.gains.i:
-                _add_velocity_integral(spec, c)
+                _add_velocity_integral(spec, c, names)
         else:
             act.set_to_pid(kp=c.gains.p, kv=c.gains.d, ki=c.gains.i, ctrlspec=_input_mask("pos"),
                            imax=c.gains.i_clamp / c.gains.i if c.gains.i and c.gains.i_clamp else 0.0)
@@ -136,8 +137,9 @@ def _input_mask(*inputs: str) -> int:
     return sum(bits[i] for i in inputs)
 
 
-def _add_velocity_integral(spec: mujoco.MjSpec, c: JointController) -> None:
-    act = spec.add_actuator(name=f"{c.name}/i_term", target=c.joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+def _add_velocity_integral(spec: mujoco.MjSpec, c: JointController, names: CarNames) -> None:
+    act = spec.add_actuator(name=names.mj(f"{c.name}/i_term"), target=names.mj(c.joint),
+                            trntype=mujoco.mjtTrn.mjTRN_JOINT)
     act.dyntype = mujoco.mjtDyn.mjDYN_INTEGRATOR  # act = integral of w_cmd
     act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
     act.gainprm[0] = c.gains.i

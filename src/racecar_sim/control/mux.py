@@ -19,6 +19,7 @@ import yaml
 
 from racecar_sim.bus import Bus
 from racecar_sim.core.errors import ConfigError
+from racecar_sim.core.names import CarNames
 from racecar_sim.core.time import to_ns
 from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header, String
 from racecar_sim.core.scheduler import Scheduler, Task
@@ -134,14 +135,23 @@ class AckermannCmdMux:
             self.holder = None
             self.bus.publish(self.active_topic, String("idle"))
 
+    def reset(self) -> None:
+        """As a freshly started nodelet: no timers, nobody in control, `active` idle."""
+        for timer in self._timers.values():
+            timer.cancel()
+        self._timers.clear()
+        self.holder = self.last_forwarded = None
+        self.bus.publish(self.active_topic, String("idle"))
+
 
 class CommandChain:
     """mux.launch: the high- and low-level muxes, the topic relays and the 6 Hz default zero command."""
 
-    def __init__(self, bus: Bus, scheduler: Scheduler, now: Callable[[], int], config: Path = DATA / "mux.yaml") -> None:
+    def __init__(self, bus: Bus, scheduler: Scheduler, now: Callable[[], int], config: Path = DATA / "mux.yaml",
+                 names: CarNames = CarNames()) -> None:
         try:
             data = yaml.safe_load(config.read_text())
-            self.output_topic: str = data["output"]
+            self.output_topic: str = names.topic(data["output"])
             default = data["default_command"]
             muxes, relays = data["muxes"], data["relays"]
         except (OSError, yaml.YAMLError, KeyError, TypeError) as exc:
@@ -151,12 +161,13 @@ class CommandChain:
         rate = _number(default, "rate", where, positive=True)
         if not isinstance(default.get("topic"), str):
             raise ConfigError(f"{where}: topic must be a topic name, got {default.get('topic')!r}")
-        self.default_topic: str = default["topic"]
+        self.default_topic: str = names.topic(default["topic"])
         speed, steering = _number(default, "speed", where), _number(default, "steering_angle", where)
         self.muxes = []
         for namespace, file in muxes.items():
             inputs, output = load_mux_inputs(config.parent / file)
-            self.muxes.append(AckermannCmdMux(bus, scheduler, now, namespace, inputs, output))
+            self.muxes.append(AckermannCmdMux(bus, scheduler, now, names.topic(namespace), inputs, output))
+        relays = [(names.topic(source), names.topic(target)) for source, target in relays]
         for source, target in relays:
             bus.subscribe(source, partial(self._relay, source, target))
         self.bus = bus
@@ -167,9 +178,14 @@ class CommandChain:
         command = AckermannDrive(steering_angle=float(steering), speed=float(speed))
 
         def publish_default(now_ns: int) -> None:
-            bus.publish(default["topic"], AckermannDriveStamped(Header.at(now_ns), command))
+            bus.publish(self.default_topic, AckermannDriveStamped(Header.at(now_ns), command))
 
         scheduler.every(float(rate), publish_default, "zero_ackermann_cmd")
+
+    def reset(self) -> None:
+        """Both muxes as freshly started (the default command's timer is the scheduler's, re-based on reset)."""
+        for mux in self.muxes:
+            mux.reset()
 
     def in_control(self) -> str:
         """What drives the car: the final mux's input in control, or IDLE_ZERO when that input only carries the

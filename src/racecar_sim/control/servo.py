@@ -19,6 +19,7 @@ import numpy as np
 from racecar_sim.bus import Bus
 from racecar_sim.control.controllers import ControllerConfig
 from racecar_sim.control.mux import accept_command
+from racecar_sim.core.names import CarNames
 from racecar_sim.core.throttle import ThrottledWarning
 from racecar_sim.description.urdf import Robot
 from racecar_sim.description.vehicle import VehicleGeometry
@@ -42,7 +43,8 @@ class ServoCommands:
     """The servo_commands node for one profile."""
 
     def __init__(self, bus: Bus, robot: Robot, controllers: ControllerConfig, mode: str, input_topic: str,
-                 wheel_rate_per_speed: float | None = None, now: Callable[[], int] = lambda: 0) -> None:
+                 wheel_rate_per_speed: float | None = None, now: Callable[[], int] = lambda: 0,
+                 names: CarNames = CarNames()) -> None:
         if mode not in ("ackermann", "parallel"):
             raise ValueError(f"servo mode '{mode}' is not ackermann or parallel")
         self.bus, self.mode = bus, mode
@@ -52,11 +54,12 @@ class ServoCommands:
         for w in self.geometry.wheels:
             hinge_topic = hinge_limits = None
             if w.hinge_joint:
-                hinge_topic = controllers.controller(w.hinge_joint).command_topic
+                hinge_topic = names.topic(controllers.controller(w.hinge_joint).command_topic)
                 joint = robot.joints[w.hinge_joint]
                 if joint.type == "revolute":
                     hinge_limits = (joint.limit.lower, joint.limit.upper)
-            self.wheels.append(WheelCommand(controllers.controller(w.joint).command_topic, np.array(w.centre[:2]),
+            self.wheels.append(WheelCommand(names.topic(controllers.controller(w.joint).command_topic),
+                                            np.array(w.centre[:2]),
                                             hinge_topic, np.array(w.hinge_axis_point) if w.hinge_axis_point else None,
                                             hinge_limits))
         self.max_curvature = self._max_curvature()

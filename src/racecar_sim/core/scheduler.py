@@ -69,6 +69,15 @@ class Scheduler:
         self._push(time_ns, task)
         return task
 
+    def reset(self) -> None:
+        """Sim time is back at 0: every periodic task starts over (next fire at its first period) and one-shot
+        tasks are dropped (a node that wants a timer after a reset sets it again in its reset hook)."""
+        tasks = [entry.task for entry in self._heap if not entry.task.cancelled and entry.task.period_ns is not None]
+        self._heap = []
+        for task in sorted(set(tasks), key=tasks.index):
+            task.start_ns, task.index = 0, 1
+            self._push(_ceil(task.period_ns), task)
+
     def next_time(self) -> int | None:
         """Sim time of the next live task, or None."""
         while self._heap and self._heap[0].task.cancelled:

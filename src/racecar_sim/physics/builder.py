@@ -14,27 +14,41 @@ import mujoco
 import numpy as np
 
 from racecar_sim.core.errors import DescriptionError
+from racecar_sim.core.names import CarNames
 from racecar_sim.core.transforms import quat_from_axis_angle, quat_from_rpy
 from racecar_sim.description.urdf import Link, Robot, Shape
 from racecar_sim.physics.contact import solref_solimp
 from racecar_sim.physics.presets import CONES, INTEGRATORS, SOLVERS, PhysicsPreset
 from racecar_sim.physics.world_geoms import COLLISION_GROUP, GEOM_TYPES, VISUAL_GROUP, add_world, mj_size
 from racecar_sim.worlds.materials import gazebo_material_rgba
-from racecar_sim.worlds.world import World
+from racecar_sim.worlds.world import Spawn, World
 
 ROOT_JOINT = "root"
 
 
 
-def build_spec(robot: Robot, world: World, preset: PhysicsPreset) -> mujoco.MjSpec:
-    """The full scene: options, the world's geoms and lights, and the car at the world's spawn pose."""
-    spec = mujoco.MjSpec()
+def build_spec(robot: Robot, world: World, preset: PhysicsPreset, names: CarNames = CarNames()) -> mujoco.MjSpec:
+    """The full scene for one car: options, the world's geoms and lights, and the car at the world's spawn pose."""
+    spec = world_spec(world, preset)
     spec.modelname = robot.name
+    add_car(spec, robot, world.spawn, preset, names)
+    return spec
+
+
+def world_spec(world: World, preset: PhysicsPreset) -> mujoco.MjSpec:
+    """The world alone (options, geoms, lights): cars are added with add_car, then finish_spec before compiling."""
+    spec = mujoco.MjSpec()
+    spec.modelname = world.name or "world"
     _options(spec, world, preset)
     add_world(spec, world)
-    _add_robot(spec, robot, world, preset)
-    _friction_min_rule(spec)
     return spec
+
+
+def add_car(spec: mujoco.MjSpec, robot: Robot, spawn: Spawn, preset: PhysicsPreset,
+            names: CarNames = CarNames()) -> None:
+    """One car from its URDF at `spawn`, every MuJoCo name of it from `names` (no prefix for the unnamed car)."""
+    _add_robot(spec, robot, spawn, preset, names)
+    _friction_min_rule(spec)
 
 
 def _options(spec: mujoco.MjSpec, world: World, preset: PhysicsPreset) -> None:
@@ -75,7 +89,8 @@ def _collision_type(shape: Shape, is_wheel: bool, preset: PhysicsPreset) -> tupl
     return GEOM_TYPES[kind], mj_size(kind, size)
 
 
-def _add_shapes(body: mujoco.MjsBody, link: Link, robot: Robot, preset: PhysicsPreset, is_wheel: bool) -> None:
+def _add_shapes(body: mujoco.MjsBody, link: Link, robot: Robot, preset: PhysicsPreset, is_wheel: bool,
+                names: CarNames) -> None:
     for i, shape in enumerate(link.collisions):
         if shape.geometry.kind == "mesh":
             raise DescriptionError(f"link {link.name}: mesh collisions are not supported yet")
@@ -83,7 +98,7 @@ def _add_shapes(body: mujoco.MjsBody, link: Link, robot: Robot, preset: PhysicsP
         surface = link.surface
         mu = surface.mu1 if surface.mu1 is not None else 1.0  # SDF default friction
         solref, solimp = solref_solimp(surface.kp, _sprung_mass(robot), preset.contact_timeconst)
-        body.add_geom(name=f"{link.name}_collision{'' if i == 0 else i}", type=geom_type, size=geom_size,
+        body.add_geom(name=names.mj(f"{link.name}_collision{'' if i == 0 else i}"), type=geom_type, size=geom_size,
                       pos=list(shape.origin.xyz),
                       quat=list(quat_from_rpy(shape.origin.rpy)), group=COLLISION_GROUP, contype=1, conaffinity=1,
                       condim=3, friction=[mu, 0.0, 0.0], solref=solref, solimp=solimp, rgba=[0.9, 0.3, 0.3, 0.4])
@@ -91,17 +106,18 @@ def _add_shapes(body: mujoco.MjsBody, link: Link, robot: Robot, preset: PhysicsP
         if shape.geometry.kind == "mesh":
             warnings.warn(f"link {link.name}: mesh visual {shape.geometry.filename} is not rendered", stacklevel=3)
             continue
-        body.add_geom(name=f"{link.name}_visual{'' if i == 0 else i}", type=GEOM_TYPES[shape.geometry.kind],
+        body.add_geom(name=names.mj(f"{link.name}_visual{'' if i == 0 else i}"), type=GEOM_TYPES[shape.geometry.kind],
                       size=mj_size(shape.geometry.kind, shape.geometry.size), pos=list(shape.origin.xyz),
                       quat=list(quat_from_rpy(shape.origin.rpy)), group=VISUAL_GROUP, contype=0, conaffinity=0,
                       rgba=_link_rgba(link, shape), mass=0.0)
 
 
-def _add_link(spec: mujoco.MjSpec, parent: mujoco.MjsBody, robot: Robot, name: str, preset: PhysicsPreset) -> None:
+def _add_link(spec: mujoco.MjSpec, parent: mujoco.MjsBody, robot: Robot, name: str, preset: PhysicsPreset,
+              names: CarNames) -> None:
     link = robot.links[name]
     joint = robot.joint_to(name)
     pos, quat = (joint.origin.xyz, quat_from_rpy(joint.origin.rpy)) if joint else ((0.0, 0.0, 0.0), np.array([1.0, 0, 0, 0]))
-    body = parent.add_body(name=name, pos=list(pos), quat=list(quat))
+    body = parent.add_body(name=names.mj(name), pos=list(pos), quat=list(quat))
     if link.inertial:
         i = link.inertial
         body.explicitinertial = True
@@ -109,9 +125,9 @@ def _add_link(spec: mujoco.MjSpec, parent: mujoco.MjsBody, robot: Robot, name: s
         body.ipos = list(i.origin.xyz)
         body.iquat = list(quat_from_rpy(i.origin.rpy))
         body.fullinertia = [i.inertia[0], i.inertia[1], i.inertia[2], i.inertia[3], i.inertia[4], i.inertia[5]]
-    body.add_site(name=name, size=[0.005, 0.005, 0.005], group=4)  # the URDF frame, kept through fusion
+    body.add_site(name=names.mj(name), size=[0.005, 0.005, 0.005], group=4)  # the URDF frame, kept through fusion
     if joint and joint.moves:
-        mj_joint = body.add_joint(name=joint.name, axis=list(joint.axis),
+        mj_joint = body.add_joint(name=names.mj(joint.name), axis=list(joint.axis),
                                   type=mujoco.mjtJoint.mjJNT_HINGE if joint.type != "prismatic" else mujoco.mjtJoint.mjJNT_SLIDE)
         if joint.type in ("revolute", "prismatic"):
             mj_joint.range = [joint.limit.lower, joint.limit.upper]
@@ -122,23 +138,22 @@ def _add_link(spec: mujoco.MjSpec, parent: mujoco.MjsBody, robot: Robot, name: s
         if joint.limit and joint.limit.effort > 0:
             mj_joint.actfrcrange = [-joint.limit.effort, joint.limit.effort]
             mj_joint.actfrclimited = mujoco.mjtLimited.mjLIMITED_TRUE
-    _add_shapes(body, link, robot, preset, is_wheel=joint is not None and joint.type == "continuous")
+    _add_shapes(body, link, robot, preset, joint is not None and joint.type == "continuous", names)
     for child in (j.child for j in robot.joints.values() if j.parent == name):
-        _add_link(spec, body, robot, child, preset)
+        _add_link(spec, body, robot, child, preset, names)
 
 
-def _add_robot(spec: mujoco.MjSpec, robot: Robot, world: World, preset: PhysicsPreset) -> None:
+def _add_robot(spec: mujoco.MjSpec, robot: Robot, spawn: Spawn, preset: PhysicsPreset, names: CarNames) -> None:
     root = robot.root
-    _add_link(spec, spec.worldbody, robot, root, preset)
-    base = spec.body(root)
-    s = world.spawn
-    base.pos = [s.x, s.y, s.z]
-    base.quat = list(quat_from_axis_angle((0.0, 0.0, 1.0), s.yaw))
-    base.add_freejoint(name=ROOT_JOINT)
+    _add_link(spec, spec.worldbody, robot, root, preset, names)
+    base = spec.body(names.mj(root))
+    base.pos = [spawn.x, spawn.y, spawn.z]
+    base.quat = list(quat_from_axis_angle((0.0, 0.0, 1.0), spawn.yaw))
+    base.add_freejoint(name=names.mj(ROOT_JOINT))
     # MuJoCo only filters parent/child contacts; the car's own parts never touch each other in Gazebo either.
     moving = [root] + [j.child for j in robot.joints.values() if j.moves]
     for a, b in itertools.combinations(moving, 2):
-        spec.add_exclude(bodyname1=a, bodyname2=b)
+        spec.add_exclude(bodyname1=names.mj(a), bodyname2=names.mj(b))
 
 
 def _friction_min_rule(spec: mujoco.MjSpec) -> None:

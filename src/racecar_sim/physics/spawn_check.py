@@ -25,8 +25,9 @@ import mujoco
 import numpy as np
 
 from racecar_sim.core.errors import WorldError
+from racecar_sim.core.names import CarNames
 from racecar_sim.description.urdf import Robot
-from racecar_sim.worlds.world import World
+from racecar_sim.worlds.world import Spawn, World
 
 # Deepest overlap let through: resting wheels touch the ground at ~0 m. MuJoCo pushes a penetration d out at
 # ~d / 0.01 s (measured, default preset): 3 mm hops the car 2 mm, 5 mm 8 mm, 1 cm 4 cm, 2 cm 19 cm, 5 cm 1.2 m.
@@ -40,18 +41,20 @@ SEPARATE_UP = math.cos(math.radians(45))  # a car that must move (mostly) up to 
 _G = mujoco.mjtGeom
 
 
-def check_spawn(model: mujoco.MjModel, data: mujoco.MjData, world: World, robot: Robot) -> None:
+def check_spawn(model: mujoco.MjModel, data: mujoco.MjData, world: World, robot: Robot,
+                names: CarNames = CarNames(), spawn: Spawn | None = None) -> None:
     """Raise WorldError if the car, at its spawn pose in `data` (after mj_forward), overlaps the world or has no
     ground under it; warn if it will fall more than DROP_WARN. The car is the body tree of `robot.root`."""
-    car = _subtree_geoms(model, model.body(robot.root).id)
+    car = _subtree_geoms(model, model.body(names.mj(robot.root)).id)
     others = np.setdiff1d(np.arange(model.ngeom), car)
     solid = others[_colliding(model, others)]
-    where = f"{world.label}: spawn pose ({_pose(world)})"
+    who = f"{names.namespace}'s " if names.namespace else ""
+    where = f"{world.label}: {who}spawn pose ({_pose(spawn or world.spawn)})"
     if len(solid) == 0:
         warnings.warn(f"{world.label}: the world has no collision geometry: nothing holds the car up", stacklevel=3)
         return
     _check_overlap(model, data, car, solid, where)
-    probes = _probes(model, data, car, robot)
+    probes = _probes(model, data, car, robot, names)
     if not probes:
         return
     drops = []
@@ -66,8 +69,7 @@ def check_spawn(model: mujoco.MjModel, data: mujoco.MjData, world: World, robot:
         warnings.warn(f"{where} is {fall:.3g} m above the ground: the car will fall {fall:.3g} m", stacklevel=3)
 
 
-def _pose(world: World) -> str:
-    s = world.spawn
+def _pose(s: Spawn) -> str:
     return ", ".join(f"{v:g}" for v in (s.x, s.y, s.z, s.yaw))
 
 
@@ -113,10 +115,11 @@ def _check_overlap(model: mujoco.MjModel, data: mujoco.MjData, car: np.ndarray, 
                      f"{_name(model, obstacle)}")
 
 
-def _probes(model: mujoco.MjModel, data: mujoco.MjData, car: np.ndarray, robot: Robot) -> list[tuple[str, np.ndarray]]:
+def _probes(model: mujoco.MjModel, data: mujoco.MjData, car: np.ndarray, robot: Robot,
+            names: CarNames) -> list[tuple[str, np.ndarray]]:
     """(name, lowest point) of each wheel's collision geoms; of the car's lowest collision geom if it has no wheels."""
     colliding = car[_colliding(model, car)]
-    wheels = {model.body(j.child).id for j in robot.joints.values() if j.type == "continuous"}
+    wheels = {model.body(names.mj(j.child)).id for j in robot.joints.values() if j.type == "continuous"}
     probes = [(model.body(model.geom_bodyid[g]).name, lowest_point(model, data, g))
               for g in colliding if model.geom_bodyid[g] in wheels]
     if not probes and len(colliding):

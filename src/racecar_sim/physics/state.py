@@ -5,28 +5,39 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from racecar_sim.core.names import CarNames
+from racecar_sim.core.transforms import quat_from_axis_angle
 from racecar_sim.physics.builder import ROOT_JOINT
 
 
 class CarState:
     """Named access to joints, actuators and the base_link body of the car in a compiled model."""
 
-    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, root_link: str) -> None:
-        self.model, self.data = model, data
-        self._base = model.body(root_link).id
-        self._root_qpos = model.jnt_qposadr[model.joint(ROOT_JOINT).id]
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, root_link: str,
+                 names: CarNames = CarNames()) -> None:
+        self.model, self.data, self.names = model, data, names
+        self._base = model.body(names.mj(root_link)).id
+        self._root_qpos = model.jnt_qposadr[model.joint(names.mj(ROOT_JOINT)).id]
+        self._root_dof = model.jnt_dofadr[model.joint(names.mj(ROOT_JOINT)).id]
         self._vel = np.zeros(6)
+        self._actuators: dict[str, list[int]] = {}
 
     def set_command(self, actuator: str, value: float) -> None:
         """Set the setpoint of an actuator (and of its companion I-term actuator, if any)."""
-        for name in (actuator, f"{actuator}/i_term"):
-            aid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_ACTUATOR, name)
-            if aid >= 0:
-                self.data.ctrl[self.model.actuator_ctrladr[aid]] = value
+        for adr in self.actuator_ctrl(actuator):
+            self.data.ctrl[adr] = value
+
+    def actuator_ctrl(self, actuator: str) -> list[int]:
+        """ctrl addresses of a controller's actuator and its I-term companion (looked up once)."""
+        if actuator not in self._actuators:
+            ids = [mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_ACTUATOR, self.names.mj(name))
+                   for name in (actuator, f"{actuator}/i_term")]
+            self._actuators[actuator] = [int(self.model.actuator_ctrladr[i]) for i in ids if i >= 0]
+        return self._actuators[actuator]
 
     def joint_indices(self, joints: list[str]) -> tuple[np.ndarray, np.ndarray]:
         """qpos and dof addresses of hinge/slide joints, for joint_state()."""
-        ids = [self.model.joint(j).id for j in joints]
+        ids = [self.model.joint(self.names.mj(j)).id for j in joints]
         return self.model.jnt_qposadr[ids].copy(), self.model.jnt_dofadr[ids].copy()
 
     def joint_state(self, qpos_adr: np.ndarray, dof_adr: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -44,8 +55,20 @@ class CarState:
         mujoco.mj_objectVelocity(self.model, self.data, mujoco.mjtObj.mjOBJ_XBODY, self._base, self._vel, int(local))
         return self._vel[3:].copy(), self._vel[:3].copy()
 
+    @property
+    def body_id(self) -> int:
+        """MuJoCo id of the car's root body (base_link)."""
+        return self._base
+
+    def set_base_pose(self, x: float, y: float, z: float, yaw: float) -> None:
+        """Put base_link at (x, y, z) facing `yaw`, at rest (the caller runs mj_forward)."""
+        adr, dof = self._root_qpos, self._root_dof
+        self.data.qpos[adr:adr + 3] = (x, y, z)
+        self.data.qpos[adr + 3:adr + 7] = quat_from_axis_angle((0.0, 0.0, 1.0), yaw)
+        self.data.qvel[dof:dof + 6] = 0.0
+
     def reset(self, qpos0: np.ndarray) -> None:
-        """Back to the initial state, the car at its spawn pose."""
+        """Back to the initial state, every car at its spawn pose (resets the whole MjData)."""
         mujoco.mj_resetData(self.model, self.data)
         self.data.qpos[:] = qpos0
         mujoco.mj_forward(self.model, self.data)

@@ -1,6 +1,7 @@
-"""The runtime: sim clock, scheduler and the Simulator that wires every node onto the bus."""
+"""The runtime: sim clock, scheduler, cars and the Simulator that wires every node onto the bus."""
 
 from racecar_sim.core.scheduler import Scheduler, Task
-from racecar_sim.runtime.simulator import Simulator
+from racecar_sim.runtime.car import Car
+from racecar_sim.runtime.simulator import Collision, Simulator
 
-__all__ = ["Scheduler", "Simulator", "Task"]
+__all__ = ["Car", "Collision", "Scheduler", "Simulator", "Task"]

@@ -1,146 +1,145 @@
-"""The Simulator: a world, the car, the nodes of the original stack on one bus, and a sim clock.
+"""The Simulator: a world, its cars, the nodes of the original stack on one bus, and a sim clock.
 
 Physics runs inside MuJoCo for as many steps as fit before the next event (a sensor sample, a node's
-timer, a mux timeout); Python runs only at those events.
+timer, a mux timeout); Python runs only at those events. The bus, the scheduler, the model and every node
+live as long as the Simulator: reset() restores the physics and calls reset hooks, it rebuilds nothing.
 """
 
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import mujoco
 
 from racecar_sim.bus import Bus, Subscription
-from racecar_sim.control.commands import ControllerCommands
-from racecar_sim.control.controllers import add_actuators, load_controller_config
-from racecar_sim.control.mux import CommandChain
-from racecar_sim.control.profiles import load_profile
-from racecar_sim.control.servo import ServoCommands
 from racecar_sim.core.errors import ConfigError, PhysicsError
+from racecar_sim.core.names import CLOCK
 from racecar_sim.core.rng import check_seed
-from racecar_sim.core.time import NS_PER_S, ceil_to_step, to_ns
-from racecar_sim.description import DEFAULT_XACRO, load_robot, package_path
-from racecar_sim.msgs import Clock, Time
-from racecar_sim.physics import build_spec, check_spawn, load_preset, route_mujoco_warnings
-from racecar_sim.physics.state import CarState
 from racecar_sim.core.scheduler import Scheduler
-from racecar_sim.sensors.joint_states import JointStatePublisher
-from racecar_sim.sensors.odometry import OdometryPublisher
-from racecar_sim.sensors.robot_state import RobotStatePublisher
+from racecar_sim.core.time import NS_PER_S, ceil_to_step, to_ns
+from racecar_sim.description import DEFAULT_XACRO
+from racecar_sim.msgs import Clock, String, Time
+from racecar_sim.physics import check_spawn, load_preset, route_mujoco_warnings, world_spec
+from racecar_sim.physics.car_contacts import CarContacts
+from racecar_sim.runtime.car import Car
+from racecar_sim.sensors.robot_state import StaticTransforms
 from racecar_sim.worlds import DEFAULT_WALL_HEIGHT, Spawn, World, load_world
 
 if TYPE_CHECKING:
     from racecar_sim.recording import McapRecorder
-    from racecar_sim.sensors.camera import CameraPublisher
-    from racecar_sim.sensors.lidar import LidarPublisher
 
 log = logging.getLogger("racecar_sim")
 _DIVERGENCE_WARNINGS = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,
                         mujoco.mjtWarning.mjWARN_BADQACC)
 CLOCK_RATE = 100.0  # gazebo_ros publishes /clock at pub_clock_frequency, 100 Hz by default
+COLLISIONS = "/racecar_sim/collisions"  # std_msgs/String "carA carB" when two cars start touching
+
+
+@dataclass(frozen=True)
+class Collision:
+    """Two cars started touching at sim time `time_ns` (names: namespaces, "racecar" for the unnamed car)."""
+
+    time_ns: int
+    cars: tuple[str, str]
 
 
 class Simulator:
-    """One simulated RACECAR in one world.
+    """RACECARs in one world: one car with the original names by default, or a fleet given as `cars`.
 
     >>> sim = Simulator(world="empty", profile="seed", seed=0)
     >>> sim.publish("/vesc/ackermann_cmd_mux/input/navigation", AckermannDriveStamped(drive=AckermannDrive(speed=1.0)))
     >>> sim.run_until(2.0)
 
-    Every topic of the original is on `sim.bus` under its original name. Same world, profile, seed and
-    inputs give bit-identical messages.
+    >>> fleet = Simulator(world="tunnel", cars=[Car("car1"), Car("car2", spawn=Spawn(-1.5, 0, 0.05, 0))])
+
+    Every topic of the original is on `sim.bus` under its original name, each car's under its namespace.
+    Same world, cars, seed and inputs give bit-identical messages.
     """
 
     def __init__(self, world: str | World = "empty", profile: str = "seed", seed: int = 0, physics: str = "default",
                  spawn: Spawn | None = None, odometry: str = "original", xacro: str | Path = DEFAULT_XACRO,
                  xacro_args: Mapping[str, str] | None = None, controllers: str | Path | None = None,
                  model_path: list[str | Path] | None = None, wall_height: float = DEFAULT_WALL_HEIGHT,
-                 lidar: bool = True, camera: bool = True, sensor_noise: bool = True) -> None:
+                 lidar: bool = True, camera: bool = True, sensor_noise: bool = True,
+                 cars: Sequence[Car] | None = None) -> None:
         self.seed = check_seed(seed)
-        self.controllers_file = Path(controllers or package_path("racecar_control") / "config" / "racecar_control.yaml")
         self.sensor_noise = sensor_noise
-        self.profile = load_profile(profile)
-        self.robot = load_robot(xacro, {**self.profile.xacro_args, **(xacro_args or {})})
+        if cars is None:
+            cars = [Car("", xacro, xacro_args, profile, controllers, spawn, lidar, camera, odometry)]
+        self.cars = _checked_fleet(cars)
+        for car in self.cars:
+            car.load()
+        first = self.cars[0]
         if isinstance(world, World):
             self.world = world
         else:
-            self.world = load_world(world, spawn, [Path(p) for p in model_path or []], wall_height)
-        if spawn is not None:
-            self.world.spawn = spawn
+            self.world = load_world(world, first.spawn, [Path(p) for p in model_path or []], wall_height)
+        if first.spawn is not None:
+            self.world.spawn = first.spawn
+        self.spawns = [car.spawn or self.world.spawn for car in self.cars]
         self.preset = load_preset(physics)
         route_mujoco_warnings()
-        self.controllers = load_controller_config(self.controllers_file, self.robot)
-        spec = build_spec(self.robot, self.world, self.preset)
-        add_actuators(spec, self.controllers, self.robot)
-        self._lidar_on = lidar and self.robot.sensor("ray") is not None
-        self._camera_on = camera and self.robot.sensor("camera") is not None
-        if self._camera_on:
-            from racecar_sim.sensors.camera import add_camera  # GL bindings load only when a camera is wanted
-
-            add_camera(spec, self.robot)
+        spec = world_spec(self.world, self.preset)
+        spec.modelname = first.robot.name if len(self.cars) == 1 else self.world.name or "fleet"
+        for car, car_spawn in zip(self.cars, self.spawns):
+            car.add_to(spec, self.preset, car_spawn)
         try:
             self.model = spec.compile()
         except ValueError as exc:
-            raise ConfigError(f"MuJoCo rejected the model built from {xacro}: {exc}") from None
+            raise ConfigError(f"MuJoCo rejected the model built from {first.xacro}: {exc}") from None
         self.data = mujoco.MjData(self.model)
         self.step_ns = to_ns(self.model.opt.timestep)
         if abs(self.step_ns / NS_PER_S - self.model.opt.timestep) > 1e-15:
             raise ConfigError(f"physics step {self.model.opt.timestep} s is not a whole number of nanoseconds")
         mujoco.mj_forward(self.model, self.data)
-        check_spawn(self.model, self.data, self.world, self.robot)  # WorldError: inside an obstacle, no ground
+        for car, car_spawn in zip(self.cars, self.spawns):  # WorldError: inside an obstacle or a car, no ground
+            check_spawn(self.model, self.data, self.world, car.robot, car.names, car_spawn)
         self._qpos0 = self.data.qpos.copy()
-        self._odometry_mode = odometry
-        self._user_subscriptions: list[tuple[str, Callable[[Any], None]]] = []
         self._recorders: list[McapRecorder] = []
-        self.lidar: LidarPublisher | None = None
-        self.camera: CameraPublisher | None = None
-        self._setup()
-
-    def _setup(self) -> None:
-        """(Re)create the clock, bus, scheduler and every node of the original stack."""
+        self._reset_hooks: list[Callable[[], None]] = []
+        self._collision_hooks: list[Callable[[Collision], None]] = []
+        self._divergence: str | None = None
         self.time_ns = 0
         self.bus = Bus()
         self.scheduler = Scheduler(self.step_ns)
-        self.state = CarState(self.model, self.data, self.robot.root)
-        self._divergence: str | None = None
+        self.static_tf = StaticTransforms(self.bus)
+        self.scheduler.every(CLOCK_RATE, lambda t: self.bus.publish(CLOCK, Clock(Time.from_ns(t))), "clock")
         now = lambda: self.time_ns  # noqa: E731
-        for recorder in self._recorders:
-            self._attach_recorder(recorder)
-        self.scheduler.every(CLOCK_RATE, lambda t: self.bus.publish("/clock", Clock(Time.from_ns(t))), "clock")
-        self.commands = ControllerCommands(self.bus, self.state, self.controllers, self.robot, now)
-        self.chain = CommandChain(self.bus, self.scheduler, now)
-        self.servo = ServoCommands(self.bus, self.robot, self.controllers, self.profile.servo, self.chain.output_topic,
-                                   self.profile.wheel_rate_per_speed, now)
-        joints = [c.joint for c in self.controllers.controllers]
-        self.joint_states = JointStatePublisher(self.bus, self.scheduler, self.state, joints,
-                                                self.controllers.joint_state_rate)
-        self.robot_state = RobotStatePublisher(self.bus, self.robot)
-        self.odometry = OdometryPublisher(self.bus, self.scheduler, self.state, self._odometry_mode)
-        self._setup_sensors()
-        for topic, callback in self._user_subscriptions:
-            self.bus.subscribe(topic, callback)
+        for car in self.cars:
+            car.start(self.model, self.data, self.bus, self.scheduler, now, self.static_tf, self.seed, sensor_noise)
+        self._contacts = CarContacts(self.model, [car.state.body_id for car in self.cars]) if len(self.cars) > 1 else None
+        self._touching: set[tuple[int, int]] = set()
 
-    def _setup_sensors(self) -> None:
-        """The Hokuyo and the ZED, as racecar.gazebo declares them (and unless switched off)."""
-        if self._lidar_on:
-            from racecar_sim.sensors.lidar import LidarPublisher
+    # --- the first car, under the names the single-car API always had ---------------------------------
+    @property
+    def car(self) -> Car:
+        """The first car (the only one unless `cars` was given)."""
+        return self.cars[0]
 
-            self.lidar = LidarPublisher(self.bus, self.scheduler, self.model, self.data, self.robot, self.seed,
-                                        noise=self.sensor_noise)
-        if self._camera_on:
-            from racecar_sim.sensors.camera import CameraPublisher, RenderingError
+    robot = property(lambda self: self.car.robot, doc="The first car's parsed URDF.")
+    profile = property(lambda self: self.car.profile, doc="The first car's driving profile.")
+    controllers = property(lambda self: self.car.controllers, doc="The first car's controller configuration.")
+    state = property(lambda self: self.car.state, doc="The first car's state access.")
+    commands = property(lambda self: self.car.commands, doc="The first car's controller command node.")
+    chain = property(lambda self: self.car.chain, doc="The first car's ackermann_cmd_mux chain.")
+    servo = property(lambda self: self.car.servo, doc="The first car's servo_commands node.")
+    joint_states = property(lambda self: self.car.joint_states, doc="The first car's joint_state_controller.")
+    robot_state = property(lambda self: self.car.robot_state, doc="The first car's robot_state_publisher.")
+    odometry = property(lambda self: self.car.odometry, doc="The first car's odometry node.")
+    lidar = property(lambda self: self.car.lidar, doc="The first car's lidar (None when off).")
+    camera = property(lambda self: self.car.camera, doc="The first car's camera (None when off).")
+    controllers_file = property(lambda self: self.car.controllers_file, doc="The first car's controller YAML.")
 
-            if self.camera is not None:
-                self.camera.close()  # reset(): one GL context at a time
-            try:
-                self.camera = CameraPublisher(self.bus, self.scheduler, self.model, self.data, self.robot, self.seed,
-                                              noise=self.sensor_noise)
-            except RenderingError as exc:
-                log.error("%s; continuing without the camera", exc)
-                self._camera_on, self.camera = False, None
+    def car_named(self, name: str) -> Car:
+        """A car by its namespace (or its Gazebo model name: `racecar` for the unnamed car)."""
+        for car in self.cars:
+            if name in (car.name, car.model_name):
+                return car
+        raise KeyError(f"no car named {name!r} (cars: {', '.join(c.model_name for c in self.cars)})")
 
     # --- the public API -------------------------------------------------------------------------
     @property
@@ -153,9 +152,16 @@ class Simulator:
         self.bus.publish(topic, msg)
 
     def subscribe(self, topic: str, callback: Callable[[Any], None]) -> Subscription:
-        """Call `callback(msg)` for every message on `topic`; kept across reset()."""
-        self._user_subscriptions.append((topic, callback))
+        """Call `callback(msg)` for every message on `topic` (the bus lives as long as the Simulator)."""
         return self.bus.subscribe(topic, callback)
+
+    def on_reset(self, hook: Callable[[], None]) -> None:
+        """Call `hook()` after every reset(), once the physics is back at its start (a driver clears its state)."""
+        self._reset_hooks.append(hook)
+
+    def on_collision(self, hook: Callable[[Collision], None]) -> None:
+        """Call `hook(Collision)` when two cars start touching (checked at every event, not every physics step)."""
+        self._collision_hooks.append(hook)
 
     def run_until(self, t: float) -> None:
         """Advance sim time to `t` seconds (rounded up to a physics step), firing every event on the way."""
@@ -169,16 +175,36 @@ class Simulator:
                 mujoco.mj_step(self.model, self.data, nstep=(target - self.time_ns) // self.step_ns)
                 self.time_ns = target
                 self._check_physics()
+                if self._contacts is not None:
+                    self._check_collisions()
             self.scheduler.run_due(self.time_ns)
 
     def run_for(self, duration: float) -> None:
         """Advance sim time by `duration` seconds."""
         self.run_until(self.time + duration)
 
-    def reset(self) -> None:
-        """Back to t = 0 with the car at its spawn pose; user subscriptions and recorders stay attached."""
-        self.state.reset(self._qpos0)
-        self._setup()
+    def reset(self, seed: int | None = None, spawn: Spawn | Mapping[str, Spawn] | Sequence[Spawn] | None = None) -> None:
+        """Back to t = 0 with every car at its spawn pose (or at `spawn`: one pose for the first car, a pose per
+        car in order, or a mapping of car names to poses), and a new noise `seed` if given.
+
+        Nothing is rebuilt: subscriptions, timers, recorders, bridges and every node stay attached; each car's
+        muxes go idle, its sensors take the seed, and the hooks given to on_reset() run.
+        """
+        if seed is not None:
+            self.seed = check_seed(seed)
+        poses = _spawn_poses(self, spawn)
+        self.car.state.reset(self._qpos0)
+        for index, pose in poses.items():
+            self.cars[index].state.set_base_pose(pose.x, pose.y, pose.z, pose.yaw)
+        mujoco.mj_forward(self.model, self.data)
+        self.time_ns = 0
+        self._divergence = None
+        self._touching = set()
+        self.scheduler.reset()
+        for car in self.cars:
+            car.reset(self.seed)
+        for hook in self._reset_hooks:
+            hook()
 
     def record(self, path: str | Path) -> McapRecorder:
         """Record every bus topic to an MCAP file (ROS 2 CDR, log time = sim time) until close()."""
@@ -186,19 +212,18 @@ class Simulator:
 
         recorder = McapRecorder(path)
         self._recorders.append(recorder)
-        self._attach_recorder(recorder)
+        self.bus.tap(lambda topic, msg: recorder.write(topic, msg, self.time_ns))
         for topic, msg in self.bus.latched_messages().items():
             recorder.write(topic, msg, self.time_ns)
         return recorder
 
     def close(self) -> None:
-        """Finish every recording (writes the MCAP footers) and free the camera's GL context."""
+        """Finish every recording (writes the MCAP footers) and free the cameras' GL contexts."""
         for recorder in self._recorders:
             recorder.close()
         self._recorders.clear()
-        if self.camera is not None:
-            self.camera.close()
-            self.camera = None
+        for car in self.cars:
+            car.close()
 
     def __enter__(self) -> Simulator:
         return self
@@ -207,8 +232,14 @@ class Simulator:
         self.close()
 
     # --- internals --------------------------------------------------------------------------------
-    def _attach_recorder(self, recorder: McapRecorder) -> None:
-        self.bus.tap(lambda topic, msg: recorder.write(topic, msg, self.time_ns))
+    def _check_collisions(self) -> None:
+        touching = self._contacts.pairs(self.data)
+        for a, b in sorted(touching - self._touching):
+            event = Collision(self.time_ns, (self.cars[a].model_name, self.cars[b].model_name))
+            self.bus.publish(COLLISIONS, String(" ".join(event.cars)))
+            for hook in self._collision_hooks:
+                hook(event)
+        self._touching = touching
 
     def _check_physics(self) -> None:
         """Stop at the first sign of divergence, before any node publishes the broken state.
@@ -227,6 +258,33 @@ class Simulator:
             jid = int(self.model.dof_jntid[min(index, self.model.nv - 1)])
         joint = mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_JOINT, jid) or "root"
         self._divergence = (f"the physics diverged before t = {self.time:.3f} s (NaN or huge value at joint "
-                            f"'{joint}'); the run stops. Check the controller gains in {self.controllers_file}, the "
+                            f"'{joint}'); the run stops. Check the controller gains in {self.cars[0].controllers_file}, the "
                             f"physics step ({self.model.opt.timestep:g} s) and the world's <physics> block")
         raise PhysicsError(self._divergence)
+
+
+def _checked_fleet(cars: Sequence[Car]) -> list[Car]:
+    cars = list(cars)
+    if not cars:
+        raise ConfigError("a Simulator needs at least one car")
+    names = [car.model_name for car in cars]
+    if len(set(names)) != len(names):
+        raise ConfigError(f"car names must differ, got {', '.join(names)}")
+    if any(car.spawn is None for car in cars[1:]):
+        missing = [car.model_name for car in cars[1:] if car.spawn is None]
+        raise ConfigError(f"only the first car takes the world's spawn pose: give {', '.join(missing)} a spawn")
+    return cars
+
+
+def _spawn_poses(sim: Simulator, spawn: Spawn | Mapping[str, Spawn] | Sequence[Spawn] | None) -> dict[int, Spawn]:
+    """reset()'s spawn argument as {car index: pose}."""
+    if spawn is None:
+        return {}
+    if isinstance(spawn, Spawn):
+        return {0: spawn}
+    if isinstance(spawn, Mapping):
+        return {sim.cars.index(sim.car_named(name)): pose for name, pose in spawn.items()}
+    poses = list(spawn)
+    if len(poses) > len(sim.cars):
+        raise ConfigError(f"{len(poses)} spawn poses for {len(sim.cars)} cars")
+    return dict(enumerate(poses))

@@ -10,6 +10,8 @@ kept regardless, and the noise of a frame depends only on (seed, stamp), so skip
 
 from __future__ import annotations
 
+import dataclasses
+
 import math
 
 import mujoco
@@ -17,6 +19,7 @@ import numpy as np
 
 from racecar_sim.bus import Bus
 from racecar_sim.core.errors import DescriptionError, RenderingError
+from racecar_sim.core.names import CarNames
 from racecar_sim.core.rng import sample_stream
 from racecar_sim.core.scheduler import Scheduler
 from racecar_sim.core.transforms import quat_from_rpy, quat_mul
@@ -33,18 +36,22 @@ NOISE_STREAM = "camera"
 LOOK_ALONG_X = np.array([0.5, 0.5, -0.5, -0.5])
 
 
-def camera_spec(robot: Robot) -> CameraSpec:
-    """The robot's camera sensor block, parsed; DescriptionError if it has none."""
+def camera_spec(robot: Robot, names: CarNames = CarNames()) -> CameraSpec:
+    """The robot's camera sensor block, parsed, with the car's names (MuJoCo camera and link, topics, frame);
+    DescriptionError if it has none."""
     sensor = robot.sensor("camera")
     if sensor is None:
         raise DescriptionError(f"robot {robot.name} has no <sensor type=\"camera\"> (is DISABLE_GAZEBO_CAMERA set?)")
-    return CameraSpec.from_sensor(sensor)
+    spec = CameraSpec.from_sensor(sensor)
+    return dataclasses.replace(spec, name=names.mj(spec.name), link=names.mj(spec.link),
+                               image_topic=names.topic(spec.image_topic), info_topic=names.topic(spec.info_topic),
+                               frame_id=names.frame(spec.frame_id))
 
 
-def add_camera(spec: mujoco.MjSpec, robot: Robot) -> None:
+def add_camera(spec: mujoco.MjSpec, robot: Robot, names: CarNames = CarNames()) -> None:
     """Add the robot's camera to `spec` (before compiling): on its link's body, at the sensor pose, with the
     sensor's vertical field of view, and an offscreen buffer large enough for its image."""
-    cam = camera_spec(robot)
+    cam = camera_spec(robot, names)
     body = spec.body(cam.link)
     if body is None:
         raise DescriptionError(f"camera sensor '{cam.name}': link {cam.link} is not in the model")
@@ -85,8 +92,9 @@ class CameraPublisher:
     """
 
     def __init__(self, bus: Bus, scheduler: Scheduler, model: mujoco.MjModel, data: mujoco.MjData, robot: Robot,
-                 seed: int, noise: bool = True) -> None:
-        self.spec = camera_spec(robot)
+                 seed: int, noise: bool = True, names: CarNames = CarNames()) -> None:
+        self.spec = camera_spec(robot, names)
+        self.noise_stream = names.noise_prefix + NOISE_STREAM
         if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, self.spec.name) < 0:
             raise ValueError(f"the model has no camera '{self.spec.name}': call add_camera(spec, robot) before "
                              "compiling")
@@ -114,7 +122,7 @@ class CameraPublisher:
         pixels = rgb[..., ::-1] if self.spec.encoding == "bgr8" else rgb
         if not self.noise:
             return pixels.copy()  # C order: the buffer is reused, the message keeps its own pixels
-        rng = sample_stream(self.seed, NOISE_STREAM, stamp_ns)
+        rng = sample_stream(self.seed, self.noise_stream, stamp_ns)
         return add_noise(pixels, rng, 255.0 * self.spec.noise_mean, 255.0 * self.spec.noise_stddev)
 
     @property

@@ -8,11 +8,14 @@ schedule is kept, and a scan's noise depends only on (seed, stamp): skipping sca
 
 from __future__ import annotations
 
+import dataclasses
+
 import mujoco
 import numpy as np
 
 from racecar_sim.bus import Bus
 from racecar_sim.core.errors import DescriptionError
+from racecar_sim.core.names import CarNames
 from racecar_sim.core.rng import sample_stream
 from racecar_sim.core.scheduler import Scheduler
 from racecar_sim.core.transforms import quat_from_rpy, quat_to_matrix
@@ -25,12 +28,15 @@ from racecar_sim.sensors.raycast import Fan, RayCaster
 NOISE_STREAM = "scan"
 
 
-def laser_spec(robot: Robot) -> LaserSpec:
-    """The robot's ray sensor block, parsed; DescriptionError if it has none."""
+def laser_spec(robot: Robot, names: CarNames = CarNames()) -> LaserSpec:
+    """The robot's ray sensor block, parsed, with the car's names (link, topic, frame); DescriptionError if it
+    has none."""
     sensor = robot.sensor("ray")
     if sensor is None:
         raise DescriptionError(f"robot {robot.name} has no <sensor type=\"ray\"> (is DISABLE_GAZEBO_LASER set?)")
-    return LaserSpec.from_sensor(sensor)
+    spec = LaserSpec.from_sensor(sensor)
+    return dataclasses.replace(spec, link=names.mj(spec.link), topic=names.topic(spec.topic),
+                               frame_id=names.frame(spec.frame_id))
 
 
 class LidarPublisher:
@@ -41,8 +47,10 @@ class LidarPublisher:
     """
 
     def __init__(self, bus: Bus, scheduler: Scheduler, model: mujoco.MjModel, data: mujoco.MjData, robot: Robot,
-                 seed: int, noise: bool = True, topic: str | None = None, mode: str = "auto") -> None:
-        self.spec = spec = laser_spec(robot)
+                 seed: int, noise: bool = True, topic: str | None = None, mode: str = "auto",
+                 names: CarNames = CarNames()) -> None:
+        self.spec = spec = laser_spec(robot, names)
+        self.noise_stream = names.noise_prefix + NOISE_STREAM
         self.bus, self.model, self.data, self.seed, self.mode = bus, model, data, seed, mode
         self.topic = topic or spec.topic  # gazebo_ros_laser's <topicName>: /scan
         self.noise = noise and spec.noisy
@@ -55,7 +63,7 @@ class LidarPublisher:
         # describe the start of the last step, and the simulation's own data stays untouched.
         self._pose = mujoco.MjData(model)
         self.fan = Fan(spec.min_angle, spec.angle_increment, spec.samples, spec.range_min, spec.range_max)
-        self.caster = RayCaster(model, self._pose, self.fan, model.body(robot.root).id, COLLISION_GROUP)
+        self.caster = RayCaster(model, self._pose, self.fan, model.body(names.mj(robot.root)).id, COLLISION_GROUP)
         self.scans_cast = 0
         self._task = scheduler.every(spec.update_rate, self._tick, "hokuyo")
 
@@ -88,7 +96,7 @@ class LidarPublisher:
         ranges = self.true_ranges()
         hit = np.isfinite(ranges)
         if self.noise:
-            rng = sample_stream(self.seed, NOISE_STREAM, stamp_ns)
+            rng = sample_stream(self.seed, self.noise_stream, stamp_ns)
             ranges = ranges + rng.normal(self.spec.noise_mean, self.spec.noise_stddev, len(ranges))
         ranges = np.where(hit, np.clip(ranges, self.spec.range_min, self.spec.range_max), np.inf)
         return ranges.astype(np.float32)

@@ -10,6 +10,7 @@ import numpy as np
 
 from racecar_sim.bus import Bus
 from racecar_sim.core.errors import ConfigError
+from racecar_sim.core.names import ODOM, ODOM_RELAY, TF, CarNames
 from racecar_sim.msgs import (Header, Odometry, Point, Pose, PoseWithCovariance, Quaternion, TFMessage, Twist,
                               TwistWithCovariance, Vector3)
 from racecar_sim.physics.state import CarState
@@ -23,13 +24,14 @@ class OdometryPublisher:
     """The odometry node; `rate` 20 Hz as the original timer."""
 
     def __init__(self, bus: Bus, scheduler: Scheduler, state: CarState, mode: str = "original", rate: float = 20.0,
-                 topic: str = "/vesc/odom", relay_topic: str | None = "/pf/pose/odom") -> None:
+                 topic: str = ODOM, relay_topic: str | None = ODOM_RELAY, names: CarNames = CarNames()) -> None:
         if mode not in FRAMES:
             raise ConfigError(f"odometry mode {mode!r} is not one of {', '.join(FRAMES)}")
-        self.bus, self.state, self.mode, self.topic = bus, state, mode, topic
-        self.frame, self.child = FRAMES[mode]
+        self.bus, self.state, self.mode, self.topic = bus, state, mode, names.topic(topic)
+        self.frame, self.child = (names.frame(f) for f in FRAMES[mode])
         if relay_topic:
-            bus.subscribe(topic, lambda msg: bus.publish(relay_topic, msg))
+            relay = names.topic(relay_topic)
+            bus.subscribe(self.topic, lambda msg: bus.publish(relay, msg))
         scheduler.every(rate, self.publish, "gazebo_odometry_node")
 
     def publish(self, now_ns: int) -> None:
@@ -43,4 +45,4 @@ class OdometryPublisher:
                                 np.zeros(36)),
         )
         self.bus.publish(self.topic, msg)
-        self.bus.publish("/tf", TFMessage([transform_msg(now_ns, self.frame, self.child, pos, quat)]))
+        self.bus.publish(TF, TFMessage([transform_msg(now_ns, self.frame, self.child, pos, quat)]))

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from racecar_sim.bus import Bus
+from racecar_sim.core.names import TF, TF_STATIC, CarNames
 from racecar_sim.core.transforms import quat_from_axis_angle, quat_from_rpy, quat_mul
 from racecar_sim.description.kinematics import joint_transform
 from racecar_sim.description.urdf import Robot
@@ -18,20 +19,37 @@ def transform_msg(stamp_ns: int, parent: str, child: str, pos: np.ndarray, quat_
                             Transform(Vector3(*(float(v) for v in pos)), Quaternion(x, y, z, w)))
 
 
-class RobotStatePublisher:
-    """Publishes the URDF tree as TF, from the joint states on `joint_states_topic`."""
+class StaticTransforms:
+    """/tf_static for every car: one latched message holding all static transforms so far, as a tf2
+    StaticTransformBroadcaster sends (a latched topic keeps one message, so cars must not overwrite each other)."""
 
-    def __init__(self, bus: Bus, robot: Robot, joint_states_topic: str = "/racecar/joint_states") -> None:
+    def __init__(self, bus: Bus) -> None:
         self.bus = bus
+        self.transforms: list[TransformStamped] = []
+        bus.latch(TF_STATIC)
+
+    def add(self, transforms: list[TransformStamped]) -> None:
+        self.transforms.extend(transforms)
+        self.bus.publish(TF_STATIC, TFMessage(list(self.transforms)))
+
+
+class RobotStatePublisher:
+    """Publishes the URDF tree as TF (frames with the car's tf_prefix), from the joint states on `joint_states_topic`."""
+
+    def __init__(self, bus: Bus, robot: Robot, joint_states_topic: str = "/racecar/joint_states",
+                 names: CarNames = CarNames(), static: StaticTransforms | None = None) -> None:
+        self.bus = bus
+        frame = names.frame
         # Revolute/continuous joints turn about the child origin: the translation is the joint origin's,
         # the rotation is origin * axis-angle. Precomputed here, because /tf goes out at 50 Hz.
-        self.moving = {j.name: (j.parent, j.child, np.array(j.origin.xyz), quat_from_rpy(j.origin.rpy),
+        self.moving = {j.name: (frame(j.parent), frame(j.child), np.array(j.origin.xyz), quat_from_rpy(j.origin.rpy),
                                 np.array(j.axis) / np.linalg.norm(j.axis))
                        for j in robot.joints.values() if j.type in ("revolute", "continuous")}
         self.sliding = {j.name: j for j in robot.joints.values() if j.type == "prismatic"}
-        bus.latch("/tf_static")
-        fixed = [transform_msg(0, j.parent, j.child, *joint_transform(j)) for j in robot.joints.values() if not j.moves]
-        bus.publish("/tf_static", TFMessage(fixed))
+        self.frame = frame
+        fixed = [transform_msg(0, frame(j.parent), frame(j.child), *joint_transform(j))
+                 for j in robot.joints.values() if not j.moves]
+        (static or StaticTransforms(bus)).add(fixed)
         bus.subscribe(joint_states_topic, self._on_joint_states)
 
     def _on_joint_states(self, msg: JointState) -> None:
@@ -44,5 +62,6 @@ class RobotStatePublisher:
                 transforms.append(transform_msg(stamp, parent, child, pos, rotation))
             elif name in self.sliding:
                 joint = self.sliding[name]
-                transforms.append(transform_msg(stamp, joint.parent, joint.child, *joint_transform(joint, float(position))))
-        self.bus.publish("/tf", TFMessage(transforms))
+                transforms.append(transform_msg(stamp, self.frame(joint.parent), self.frame(joint.child),
+                                                *joint_transform(joint, float(position))))
+        self.bus.publish(TF, TFMessage(transforms))
