@@ -127,15 +127,31 @@ SAMPLES: dict[str, Callable[[np.random.Generator], Message]] = {
     "ackermann_msgs/msg/AckermannDriveStamped": lambda _: msgs.AckermannDriveStamped(
         _stamped(1_000_000_000, "base_link"), msgs.AckermannDrive(-0.25, speed=1.75)
     ),
+    "control_msgs/msg/JointControllerState": lambda _: msgs.JointControllerState(
+        _stamped(1_230_000_000, ""), 20.0, 19.5, 0.25, 0.5, 0.0025, 0.5, 1.0, 0.1, 0.5, 2.0, True),
+    "controller_manager_msgs/msg/HardwareInterfaceResources": lambda _: msgs.HardwareInterfaceResources(
+        "hardware_interface::EffortJointInterface", ["left_rear_wheel_joint", "right_rear_wheel_joint"]),
+    "controller_manager_msgs/msg/ControllerState": lambda _: msgs.ControllerState(
+        "left_rear_wheel_velocity_controller", "running", "effort_controllers/JointVelocityController",
+        [msgs.HardwareInterfaceResources("hardware_interface::EffortJointInterface", ["left_rear_wheel_joint"])]),
+    "gazebo_msgs/msg/ModelState": lambda _: msgs.ModelState(
+        "car2", msgs.Pose(msgs.Point(1, 2, 0.05), msgs.Quaternion(w=1.0)), msgs.Twist(msgs.Vector3(0.5, 0, 0)), "world"),
+    "gazebo_msgs/msg/ModelStates": lambda _: msgs.ModelStates(
+        ["ground_plane", "racecar"], [msgs.Pose(), msgs.Pose(msgs.Point(1, 0, 0))],
+        [msgs.Twist(), msgs.Twist(msgs.Vector3(1, 0, 0))]),
+    "gazebo_msgs/msg/LinkStates": lambda _: msgs.LinkStates(
+        ["racecar::base_link"], [msgs.Pose(msgs.Point(0, 1, 0))], [msgs.Twist(angular=msgs.Vector3(0, 0, 0.5))]),
 }
 
 
 @pytest.fixture(scope="module")
 def typestore() -> Any:
-    """Rosbags' ROS 2 Humble types plus ackermann_msgs registered from our .msg files."""
+    """Rosbags' ROS 2 Humble types plus the packages it lacks, registered from our .msg files."""
     store = get_typestore(Stores.ROS2_HUMBLE)
-    for name in ("AckermannDrive", "AckermannDriveStamped"):
-        msgtype = f"ackermann_msgs/msg/{name}"
+    for msgtype in ("ackermann_msgs/msg/AckermannDrive", "ackermann_msgs/msg/AckermannDriveStamped",
+                    "control_msgs/msg/JointControllerState", "controller_manager_msgs/msg/HardwareInterfaceResources",
+                    "controller_manager_msgs/msg/ControllerState", "gazebo_msgs/msg/ModelState",
+                    "gazebo_msgs/msg/ModelStates", "gazebo_msgs/msg/LinkStates"):
         store.register(get_types_from_msg(idl.get_spec(msgtype).text, msgtype))
     return store
 

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 import time
 from typing import TYPE_CHECKING
 
 from racecar_sim.control.teleop import KeyboardTeleop
+from racecar_sim.core.names import TELEOP
 from racecar_sim.msgs import LaserScan
 
 if TYPE_CHECKING:
@@ -33,7 +35,8 @@ def tcp_port(text: str) -> int:
 def add_live_arguments(p: argparse.ArgumentParser) -> None:
     """--viewer and --foxglove [PORT]."""
     p.add_argument("--viewer", action="store_true",
-                   help="open the MuJoCo viewer (needs a display): follows the car, draws the lidar, WASD drives")
+                   help="open the MuJoCo viewer (needs a display): follows the car, draws the lidar, WASD drives; "
+                        "with several cars `.` follows the next one")
     p.add_argument("--foxglove", nargs="?", type=tcp_port, const=FOXGLOVE_PORT, metavar="PORT",
                    help=f"serve every topic to Foxglove / Lichtblick >= 1.22 on ws://127.0.0.1:PORT "
                         f"(default port {FOXGLOVE_PORT})")
@@ -42,17 +45,21 @@ def add_live_arguments(p: argparse.ArgumentParser) -> None:
 class LiveViews:
     """The live views a run asked for; `update()` after each slice of sim time keeps them current.
 
-    The viewer's WASD keys go to a KeyboardTeleop on the mux's teleop input (made here if the caller
-    has none), so they outrank any driver, as a joystick does on the real car.
+    The viewer shows every car and follows one, the first at the start; its FOLLOW_KEY (`.`) moves on to the
+    next. Its WASD keys go to a KeyboardTeleop on the followed car's teleop input (`teleop` for the first car,
+    made here if the caller has none, and one like it for each other car when it is first followed), so they
+    outrank that car's driver, as a joystick does on the real car.
     """
 
     def __init__(self, sim: Simulator, viewer: bool = False, foxglove_port: int | None = None,
                  teleop: KeyboardTeleop | None = None) -> None:
         self.sim = sim
         self.teleop = teleop
+        self._teleops: dict[int, KeyboardTeleop] = {} if teleop is None else {0: teleop}
+        self.following = 0  # index of the car the viewer follows and the keys drive
         self.bridge: FoxgloveBridge | None = None
         self.viewer: CarViewer | None = None
-        self._scan: LaserScan | None = None
+        self._scans: dict[int, LaserScan] = {}
         self._next_sync = 0.0
         if foxglove_port is not None:
             from racecar_sim.live.foxglove_bridge import FoxgloveBridge
@@ -63,12 +70,12 @@ class LiveViews:
         if viewer:
             from racecar_sim.live.viewer import CarViewer
 
-            self.viewer = CarViewer.open(sim.model, sim.data, sim.robot.root)
+            self.viewer = CarViewer.open(sim.model, sim.data, [car.names.mj(car.robot.root) for car in sim.cars])
             if self.viewer is not None:
-                if self.teleop is None:
-                    self.teleop = KeyboardTeleop(sim.bus, sim.scheduler, lambda: sim.time_ns)
-                if sim.lidar is not None:
-                    sim.subscribe(sim.lidar.topic, self._on_scan)
+                self.teleop = self._teleop(0)
+                for index, car in enumerate(sim.cars):
+                    if car.lidar is not None:
+                        sim.subscribe(car.lidar.topic, functools.partial(self._on_scan, index))
 
     @property
     def realtime(self) -> bool:
@@ -80,22 +87,51 @@ class LiveViews:
         """Whether the person closed the viewer window (the run should end)."""
         return self.viewer is not None and not self.viewer.is_running()
 
-    def _on_scan(self, msg: LaserScan) -> None:
-        self._scan = msg
+    def _on_scan(self, index: int, msg: LaserScan) -> None:
+        self._scans[index] = msg
 
-    def update(self) -> None:
-        """Hand the viewer's keys to teleop and redraw it (at most VIEWER_RATE times a second)."""
+    def _teleop(self, index: int) -> KeyboardTeleop:
+        """The keyboard teleop of car number `index`: on its own teleop input, with the first one's settings."""
+        if index not in self._teleops:
+            car, first = self.sim.cars[index], self._teleops.get(0)
+            options = {} if first is None else {"speed": first.speed, "turn": first.turn,
+                                                 "hold": first.hold_ns / 1e9, "config": first.config}
+            self._teleops[index] = KeyboardTeleop(self.sim.bus, self.sim.scheduler, lambda: self.sim.time_ns,
+                                                  topic=car.topic(TELEOP), **options)
+        return self._teleops[index]
+
+    def follow_next(self) -> None:
+        """Follow and drive the next car (after the last, the first). A key still held for the car left behind
+        ends with a stop command, as releasing it would."""
         if self.viewer is None:
             return
+        if self.teleop is not None and self.teleop.active:
+            self.teleop.stop()
+        self.following = self.viewer.cycle()
+        self.teleop = self._teleop(self.following)
+        car = self.sim.cars[self.following]
+        print(f"racecar-sim: --viewer: following {car.model_name}; WASD drives it", file=sys.stderr)
+
+    def update(self) -> None:
+        """Hand the viewer's keys to teleop (FOLLOW_KEY to follow_next()) and redraw it (at most VIEWER_RATE times
+        a second)."""
+        if self.viewer is None:
+            return
+        from racecar_sim.live.viewer import FOLLOW_KEY
+
         for key in self.viewer.poll_keys():
-            self.teleop.key(key)  # type: ignore[union-attr]
+            if key == FOLLOW_KEY and len(self.sim.cars) > 1:  # with one car it is just another key: stop
+                self.follow_next()
+            else:
+                self.teleop.key(key)  # type: ignore[union-attr]
         now = time.perf_counter()
         if now < self._next_sync:
             return
         self._next_sync = now + 1.0 / VIEWER_RATE
         beams = None
-        if self._scan is not None and self.sim.lidar is not None:
-            beams = self.sim.lidar.beam_ends(self._scan.ranges)
+        car, scan = self.sim.cars[self.following], self._scans.get(self.following)
+        if scan is not None and car.lidar is not None:
+            beams = car.lidar.beam_ends(scan.ranges)
         self.viewer.sync(beams)
 
     def close(self) -> None:

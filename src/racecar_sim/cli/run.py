@@ -2,11 +2,16 @@
 
 With no arguments: wall-follow round the `walker` racecourse for 60 s of sim time with the lidar and the
 camera on, then runs/<timestamp>/ holds run.mcap, summary.png and camera.mp4, and a summary is printed.
+
+`--cars N` runs a fleet: car1 ... carN (topics /carK/..., frames carK/...), car1 at the world's spawn pose and
+each next one `--car-spacing` m behind the one before, along the spawn heading (or back along a track CSV's
+centerline), each with its own instance of the run's driver.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import signal
 import sys
@@ -16,17 +21,22 @@ from pathlib import Path
 
 from tqdm import tqdm
 
+import mujoco
+import numpy as np
+
 from racecar_sim.cli.args import (add_sensor_arguments, add_world_arguments, check_folder, check_record_path,
-                                  finite_float, make_folder, positive_float, seed_value, sensor_options)
+                                  finite_float, make_folder, positive_float, positive_int, seed_value, sensor_options)
 from racecar_sim.cli.live import LiveViews, RealTimePacer, add_live_arguments
 from racecar_sim.control.profiles import profile_names
-from racecar_sim.core.errors import ConfigError
+from racecar_sim.core.errors import ConfigError, WorldError
+from racecar_sim.core.names import NAVIGATION, ODOM
 from racecar_sim.description.vehicle import VehicleGeometry
 from racecar_sim.drivers import (ConstantCommand, PurePursuit, WallFollower, load_waypoints, pure_pursuit_config,
                                  wall_follow_config)
 from racecar_sim.physics import preset_names
-from racecar_sim.runtime import Simulator
+from racecar_sim.runtime import Car, Simulator
 from racecar_sim.runtime.run_log import RunLog, image_array
+from racecar_sim.worlds import Spawn, World, load_world
 
 DRIVERS = ("wall-follow", "pure-pursuit", "constant")
 CONSTANT_DEFAULTS = {"speed": 1.0, "steering": 0.0, "rate": 20.0}
@@ -36,6 +46,9 @@ OPTION_DRIVERS = {"speed": DRIVERS, "steering": ("constant",), "rate": ("constan
 PROGRESS_MIN_DURATION = 5.0  # s of sim time; shorter runs finish before a bar is worth drawing
 CHUNK = 0.1  # s of sim time between progress updates
 LIVE_CHUNK = 0.02  # s of sim time between viewer updates
+CAR_SPACING = 1.5  # m between the base_links of two cars in a row (--car-spacing)
+TRACK_SUFFIX = ".csv"  # a race-track centerline world: the fleet lines up along it
+ROW_CHECK_HEIGHT = 0.1  # m above the spawn height: the sight line between two cars in a row, under any wall's top
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -70,6 +83,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-record", action="store_true", help="no MCAP recording")
     p.add_argument("--no-video", action="store_true", help="no camera.mp4")
     p.add_argument("--no-summary", action="store_true", help="no summary.png")
+    p.add_argument("--cars", type=positive_int, metavar="N",
+                   help="a fleet of N cars named car1..carN (topics /carK/..., frames carK/...), each with its own "
+                        "driver: car1 at the spawn pose, each next one --car-spacing behind the one before "
+                        "(default: one car with the original names)")
+    p.add_argument("--car-spacing", type=positive_float, metavar="M",
+                   help=f"metres between two cars in a row, along the spawn heading or a track's centerline "
+                        f"(default {CAR_SPACING:g}; needs --cars)")
     add_sensor_arguments(p)
     add_live_arguments(p)
     p.add_argument("--realtime", action="store_true", help="run no faster than real time")
@@ -91,22 +111,120 @@ def choose_driver(args: argparse.Namespace) -> str:
     return driver
 
 
-def _attach_driver(args: argparse.Namespace, sim: Simulator) -> object:
+def _attach_driver(args: argparse.Namespace, sim: Simulator, car: Car) -> object:
+    """The run's driver for `car`: its own instance, on the car's topics (`/carK/...` in a fleet)."""
+    navigation, odom = car.topic(NAVIGATION), car.topic(ODOM)
     if args.driver == "constant":
         options = {k: default if getattr(args, k) is None else getattr(args, k) for k, default in CONSTANT_DEFAULTS.items()}
         try:
-            return ConstantCommand(sim.bus, sim.scheduler, options["speed"], options["steering"], options["rate"])
+            return ConstantCommand(sim.bus, sim.scheduler, options["speed"], options["steering"], options["rate"],
+                                   topic=navigation)
         except ConfigError as exc:  # the scheduler refuses a rate above the physics rate
             raise ConfigError(f"--rate: {exc}") from None
     if args.driver == "wall-follow":
-        if sim.lidar is None:
+        if car.lidar is None:
             raise ConfigError("--driver wall-follow steers by the lidar: drop --no-lidar (or DISABLE_GAZEBO_LASER)")
-        return WallFollower(sim.bus, wall_follow_config(side=args.side, distance=args.distance, speed=args.speed))
-    path = args.path or (args.world if str(args.world).endswith(".csv") else None)
+        return WallFollower(sim.bus, wall_follow_config(side=args.side, distance=args.distance, speed=args.speed),
+                            topic=navigation, scan_topic=car.lidar.topic, odom_topic=odom)
+    path = args.path or (args.world if _is_track(args.world) else None)
     if path is None:
         raise ConfigError("--driver pure-pursuit needs --path FILE.csv (or a track .csv as --world)")
-    wheelbase = VehicleGeometry.from_robot(sim.robot).wheelbase  # the loaded xacro's, not the YAML's default
-    return PurePursuit(sim.bus, load_waypoints(path), pure_pursuit_config(speed=args.speed, wheelbase=wheelbase))
+    wheelbase = VehicleGeometry.from_robot(car.robot).wheelbase  # the loaded xacro's, not the YAML's default
+    return PurePursuit(sim.bus, load_waypoints(path), pure_pursuit_config(speed=args.speed, wheelbase=wheelbase),
+                       topic=navigation, odom_topic=odom)
+
+
+def _is_track(world: object) -> bool:
+    return Path(str(world)).suffix.lower() == TRACK_SUFFIX and Path(str(world)).is_file()
+
+
+def fleet_spawns(world: World, count: int, spacing: float = CAR_SPACING,
+                 centerline: np.ndarray | None = None) -> list[Spawn]:
+    """Poses for `count` cars in a row: the first at the world's spawn pose, each next one `spacing` m behind the one
+    before, along the spawn heading, or back along a closed `centerline` (N, 2) from its first point (the track's
+    own start), each car facing the way the track runs there."""
+    first = world.spawn
+    if centerline is None:
+        back = np.array([math.cos(first.yaw), math.sin(first.yaw)])
+        return [Spawn(first.x - k * spacing * back[0], first.y - k * spacing * back[1], first.z, first.yaw)
+                for k in range(count)]
+    # walk the loop backwards, P0 -> P(N-1) -> ... -> P1 -> P0: segment j goes from tail[j] back to head[j]
+    points = np.asarray(centerline, dtype=float)
+    tail = np.roll(points[::-1], 1, axis=0)  # P0, P(N-1), ..., P1
+    head = np.roll(tail, -1, axis=0)  # P(N-1), ..., P1, P0
+    lengths = np.hypot(*(head - tail).T)
+    station = np.concatenate([[0.0], np.cumsum(lengths)])  # arc length walked back at the start of each segment
+    spawns = []
+    for k in range(count):
+        s = (k * spacing) % station[-1]  # past a whole lap it lands on a car before it: the spawn check says so
+        j = min(int(np.searchsorted(station, s, side="right")) - 1, len(lengths) - 1)
+        x, y = tail[j] + (s - station[j]) / lengths[j] * (head[j] - tail[j])
+        forward = tail[j] - head[j]  # the direction the track runs
+        yaw = first.yaw if k == 0 else math.atan2(forward[1], forward[0])
+        spawns.append(Spawn(float(x), float(y), first.z, yaw))
+    return spawns
+
+
+def _simulator(args: argparse.Namespace) -> Simulator:
+    """The run's Simulator: one car with the original names, or the --cars fleet."""
+    common = {"seed": args.seed, "physics": args.physics, "sensor_noise": not args.no_noise}
+    if args.cars is None:
+        if args.car_spacing is not None:
+            raise ConfigError("--car-spacing places a fleet: give --cars N too")
+        return Simulator(world=args.world, profile=args.profile, spawn=args.spawn, odometry=args.odometry,
+                         model_path=args.model_path, wall_height=args.wall_height, **sensor_options(args))
+    world = load_world(args.world, args.spawn, [Path(p) for p in args.model_path], args.wall_height)
+    centerline = None
+    if args.spawn is None and _is_track(args.world):
+        from racecar_sim.worlds.centerline import read_centerline
+
+        centerline = read_centerline(Path(args.world))[0]
+    spacing = CAR_SPACING if args.car_spacing is None else args.car_spacing
+    sensors = sensor_options(args)
+    cars = [Car(f"car{k + 1}", profile=args.profile, spawn=spawn, lidar=sensors["lidar"], camera=sensors["camera"],
+                odometry=args.odometry)
+            for k, spawn in enumerate(fleet_spawns(world, args.cars, spacing, centerline))]
+    sim = Simulator(world=world, cars=cars, **common)  # WorldError: a car in a wall or another car, or off the ground
+    if centerline is None:
+        try:
+            check_row(sim)
+        except WorldError:
+            sim.close()
+            raise
+    return sim
+
+
+def check_row(sim: Simulator) -> None:
+    """WorldError naming the first car that a wall separates from the car before it: a straight row that runs past
+    a bend of a course (walker's) puts the cars beyond it on the far side of the wall, on the ground but off the
+    course. Seen along the line between base_links ROW_CHECK_HEIGHT up; cars and loose objects do not count."""
+    model, data = sim.model, sim.data
+    for before, car in zip(sim.cars, sim.cars[1:]):
+        a, b = before.spawn, car.spawn
+        start = np.array([a.x, a.y, min(a.z, b.z) + ROW_CHECK_HEIGHT])
+        geom = _first_wall(model, data, start, np.array([b.x - a.x, b.y - a.y, 0.0]))
+        if geom is not None:
+            x, y, z, yaw = b.x, b.y, b.z, b.yaw
+            name = model.geom(geom).name or model.body(model.geom_bodyid[geom]).name or f"geom {geom}"
+            raise WorldError(f"{sim.world.label}: {car.model_name}'s spawn pose ({x:g}, {y:g}, {z:g}, {yaw:g}) is on "
+                             f"the far side of {name} from {before.model_name} (the cars line up straight back along "
+                             f"the spawn heading): use fewer --cars or a smaller --car-spacing")
+
+
+def _first_wall(model: mujoco.MjModel, data: mujoco.MjData, start: np.ndarray, vec: np.ndarray) -> int | None:
+    """The first colliding geom fixed to the world on the segment start .. start + vec, or None."""
+    geomid = np.zeros(1, dtype=np.int32)
+    travelled = 0.0
+    while travelled < 1.0:
+        hit = mujoco.mj_ray(model, data, start + travelled * vec, vec, None, 1, -1, geomid)
+        if hit < 0 or travelled + hit > 1.0:
+            return None
+        geom = int(geomid[0])
+        fixed = model.body_weldid[model.geom_bodyid[geom]] == 0
+        if fixed and (model.geom_contype[geom] or model.geom_conaffinity[geom]):
+            return geom
+        travelled += hit + 1e-6  # past a car's or a loose object's geom, and on
+    return None
 
 
 def _output_paths(args: argparse.Namespace) -> tuple[Path, Path | None]:
@@ -128,17 +246,18 @@ def main(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGTERM, _terminate)
     args.driver = choose_driver(args)
     out, record = _output_paths(args)
-    with Simulator(world=args.world, profile=args.profile, seed=args.seed, physics=args.physics, spawn=args.spawn,
-                   odometry=args.odometry, model_path=args.model_path, wall_height=args.wall_height,
-                   **sensor_options(args)) as sim:
-        _attach_driver(args, sim)
+    with _simulator(args) as sim:
+        for car in sim.cars:
+            _attach_driver(args, sim, car)
         if not args.no_summary or (sim.camera is not None and not args.no_video):
             make_folder("--out", out)
         if record is not None:
             make_folder("--record", record.parent)
             sim.record(record)
-        runlog = RunLog(sim.bus, sim.lidar.topic if sim.lidar else None,
-                        sim.camera.spec.image_topic if sim.camera else None)
+        runlogs = [RunLog(sim.bus, car.lidar.topic if car.lidar else None,
+                          car.camera.spec.image_topic if car.camera and i == 0 else None, odom_topic=car.topic(ODOM))
+                   for i, car in enumerate(sim.cars)]
+        runlog = runlogs[0]
         video = _video(args, sim, out)
         written: list[Path] = [record] if record is not None else []
         try:
@@ -154,12 +273,14 @@ def main(args: argparse.Namespace) -> int:
     if not args.no_summary:
         from racecar_sim.plots.summary import save_summary  # matplotlib loads only when a summary is drawn
 
-        lines = _summary_lines(sim, runlog, wall)
-        written.insert(0, save_summary(out / "summary.png", sim.world, runlog.trajectory,
+        lines = _summary_lines(sim, runlogs, wall)
+        paths = runlog.trajectory if args.cars is None else {
+            car.model_name: log.trajectory for car, log in zip(sim.cars, runlogs)}
+        written.insert(0, save_summary(out / "summary.png", sim.world, paths,
                                        scan_origin=None if origin is None else origin[:2],
                                        scan_points=None if ends is None else ends[:, :2],
                                        camera_bgr=runlog.last_frame(), title=_title(args, sim), lines=lines))
-    _print_summary(args, sim, runlog, wall, written)
+    _print_summary(args, sim, runlogs, wall, written)
     if interrupted:
         print(f"racecar-sim: interrupted at sim time {sim.time:.2f} s; the files above are complete", file=sys.stderr)
         return 130
@@ -203,27 +324,48 @@ def _drive(args: argparse.Namespace, sim: Simulator, live: LiveViews) -> tuple[f
 
 
 def _title(args: argparse.Namespace, sim: Simulator) -> str:
-    return f"{sim.world.name}: {args.driver}, {sim.time:.0f} s sim, seed {sim.seed}"
+    fleet = f"{len(sim.cars)} cars, " if args.cars is not None else ""
+    return f"{sim.world.name}: {fleet}{args.driver}, {sim.time:.0f} s sim, seed {sim.seed}"
 
 
-def _summary_lines(sim: Simulator, runlog: RunLog, wall: float) -> list[str]:
-    lines = [f"distance         {runlog.distance:.1f} m",
-             f"mean speed       {runlog.mean_speed:.2f} m/s",
-             f"real-time factor {sim.time / max(wall, 1e-9):.1f}x"]
-    if runlog.last_scan is not None:
-        lines.append(f"min clearance    {runlog.min_clearance:.2f} m (lidar)")
+def _summary_lines(sim: Simulator, runlogs: list[RunLog], wall: float) -> list[str]:
+    """The summary's numbers: the single car's as always, or a row per car of a fleet."""
+    rtf = f"real-time factor {sim.time / max(wall, 1e-9):.1f}x"
+    if not sim.cars[0].name:
+        runlog = runlogs[0]
+        lines = [f"distance         {runlog.distance:.1f} m",
+                 f"mean speed       {runlog.mean_speed:.2f} m/s",
+                 rtf]
+        if runlog.last_scan is not None:
+            lines.append(f"min clearance    {runlog.min_clearance:.2f} m (lidar)")
+        return lines
+    lines = [rtf, f"{'car':<6}{'distance':>10}{'mean speed':>12}{'min clearance':>15}"]
+    for car, log in zip(sim.cars, runlogs):
+        clearance = f"{log.min_clearance:.2f} m" if log.last_scan is not None else "-"
+        lines.append(f"{car.model_name:<6}{log.distance:>8.1f} m{log.mean_speed:>8.2f} m/s{clearance:>15}")
     return lines
 
 
-def _print_summary(args: argparse.Namespace, sim: Simulator, runlog: RunLog, wall: float, written: list[Path]) -> None:
+def _print_summary(args: argparse.Namespace, sim: Simulator, runlogs: list[RunLog], wall: float,
+                   written: list[Path]) -> None:
     print(f"world {sim.world.name}, driver {args.driver}, profile {sim.profile.name}, physics {sim.preset.name} "
           f"(step {sim.model.opt.timestep * 1e3:g} ms), seed {sim.seed}")
+    if args.cars is not None:
+        spacing = CAR_SPACING if args.car_spacing is None else args.car_spacing
+        print(f"cars             {len(sim.cars)} ({sim.cars[0].model_name}..{sim.cars[-1].model_name}), "
+              f"{spacing:g} m apart")
     print(f"sim time         {sim.time:.2f} s")
-    for line in _summary_lines(sim, runlog, wall):
+    for line in _summary_lines(sim, runlogs, wall):
         print(line)
-    trajectory = runlog.trajectory
-    if len(trajectory) and runlog.last_pose is not None:
-        x, y, yaw = runlog.last_pose
-        print(f"final pose       x {x:.3f} m, y {y:.3f} m, yaw {yaw:.3f} rad")
+    if args.cars is None:
+        runlog = runlogs[0]
+        if len(runlog.trajectory) and runlog.last_pose is not None:
+            x, y, yaw = runlog.last_pose
+            print(f"final pose       x {x:.3f} m, y {y:.3f} m, yaw {yaw:.3f} rad")
+    else:
+        for car, log in zip(sim.cars, runlogs):
+            if log.last_pose is not None:
+                x, y, yaw = log.last_pose
+                print(f"{car.model_name + ' final pose':<17}x {x:.3f} m, y {y:.3f} m, yaw {yaw:.3f} rad")
     for path in written:
         print(f"wrote            {path}")

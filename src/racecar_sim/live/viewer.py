@@ -1,4 +1,7 @@
-"""--viewer: MuJoCo's own viewer window on a running sim, following the car and drawing the lidar beams.
+"""--viewer: MuJoCo's own viewer window on a running sim, following a car and drawing its lidar beams.
+
+The window shows every car of the model (they are all in it); the camera follows one of them, the first at the
+start, and follow() / cycle() (the FOLLOW_KEY, `.`, in the window) move it to another.
 
 The window shows a private copy of the model and data, refreshed by each sync(). Whatever a person does in it
 (its Reset button, the physics panel, joint sliders, Ctrl-drag perturbations) changes only that copy, so a run
@@ -10,6 +13,8 @@ A auto-connect, D static bodies, X textures. Those are driving keys here, so the
 (option flags, in the key callback, before the next frame; render flags at the next sync(), so a frame or two
 may show them).
 Other MuJoCo shortcuts keep working (Tab panels, F1 help, C contacts, ...), and also stop the car.
+FOLLOW_KEY is none of MuJoCo's shortcuts (not a flag's letter, not one of its own keys such as [ ] - =), and it is
+not repeated while held.
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ import sys
 import threading
 import time
 import warnings
+from collections.abc import Sequence
 from typing import Any
 
 import mujoco
@@ -39,21 +45,28 @@ BEAM_RGBA = np.array([1.0, 0.2, 0.1, 1.0], np.float32)  # opaque: measured faste
 CAMERA_DISTANCE = 2.5  # m from the car
 CAMERA_ELEVATION = -25.0  # degrees, looking down
 DRIVE_KEYS = "WASDX"
+FOLLOW_KEY = "."  # follow the next car; GLFW_KEY_PERIOD is the character's code
 # (index, default) of the flags MuJoCo toggles on a driving key; the strings are (name, default, shortcut)
 _RND_FLAGS = [(i, int(s[1])) for i, s in enumerate(mujoco.mjRNDSTRING) if s[2] and s[2] in DRIVE_KEYS]
 _VIS_FLAGS = [(i, int(s[1])) for i, s in enumerate(mujoco.mjVISSTRING) if s[2] and s[2] in DRIVE_KEYS]
 
 
 class CarViewer:
-    """The MuJoCo viewer in passive mode (our loop owns time), following the car and drawing the lidar beams."""
+    """The MuJoCo viewer in passive mode (our loop owns time), following a car and drawing the lidar beams.
 
-    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, root_body: str) -> None:
+    root_body: the MuJoCo body of the car to follow, or of each car in order (`car.names.mj(car.robot.root)`);
+    the first is followed until follow() or cycle().
+    """
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, root_body: str | Sequence[str]) -> None:
         """Use open(): this only prepares the private copy the window will show."""
         self.source = data
         self.model = copy.copy(model)  # the viewer's panels write into mjModel.opt / .vis in passive mode
         self.data = mujoco.MjData(self.model)
         mujoco.mj_copyData(self.data, self.model, data)
-        self.root = self.model.body(root_body).id
+        names = [root_body] if isinstance(root_body, str) else list(root_body)
+        self.roots = [self.model.body(name).id for name in names]
+        self.following = 0
         self.handle: Any = None  # mujoco.viewer.Handle once the window is up
         self._thread: threading.Thread | None = None  # the viewer's own thread (window, events, rendering)
         self._keys: queue.SimpleQueue[int] = queue.SimpleQueue()
@@ -61,8 +74,13 @@ class CarViewer:
         self._held: int | None = None
         self._next_repeat = 0.0
 
+    @property
+    def root(self) -> int:
+        """The body id of the car the camera follows."""
+        return self.roots[self.following]
+
     @classmethod
-    def open(cls, model: mujoco.MjModel, data: mujoco.MjData, root_body: str) -> CarViewer | None:
+    def open(cls, model: mujoco.MjModel, data: mujoco.MjData, root_body: str | Sequence[str]) -> CarViewer | None:
         """The window, or None (with one warning line naming why) when there is no usable display."""
         viewer = cls(model, data, root_body)
         problem = _display_problem()
@@ -75,19 +93,35 @@ class CarViewer:
         return viewer
 
     def _setup_scene(self) -> None:
-        xmat = self.data.xmat[self.root]
         with self.handle.lock():
-            cam = self.handle.cam
-            cam.type = mujoco.mjtCamera.mjCAMERA_TRACKING
-            cam.trackbodyid = self.root
-            cam.distance, cam.elevation = CAMERA_DISTANCE, CAMERA_ELEVATION
-            cam.azimuth = math.degrees(math.atan2(xmat[3], xmat[0]))  # from behind the car
-            cam.lookat[:] = self.data.subtree_com[self.root]
+            self._aim(self.handle.cam)
             scene = self.handle.user_scn
             for i in range(min(MAX_BEAMS, scene.maxgeom)):
                 mujoco.mjv_initGeom(scene.geoms[i], mujoco.mjtGeom.mjGEOM_LINE, np.zeros(3), np.zeros(3),
                                     np.eye(3).ravel(), BEAM_RGBA)
             scene.ngeom = 0
+
+    def _aim(self, cam: Any) -> None:
+        """Put the tracking camera behind the followed car, at the start distance and elevation."""
+        xmat = self.data.xmat[self.root]
+        cam.type = mujoco.mjtCamera.mjCAMERA_TRACKING
+        cam.trackbodyid = self.root
+        cam.distance, cam.elevation = CAMERA_DISTANCE, CAMERA_ELEVATION
+        cam.azimuth = math.degrees(math.atan2(xmat[3], xmat[0]))  # from behind the car
+        cam.lookat[:] = self.data.subtree_com[self.root]
+
+    def follow(self, index: int) -> None:
+        """Follow car number `index` (0 for the first; wraps round), from behind it."""
+        self.following = index % len(self.roots)
+        if self.handle is not None:
+            mujoco.mj_copyData(self.data, self.model, self.source)
+            with self.handle.lock():
+                self._aim(self.handle.cam)
+
+    def cycle(self) -> int:
+        """Follow the next car (after the last, the first again); returns its index."""
+        self.follow(self.following + 1)
+        return self.following
 
     def _on_key(self, key: int) -> None:
         """MuJoCo's key callback: on the viewer's thread, inside its event handling (under the viewer lock)."""
@@ -144,7 +178,8 @@ class CarViewer:
                 break
             if 32 <= code < 127:  # printable; Esc, Tab, arrows, F-keys stay MuJoCo's
                 keys.append(chr(code).lower())
-                self._held, self._next_repeat = code, now + KEY_REPEAT
+                if chr(code) != FOLLOW_KEY:  # one car per press
+                    self._held, self._next_repeat = code, now + KEY_REPEAT
         if self._held is not None and now >= self._next_repeat:
             if self._is_down(self._held):
                 keys.append(chr(self._held).lower())

@@ -8,6 +8,9 @@ Field names follow ROS 2 exactly (``msg.header.stamp.sec``, ``scan.ranges``,
 from racecar_sim.msgs.ackermann_msgs import AckermannDrive, AckermannDriveStamped
 from racecar_sim.msgs.builtin_interfaces import Duration, Time
 from racecar_sim.msgs.cdr import deserialize, serialize
+from racecar_sim.msgs.control_msgs import JointControllerState
+from racecar_sim.msgs.controller_manager_msgs import ControllerState, HardwareInterfaceResources
+from racecar_sim.msgs.gazebo_msgs import LinkStates, ModelState, ModelStates
 from racecar_sim.msgs.geometry_msgs import (
     Point,
     Pose,
@@ -33,13 +36,19 @@ __all__ = [
     "AckermannDriveStamped",
     "CameraInfo",
     "Clock",
+    "ControllerState",
     "Duration",
     "Float64",
     "Header",
+    "HardwareInterfaceResources",
     "Image",
     "Int8",
+    "JointControllerState",
     "JointState",
     "LaserScan",
+    "LinkStates",
+    "ModelState",
+    "ModelStates",
     "Odometry",
     "Point",
     "Pose",

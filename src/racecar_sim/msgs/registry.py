@@ -12,6 +12,9 @@ from racecar_sim.msgs.idl import normalize_msgtype
 PACKAGES = (
     "ackermann_msgs",
     "builtin_interfaces",
+    "control_msgs",
+    "controller_manager_msgs",
+    "gazebo_msgs",
     "geometry_msgs",
     "nav_msgs",
     "rosgraph_msgs",

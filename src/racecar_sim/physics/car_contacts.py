@@ -10,6 +10,10 @@ class CarContacts:
     """Maps every geom to the car it belongs to (by the car's root body) and lists the touching car pairs."""
 
     def __init__(self, model: mujoco.MjModel, car_roots: list[int]) -> None:
+        self.rebind(model, car_roots)
+
+    def rebind(self, model: mujoco.MjModel, car_roots: list[int]) -> None:
+        """Map the geoms of a recompiled model (a model was spawned or deleted); `car_roots` in the cars' order."""
         car_of_root = np.full(model.nbody, -1, dtype=np.int64)
         for index, body in enumerate(car_roots):
             car_of_root[body] = index

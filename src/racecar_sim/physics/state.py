@@ -15,12 +15,26 @@ class CarState:
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, root_link: str,
                  names: CarNames = CarNames()) -> None:
-        self.model, self.data, self.names = model, data, names
-        self._base = model.body(names.mj(root_link)).id
-        self._root_qpos = model.jnt_qposadr[model.joint(names.mj(ROOT_JOINT)).id]
-        self._root_dof = model.jnt_dofadr[model.joint(names.mj(ROOT_JOINT)).id]
+        self.names, self.root_link = names, root_link
         self._vel = np.zeros(6)
+        self._handed_out: list[tuple[list[str], np.ndarray, np.ndarray]] = []  # joint_indices() answers
+        self._disabled: set[str] = set()  # controllers whose actuators apply no force (enable_actuator)
+        self.rebind(model, data)
+
+    def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """Use a recompiled model and its data (a model was spawned or deleted): every id and address is looked up
+        again, and the address arrays joint_indices() handed out are updated in place, so nodes holding them go on."""
+        self.model, self.data = model, data
+        self._base = model.body(self.names.mj(self.root_link)).id
+        root = model.joint(self.names.mj(ROOT_JOINT)).id
+        self._root_qpos, self._root_dof = model.jnt_qposadr[root], model.jnt_dofadr[root]
         self._actuators: dict[str, list[int]] = {}
+        self._actuator_ids: dict[str, list[int]] = {}
+        for joints, qpos_adr, dof_adr in self._handed_out:
+            qpos_adr[:], dof_adr[:] = self._joint_addresses(joints)
+        self._compiled_prm = (model.actuator_gainprm.copy(), model.actuator_biasprm.copy())  # for enable_actuator
+        for actuator in list(self._disabled):  # a stopped controller stays without effort in the recompiled model
+            self.enable_actuator(actuator, False)
 
     def set_command(self, actuator: str, value: float) -> None:
         """Set the setpoint of an actuator (and of its companion I-term actuator, if any)."""
@@ -35,8 +49,36 @@ class CarState:
             self._actuators[actuator] = [int(self.model.actuator_ctrladr[i]) for i in ids if i >= 0]
         return self._actuators[actuator]
 
+    def actuator_ids(self, actuator: str) -> list[int]:
+        """MuJoCo ids of a controller's actuator and of its I-term companion, if it has one (looked up once per
+        model: reset() re-enables every controller and must stay cheap)."""
+        ids = self._actuator_ids.get(actuator)
+        if ids is None:
+            found = [mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_ACTUATOR, self.names.mj(name))
+                     for name in (actuator, f"{actuator}/i_term")]
+            ids = self._actuator_ids[actuator] = [i for i in found if i >= 0]
+        return ids
+
+    def enable_actuator(self, actuator: str, enabled: bool) -> None:
+        """Let a controller's actuators apply force, or make them apply none from the next step on: their gain and
+        bias parameters are zeroed in the model (force = gain * ctrl + bias = 0 whatever ctrl, the state and the
+        activations are) and put back from the compiled values; nothing is recompiled."""
+        ids = self.actuator_ids(actuator)
+        gain, bias = self._compiled_prm
+        if enabled:
+            self._disabled.discard(actuator)
+        else:
+            self._disabled.add(actuator)
+        self.model.actuator_gainprm[ids] = gain[ids] if enabled else 0.0
+        self.model.actuator_biasprm[ids] = bias[ids] if enabled else 0.0
+
     def joint_indices(self, joints: list[str]) -> tuple[np.ndarray, np.ndarray]:
-        """qpos and dof addresses of hinge/slide joints, for joint_state()."""
+        """qpos and dof addresses of hinge/slide joints, for joint_state(); kept up to date by rebind()."""
+        qpos_adr, dof_adr = self._joint_addresses(joints)
+        self._handed_out.append((list(joints), qpos_adr, dof_adr))
+        return qpos_adr, dof_adr
+
+    def _joint_addresses(self, joints: list[str]) -> tuple[np.ndarray, np.ndarray]:
         ids = [self.model.joint(self.names.mj(j)).id for j in joints]
         return self.model.jnt_qposadr[ids].copy(), self.model.jnt_dofadr[ids].copy()
 

@@ -1,5 +1,8 @@
 """summary.png of a run: the drive on the world map coloured by speed, the last lidar scan, a camera frame, numbers.
 
+A fleet's run (trajectories given as {car name: path}, two or more) draws each car's path in its own colour
+(FLEET_COLORS, a legend entry naming the car) instead of by speed; the scan and camera frame are the first car's.
+
 A fixed size (FIGSIZE at DPI: 1600x1000 px). The map frames the whole world (every geom but the ground planes), the
 path and the last scan; the camera frame, the legend and the summary text sit right of it (SIDE), or under it when
 the view is long and flat (WIDE, e.g. the tunnel). Agg only, no pyplot state.
@@ -7,7 +10,7 @@ the view is long and flat (WIDE, e.g. the tunnel). Agg only, no pyplot state.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -55,6 +58,9 @@ PATH_WIDTH = 3.0  # points
 HALO = (1.0, 1.0, 1.0, 0.9)  # under the path, so its dark end reads on dark floors too
 SCAN_COLOR = "#e7298a"
 START_COLOR = "#2ca02c"
+# One colour per car of a fleet, in order (repeating after the last): distinct from each other, from the scan's
+# magenta and the start marker's green, and readable on light floors and beside dark walls.
+FLEET_COLORS = ("#1f77b4", "#ff7f0e", "#9467bd", "#17becf", "#8c564b", "#bcbd22", "#393b79", "#d62728")
 VIEW_MARGIN = 0.05  # of the larger side of what is shown, and at least MIN_VIEW_MARGIN
 MIN_VIEW_MARGIN = 1.5  # m
 MIN_VIEW = 6.0  # m, the smallest side shown (a car that stood still)
@@ -62,7 +68,10 @@ MIN_VIEW = 6.0  # m, the smallest side shown (a car that stood still)
 Z_RAYS, Z_HALO, Z_PATH, Z_SCAN, Z_MARKS = 2.5, 3.0, 3.1, 3.5, 6.0
 
 
-def save_summary(path: str | Path, world: World, trajectory: np.ndarray, *, scan_origin: np.ndarray | None = None,
+Trajectories = np.ndarray | Mapping[str, np.ndarray]
+
+
+def save_summary(path: str | Path, world: World, trajectory: Trajectories, *, scan_origin: np.ndarray | None = None,
                  scan_points: np.ndarray | None = None, camera_bgr: np.ndarray | None = None, title: str = "",
                  lines: Sequence[str] = ()) -> Path:
     """Write the run's summary PNG (1600x1000 px) and return its path; see summary_figure for the arguments."""
@@ -73,20 +82,20 @@ def save_summary(path: str | Path, world: World, trajectory: np.ndarray, *, scan
     return path
 
 
-def summary_figure(world: World, trajectory: np.ndarray, *, scan_origin: np.ndarray | None = None,
+def summary_figure(world: World, trajectory: Trajectories, *, scan_origin: np.ndarray | None = None,
                    scan_points: np.ndarray | None = None, camera_bgr: np.ndarray | None = None, title: str = "",
                    lines: Sequence[str] = ()) -> tuple[Figure, Axes]:
     """The summary figure (not attached to pyplot) and its map Axes.
 
-    trajectory: (N, 3) x, y (m, world frame) and ground speed (m/s), row i at i / TRAJECTORY_RATE s.
+    trajectory: (N, 3) x, y (m, world frame) and ground speed (m/s), row i at i / TRAJECTORY_RATE s; or a fleet's
+    {car name: (N, 3)}, each car drawn in its own colour (one entry is drawn as the single car's path).
     scan_origin: (x, y) of the laser; scan_points: (M, 2) world end points of the finite beams.
     camera_bgr: (H, W, 3) uint8 BGR image. lines: summary text, one item a line. Scan and camera may be None.
     """
-    traj = np.asarray(trajectory, dtype=float)
-    if traj.size == 0:
-        traj = np.zeros((0, 3))
-    elif traj.ndim != 2 or traj.shape[1] != 3:
-        raise ValueError(f"trajectory must be (N, 3) x, y, speed; got shape {traj.shape}")
+    paths = {name: _checked(path) for name, path in trajectory.items()} if isinstance(trajectory, Mapping) else {
+        "": _checked(trajectory)}
+    fleet = len(paths) > 1
+    traj = np.vstack(list(paths.values())) if paths else np.zeros((0, 3))
     origin = None if scan_origin is None else np.asarray(scan_origin, dtype=float).reshape(-1)[:2]
     points = np.zeros((0, 2)) if scan_points is None else np.asarray(scan_points, dtype=float).reshape(-1, 2)
     image = None if camera_bgr is None else _camera_rgb(camera_bgr)
@@ -107,17 +116,34 @@ def summary_figure(world: World, trajectory: np.ndarray, *, scan_origin: np.ndar
 
     handles: list[Line2D] = []
     if origin is not None and len(points):
-        handles.append(_draw_scan(ax, origin, points))
-    norm = Normalize(0.0, max(float(traj[:, 2].max()) if len(traj) else 0.0, 0.1))
-    handles = _draw_trajectory(ax, traj, norm) + handles
-    colorbar = fig.colorbar(ScalarMappable(norm=norm, cmap=SPEED_CMAP), cax=fig.add_axes(layout.colorbar))
-    colorbar.set_label("speed (m/s)")
-    _fill_panel(fig, layout, image, handles, lines)
+        handles.append(_draw_scan(ax, origin, points, next(iter(paths)) if fleet else ""))
+    if fleet:
+        handles = _draw_fleet(ax, paths) + handles
+    else:
+        norm = Normalize(0.0, max(float(traj[:, 2].max()) if len(traj) else 0.0, 0.1))
+        handles = _draw_trajectory(ax, traj, norm) + handles
+        colorbar = fig.colorbar(ScalarMappable(norm=norm, cmap=SPEED_CMAP), cax=fig.add_axes(layout.colorbar))
+        colorbar.set_label("speed (m/s)")
+    _fill_panel(fig, layout, image, handles, lines, f"{next(iter(paths))}'s " if fleet else "")
     return fig, ax
 
 
+def _checked(trajectory: np.ndarray) -> np.ndarray:
+    traj = np.asarray(trajectory, dtype=float)
+    if traj.size == 0:
+        return np.zeros((0, 3))
+    if traj.ndim != 2 or traj.shape[1] != 3:
+        raise ValueError(f"trajectory must be (N, 3) x, y, speed; got shape {traj.shape}")
+    return traj
+
+
+def fleet_color(index: int) -> str:
+    """The colour of the fleet's car number `index` (0 for the first)."""
+    return FLEET_COLORS[index % len(FLEET_COLORS)]
+
+
 def _fill_panel(fig: Figure, layout: Layout, image: np.ndarray | None, handles: list[Line2D],
-                lines: Sequence[str]) -> None:
+                lines: Sequence[str], owner: str = "") -> None:
     """The camera frame, the legend and the text box, one after the other from the panel's corner."""
     renderer = fig.canvas.get_renderer()
     x, top = layout.panel
@@ -137,7 +163,7 @@ def _fill_panel(fig: Figure, layout: Layout, image: np.ndarray | None, handles: 
         height = width * image.shape[0] / image.shape[1] * FIGSIZE[0] / FIGSIZE[1]
         title_room = 0.03
         cam = fig.add_axes((x, top - title_room - height, width, height))
-        _draw_camera(cam, image)
+        _draw_camera(cam, image, f"{owner}camera, last frame")
         advance(cam.get_tightbbox(renderer))
     if handles:
         legend = fig.legend(handles=handles, loc="upper left", bbox_to_anchor=(x, top), frameon=False, fontsize=11,
@@ -203,18 +229,43 @@ def _draw_trajectory(ax: Axes, traj: np.ndarray, norm: Normalize) -> list[Line2D
     return [path, start, end]
 
 
+def _draw_fleet(ax: Axes, paths: Mapping[str, np.ndarray]) -> list[Line2D]:
+    """Each car's path in its own colour over a white halo, a start circle and an end square in that colour; the
+    legend names the cars."""
+    handles = []
+    for index, (name, traj) in enumerate(paths.items()):
+        color = fleet_color(index)
+        handles.append(Line2D([], [], color=color, linewidth=PATH_WIDTH, label=name))
+        if not len(traj):
+            continue
+        xy = traj[:, :2]
+        if len(traj) >= 2:
+            ax.plot(xy[:, 0], xy[:, 1], color=HALO, linewidth=PATH_WIDTH + 2.5, solid_capstyle="round",
+                    solid_joinstyle="round", zorder=Z_HALO)
+            ax.plot(xy[:, 0], xy[:, 1], color=color, linewidth=PATH_WIDTH, solid_capstyle="round",
+                    solid_joinstyle="round", zorder=Z_PATH)
+        ax.plot(*xy[0], "o", color=color, markeredgecolor="white", markeredgewidth=1.5, markersize=10, zorder=Z_MARKS)
+        ax.plot(*xy[-1], "s", color=color, markeredgecolor="black", markeredgewidth=1.0, markersize=9, zorder=Z_MARKS)
+    start = Line2D([], [], marker="o", linestyle="", color="0.55", markeredgecolor="white", markeredgewidth=1.5,
+                   markersize=10, label="start")
+    end = Line2D([], [], marker="s", linestyle="", color="0.55", markeredgecolor="black", markeredgewidth=1.0,
+                 markersize=9, label="end")
+    return handles + [start, end]
+
+
 def _cmap_color(norm: Normalize, value: float) -> tuple[float, float, float, float]:
     return colormaps[SPEED_CMAP](norm(value))
 
 
-def _draw_scan(ax: Axes, origin: np.ndarray, points: np.ndarray) -> Line2D:
+def _draw_scan(ax: Axes, origin: np.ndarray, points: np.ndarray, owner: str = "") -> Line2D:
     """The last scan from the laser: faint rays and the points they hit."""
     rays = np.stack([np.broadcast_to(origin, points.shape), points], axis=1)
     ax.add_collection(LineCollection(rays, colors=SCAN_COLOR, linewidths=0.5, alpha=0.18, zorder=Z_RAYS),
                       autolim=False)
     ax.scatter(points[:, 0], points[:, 1], s=5, color=SCAN_COLOR, linewidths=0, zorder=Z_SCAN)
+    label = f"last lidar scan ({len(points)} hits)"
     return Line2D([], [], marker="o", linestyle="", color=SCAN_COLOR, markersize=5,
-                  label=f"last lidar scan ({len(points)} hits)")
+                  label=f"{owner}'s {label}" if owner else label)
 
 
 def _camera_rgb(camera_bgr: np.ndarray) -> np.ndarray:
@@ -225,7 +276,7 @@ def _camera_rgb(camera_bgr: np.ndarray) -> np.ndarray:
     return image[..., ::-1]
 
 
-def _draw_camera(ax: Axes, rgb: np.ndarray) -> None:
+def _draw_camera(ax: Axes, rgb: np.ndarray, title: str = "camera, last frame") -> None:
     """The camera frame, top row up, in a thin frame."""
     ax.imshow(rgb, interpolation="antialiased")
     ax.set_xticks([])
@@ -233,4 +284,4 @@ def _draw_camera(ax: Axes, rgb: np.ndarray) -> None:
     for spine in ax.spines.values():
         spine.set_linewidth(0.8)
         spine.set_edgecolor((0.3, 0.3, 0.3))
-    ax.set_title("camera, last frame", fontsize=11, loc="left")
+    ax.set_title(title, fontsize=11, loc="left")

@@ -8,22 +8,24 @@ robot_state_publisher, odometry, lidar and camera, all named through its `CarNam
 from __future__ import annotations
 
 import logging
+import weakref
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import mujoco
 
 from racecar_sim.bus import Bus
 from racecar_sim.control.commands import ControllerCommands
+from racecar_sim.control.controller_manager import ControllerManager
 from racecar_sim.control.controllers import ControllerConfig, add_actuators, load_controller_config
 from racecar_sim.control.mux import CommandChain
 from racecar_sim.control.profiles import Profile, load_profile
 from racecar_sim.control.servo import ServoCommands
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import CarNames
-from racecar_sim.core.scheduler import Scheduler
-from racecar_sim.description import DEFAULT_XACRO, Robot, load_robot, package_path
+from racecar_sim.core.scheduler import Scheduler, Task
+from racecar_sim.description import DEFAULT_XACRO, Robot, load_robot, package_path, parse_urdf
 from racecar_sim.physics import PhysicsPreset, add_car
 from racecar_sim.physics.state import CarState
 from racecar_sim.sensors.joint_states import JointStatePublisher
@@ -67,6 +69,9 @@ class Car:
         self.state: CarState | None = None
         self.lidar: LidarPublisher | None = None
         self.camera: CameraPublisher | None = None
+        self.urdf: str | None = None  # an expanded URDF to use instead of the xacro (spawn_urdf_model)
+        self._bus: _CarBus | None = None
+        self._scheduler: _CarScheduler | None = None
 
     def __repr__(self) -> str:
         return f"Car({self.name or 'racecar'!r})"
@@ -79,7 +84,10 @@ class Car:
     def load(self) -> None:
         """Read the profile, expand the xacro and check the controllers against it."""
         self.profile = load_profile(self.profile_name)
-        self.robot = load_robot(self.xacro, {**self.profile.xacro_args, **self.xacro_args})
+        if self.urdf is not None:  # already expanded: the profile's xacro arguments cannot apply any more
+            self.robot = parse_urdf(self.urdf, source=f"the URDF of {self.model_name}")
+        else:
+            self.robot = load_robot(self.xacro, {**self.profile.xacro_args, **self.xacro_args})
         self.controllers = load_controller_config(self.controllers_file, self.robot)
         self.has_lidar = self.want_lidar and self.robot.sensor("ray") is not None
         self.has_camera = self.want_camera and self.robot.sensor("camera") is not None
@@ -95,7 +103,10 @@ class Car:
 
     def start(self, model: mujoco.MjModel, data: mujoco.MjData, bus: Bus, scheduler: Scheduler,
               now: Callable[[], int], static_tf: StaticTransforms, seed: int, noise: bool) -> None:
-        """Start the car's nodes of the original stack on the bus. Called once: they live as long as the Simulator."""
+        """Start the car's nodes of the original stack on the bus. Called once: they live as long as the Simulator
+        (or until stop(): the car was deleted). Their timers start now (a car spawned at t = 2 s scans at 2.025 s...,
+        as a Gazebo sensor counts from its load), and everything they hold on the bus is kept for stop()."""
+        self._bus, self._scheduler = bus, scheduler = _CarBus(bus), _CarScheduler(scheduler, now())
         names, robot, controllers, profile = self.names, self.robot, self.controllers, self.profile
         self.state = CarState(model, data, robot.root, names)
         self.commands = ControllerCommands(bus, self.state, controllers, robot, now, names)
@@ -106,6 +117,8 @@ class Car:
         joint_states = names.topic(f"{controllers.namespace}/joint_states")
         self.joint_states = JointStatePublisher(bus, scheduler, self.state, joints, controllers.joint_state_rate,
                                                 joint_states)
+        self.controller_manager = ControllerManager(bus, scheduler, self.state, controllers, robot, self.joint_states,
+                                                    names)
         self.robot_state = RobotStatePublisher(bus, robot, joint_states, names, static_tf)
         self.odometry = OdometryPublisher(bus, scheduler, self.state, self.odometry_mode, names=names)
         if self.has_lidar:
@@ -124,6 +137,7 @@ class Car:
     def reset(self, seed: int) -> None:
         """Back to a fresh start: muxes idle, no held command, sensors' noise from `seed`."""
         self.chain.reset()
+        self.controller_manager.reset()  # every controller of the YAML loaded and running, as the spawner leaves them
         for sensor in (self.lidar, self.camera):
             if sensor is not None:
                 sensor.seed = seed
@@ -134,6 +148,100 @@ class Car:
             self.camera.close()
             self.camera = None
 
+    def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """Go on in a recompiled model (a model was spawned or deleted): the same nodes, new ids and addresses."""
+        self.state.rebind(model, data)
+        if self.lidar is not None:
+            self.lidar.rebind(model, data)
+        if self.camera is not None:
+            self.camera.rebind(model, data)
+
+    def stop(self) -> None:
+        """Take the car's nodes off the bus (delete_model): cancel their timers, drop their subscriptions and
+        services, close the sensors."""
+        if self._scheduler is not None:
+            self._scheduler.cancel_all()
+        if self._bus is not None:
+            self._bus.release()
+        if self.lidar is not None:
+            self.lidar.close()
+        self.close()
+
+    def remove_from(self, spec: mujoco.MjSpec) -> None:
+        """Delete the car from the scene's MjSpec: its bodies (with their geoms, joints, sites and camera), the
+        actuators on its joints and its contact exclusions."""
+        root = spec.body(self.names.mj(self.robot.root))
+        if root is None:
+            return
+        bodies = {root.name} | {b.name for b in root.find_all(mujoco.mjtObj.mjOBJ_BODY)}
+        joints = {j.name for j in root.find_all(mujoco.mjtObj.mjOBJ_JOINT)}
+        for actuator in [a for a in spec.actuators if a.target in joints]:
+            spec.delete(actuator)
+        for exclude in [e for e in spec.excludes if e.bodyname1 in bodies or e.bodyname2 in bodies]:
+            spec.delete(exclude)
+        spec.delete(root)
+
     def topic(self, name: str) -> str:
         """One of this car's topics by its original name: car.topic("/scan") -> "/car2/scan"."""
         return self.names.topic(name)
+
+
+class _CarBus:
+    """The shared bus as one car's nodes see it: everything passes through, and the subscriptions and services
+    they make are remembered so that release() can take them away again."""
+
+    def __init__(self, bus: Bus) -> None:
+        self._bus = bus
+        self.publish = bus.publish  # the hot paths, without a __getattr__ per call
+        self.has_listeners = bus.has_listeners
+        self._subscriptions: list[Any] = []
+        self._services: list[str] = []
+
+    def subscribe(self, topic: str, callback: Callable[[Any], None]) -> Any:
+        sub = self._bus.subscribe(topic, callback)
+        self._subscriptions.append(sub)
+        return sub
+
+    def advertise_service(self, name: str, handler: Callable[[Any], Any]) -> None:
+        self._bus.advertise_service(name, handler)
+        self._services.append(name)
+
+    def release(self) -> None:
+        for sub in self._subscriptions:
+            sub.unsubscribe()
+        withdraw = getattr(self._bus, "unadvertise_service", None)
+        for name in self._services:
+            if withdraw is not None:
+                withdraw(name)
+            else:
+                self._bus._services.pop(name, None)  # noqa: SLF001 - the bus has no public way to withdraw one
+        self._subscriptions, self._services = [], []
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._bus, name)
+
+
+class _CarScheduler:
+    """The shared scheduler as one car's nodes see it: periodic tasks count from the car's start time, and every
+    live task is remembered (weakly: fired one-shot timers are forgotten) so that cancel_all() can stop them."""
+
+    def __init__(self, scheduler: Scheduler, start_ns: int) -> None:
+        self._scheduler, self._start_ns = scheduler, start_ns
+        self._tasks: weakref.WeakSet[Task] = weakref.WeakSet()
+
+    def every(self, rate_hz: float, callback: Callable[[int], None], name: str, start_ns: int = 0) -> Task:
+        task = self._scheduler.every(rate_hz, callback, name, max(start_ns, self._start_ns))
+        self._tasks.add(task)
+        return task
+
+    def at(self, time_ns: int, callback: Callable[[int], None], name: str) -> Task:
+        task = self._scheduler.at(time_ns, callback, name)
+        self._tasks.add(task)
+        return task
+
+    def cancel_all(self) -> None:
+        for task in list(self._tasks):
+            task.cancel()
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._scheduler, name)

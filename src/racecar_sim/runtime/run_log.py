@@ -12,14 +12,16 @@ from racecar_sim.msgs import Image, LaserScan, Odometry
 
 
 class RunLog:
-    """Subscribes to /vesc/odom, /scan and the camera image; summarises the run for people.
+    """Subscribes to /vesc/odom, /scan and the camera image of one car; summarises the run for people.
+
+    A fleet's car has its own topics: `RunLog(bus, car.topic("/scan"), None, odom_topic=car.topic("/vesc/odom"))`.
 
     `trajectory` rows are x, y (m) and ground speed (m/s) at the odometry rate (20 Hz).
     `min_clearance` is the shortest lidar range seen (m): how close the car came to a wall, from the laser.
     """
 
     def __init__(self, bus: Bus, scan_topic: str | None = "/scan",
-                 image_topic: str | None = "/camera/zed/rgb/image_rect_color") -> None:
+                 image_topic: str | None = "/camera/zed/rgb/image_rect_color", odom_topic: str = "/vesc/odom") -> None:
         self._rows: list[tuple[float, float, float]] = []
         self._times: list[int] = []
         self.distance = 0.0
@@ -28,7 +30,7 @@ class RunLog:
         self.last_pose: tuple[float, float, float] | None = None  # x, y, yaw
         self.last_image: Image | None = None
         self.images = 0
-        bus.subscribe("/vesc/odom", self._on_odom)
+        bus.subscribe(odom_topic, self._on_odom)
         if scan_topic:
             bus.subscribe(scan_topic, self._on_scan)
         if image_topic:

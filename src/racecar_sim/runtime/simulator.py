@@ -26,6 +26,7 @@ from racecar_sim.msgs import Clock, String, Time
 from racecar_sim.physics import check_spawn, load_preset, route_mujoco_warnings, world_spec
 from racecar_sim.physics.car_contacts import CarContacts
 from racecar_sim.runtime.car import Car
+from racecar_sim.runtime.gazebo_api import GazeboApi
 from racecar_sim.sensors.robot_state import StaticTransforms
 from racecar_sim.worlds import DEFAULT_WALL_HEIGHT, Spawn, World, load_world
 
@@ -56,7 +57,9 @@ class Simulator:
 
     >>> fleet = Simulator(world="tunnel", cars=[Car("car1"), Car("car2", spawn=Spawn(-1.5, 0, 0.05, 0))])
 
-    Every topic of the original is on `sim.bus` under its original name, each car's under its namespace.
+    Every topic of the original is on `sim.bus` under its original name, each car's under its namespace; Gazebo's
+    own (/gazebo/model_states, /gazebo/link_states and the /gazebo/* services: get/set_model_state, spawn_urdf_model,
+    spawn_sdf_model, delete_model, pause/unpause_physics, reset_simulation/reset_world) come from `sim.gazebo`.
     Same world, cars, seed and inputs give bit-identical messages.
     """
 
@@ -91,6 +94,7 @@ class Simulator:
             self.model = spec.compile()
         except ValueError as exc:
             raise ConfigError(f"MuJoCo rejected the model built from {first.xacro}: {exc}") from None
+        self.spec = spec  # kept: models spawned or deleted at run time change it, and it is recompiled
         self.data = mujoco.MjData(self.model)
         self.step_ns = to_ns(self.model.opt.timestep)
         if abs(self.step_ns / NS_PER_S - self.model.opt.timestep) > 1e-15:
@@ -103,6 +107,10 @@ class Simulator:
         self._reset_hooks: list[Callable[[], None]] = []
         self._collision_hooks: list[Callable[[Collision], None]] = []
         self._divergence: str | None = None
+        self._rebuild_hooks: list[Callable[[mujoco.MjModel, mujoco.MjData], None]] = []
+        self._deferred: list[Callable[[], None]] = []
+        self._in_event = False
+        self.paused = False
         self.time_ns = 0
         self.bus = Bus()
         self.scheduler = Scheduler(self.step_ns)
@@ -113,6 +121,7 @@ class Simulator:
             car.start(self.model, self.data, self.bus, self.scheduler, now, self.static_tf, self.seed, sensor_noise)
         self._contacts = CarContacts(self.model, [car.state.body_id for car in self.cars]) if len(self.cars) > 1 else None
         self._touching: set[tuple[int, int]] = set()
+        self.gazebo = GazeboApi(self)  # /gazebo/link_states, /gazebo/model_states and the /gazebo/* services
 
     # --- the first car, under the names the single-car API always had ---------------------------------
     @property
@@ -125,6 +134,7 @@ class Simulator:
     controllers = property(lambda self: self.car.controllers, doc="The first car's controller configuration.")
     state = property(lambda self: self.car.state, doc="The first car's state access.")
     commands = property(lambda self: self.car.commands, doc="The first car's controller command node.")
+    controller_manager = property(lambda self: self.car.controller_manager, doc="The first car's controller_manager.")
     chain = property(lambda self: self.car.chain, doc="The first car's ackermann_cmd_mux chain.")
     servo = property(lambda self: self.car.servo, doc="The first car's servo_commands node.")
     joint_states = property(lambda self: self.car.joint_states, doc="The first car's joint_state_controller.")
@@ -163,12 +173,46 @@ class Simulator:
         """Call `hook(Collision)` when two cars start touching (checked at every event, not every physics step)."""
         self._collision_hooks.append(hook)
 
+    @property
+    def paused(self) -> bool:
+        """Whether the physics is paused (/gazebo/pause_physics): sim time stands still until unpaused."""
+        return self._paused
+
+    @paused.setter
+    def paused(self, value: bool) -> None:
+        self._paused, self._pause_told = bool(value), False
+
+    def on_rebuild(self, hook: Callable[[mujoco.MjModel, mujoco.MjData], None]) -> None:
+        """Call `hook(model, data)` when a model spawned or deleted at run time replaced `sim.model` and `sim.data`
+        (the Simulator's own nodes are rebound already; a user's node holding the old ones should take these)."""
+        self._rebuild_hooks.append(hook)
+
+    def defer(self, action: Callable[[], None]) -> None:
+        """Run `action()` once the event being handled is over (at once outside of run_until): what moves sim
+        time (reset) must not happen while the scheduler is firing the tasks due now."""
+        if self._in_event:
+            self._deferred.append(action)
+        else:
+            action()
+
     def run_until(self, t: float) -> None:
-        """Advance sim time to `t` seconds (rounded up to a physics step), firing every event on the way."""
+        """Advance sim time to `t` seconds (rounded up to a physics step), firing every event on the way.
+
+        While the physics is paused (/gazebo/pause_physics) sim time stands still, as in a paused Gazebo: nothing
+        steps, no timer fires, nothing publishes, and run_until returns at once (logging it once per pause); a loop
+        that waits for sim time must call /gazebo/unpause_physics. A pause asked for during an event stops the run
+        after that event.
+        """
         end = ceil_to_step(to_ns(t), self.step_ns)
         if self._divergence is not None:
             raise PhysicsError(self._divergence)
-        while self.time_ns < end:
+        if self._paused:
+            if not self._pause_told and self.time_ns < end:
+                log.warning("the physics is paused (/gazebo/pause_physics): sim time stays at %.3f s until "
+                            "/gazebo/unpause_physics", self.time)
+                self._pause_told = True
+            return
+        while self.time_ns < end and not self._paused:
             due = self.scheduler.next_time()
             target = end if due is None else max(min(due, end), self.time_ns)
             if target > self.time_ns:
@@ -177,7 +221,13 @@ class Simulator:
                 self._check_physics()
                 if self._contacts is not None:
                     self._check_collisions()
-            self.scheduler.run_due(self.time_ns)
+            self._in_event = True
+            try:
+                self.scheduler.run_due(self.time_ns)
+            finally:
+                self._in_event = False
+            while self._deferred:
+                self._deferred.pop(0)()
 
     def run_for(self, duration: float) -> None:
         """Advance sim time by `duration` seconds."""
@@ -232,6 +282,35 @@ class Simulator:
         self.close()
 
     # --- internals --------------------------------------------------------------------------------
+    def _compile_spec(self) -> tuple[mujoco.MjModel, mujoco.MjData]:
+        """Recompile `self.spec` after a change (a model spawned or deleted) into a new model and data that keep the
+        state of everything that stays (MjSpec.recompile maps it by name); nothing is installed yet."""
+        try:
+            model, data = self.spec.recompile(self.model, self.data)
+        except ValueError as exc:
+            raise ConfigError(f"MuJoCo rejected the changed model: {exc}") from None
+        mujoco.mj_forward(model, data)
+        return model, data
+
+    def _install(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """Go on with a recompiled model: every node is rebound (none is rebuilt), and reset() puts every model that
+        is in it back at its initial pose."""
+        self.model, self.data = model, data
+        self._qpos0 = model.qpos0.copy()
+        for car in self.cars:
+            if car.state.model is not model:  # a car just spawned starts in the new model already
+                car.rebind(model, data)
+        roots = [car.state.body_id for car in self.cars]
+        if len(self.cars) < 2:
+            self._contacts = None
+        elif self._contacts is None:
+            self._contacts = CarContacts(model, roots)
+        else:
+            self._contacts.rebind(model, roots)
+        self._touching = self._contacts.pairs(data) if self._contacts is not None else set()
+        for hook in self._rebuild_hooks:
+            hook(model, data)
+
     def _check_collisions(self) -> None:
         touching = self._contacts.pairs(self.data)
         for a, b in sorted(touching - self._touching):

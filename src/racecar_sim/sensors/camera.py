@@ -105,6 +105,11 @@ class CameraPublisher:
         self.frames_rendered = 0
         self._task = scheduler.every(self.spec.rate_hz, self._tick, "gazebo_ros_camera")
 
+    def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """Render a recompiled model (a model was spawned or deleted): same node, schedule and noise."""
+        set_clip(model, self.spec.near, self.spec.far)
+        self.renderer.rebind(model, data)
+
     def _tick(self, now_ns: int) -> None:
         spec = self.spec
         if not (self.bus.has_listeners(spec.image_topic) or self.bus.has_listeners(spec.info_topic)):

@@ -54,18 +54,31 @@ class LidarPublisher:
         self.bus, self.model, self.data, self.seed, self.mode = bus, model, data, seed, mode
         self.topic = topic or spec.topic  # gazebo_ros_laser's <topicName>: /scan
         self.noise = noise and spec.noisy
-        self._site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, spec.link)
-        if self._site < 0:
-            raise DescriptionError(f"ray sensor '{spec.name}': link {spec.link} is not in the model")
+        self._root = names.mj(robot.root)
+        self._site = self._site_id(model)
         self._offset = np.array(spec.pose.xyz, dtype=float)
         self._turn = quat_to_matrix(quat_from_rpy(spec.pose.rpy))
         # Scans are cast in a private MjData posed from the live qpos: after mj_step the live positions
         # describe the start of the last step, and the simulation's own data stays untouched.
         self._pose = mujoco.MjData(model)
         self.fan = Fan(spec.min_angle, spec.angle_increment, spec.samples, spec.range_min, spec.range_max)
-        self.caster = RayCaster(model, self._pose, self.fan, model.body(names.mj(robot.root)).id, COLLISION_GROUP)
+        self.caster = RayCaster(model, self._pose, self.fan, model.body(self._root).id, COLLISION_GROUP)
         self.scans_cast = 0
         self._task = scheduler.every(spec.update_rate, self._tick, "hokuyo")
+
+    def _site_id(self, model: mujoco.MjModel) -> int:
+        site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, self.spec.link)
+        if site < 0:
+            raise DescriptionError(f"ray sensor '{self.spec.name}': link {self.spec.link} is not in the model")
+        return site
+
+    def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """Scan a recompiled model (a model was spawned or deleted): same node, schedule and noise; the caster
+        slices the new world again."""
+        self.model, self.data = model, data
+        self._site = self._site_id(model)
+        self._pose = mujoco.MjData(model)
+        self.caster.rebind(model, self._pose, model.body(self._root).id)
 
     def _tick(self, now_ns: int) -> None:
         if not self.bus.has_listeners(self.topic):

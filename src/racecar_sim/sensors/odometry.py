@@ -2,6 +2,11 @@
 
 mode "original": frame map, child odom, world-frame twist, TF map->odom (what the original sim did).
 mode "ros":      frame odom, child base_link, body-frame twist, TF odom->base_link (REP 105 convention).
+
+The original reads the `racecar::base_link` entry of /gazebo/link_states; this node reads the same link state
+from the MjData through CarState, the very calls /gazebo/link_states and /gazebo/model_states are filled from
+(runtime/gazebo_api.py), so the poses are equal at equal stamps (tests/test_gazebo_api.py) and the odometry does
+not depend on anyone listening to /gazebo/link_states.
 """
 
 from __future__ import annotations

@@ -45,19 +45,27 @@ class OffscreenCamera:
             raise ValueError(f"the model's offscreen buffer is {model.vis.global_.offwidth}x"
                              f"{model.vis.global_.offheight}, smaller than the {width}x{height} image: "
                              "add the camera with add_camera() before compiling")
-        self.model, self.data = model, data
-        self._pose = mujoco.MjData(model)
         self.gl = gl or shared_context(width, height)
         self.camera = mujoco.MjvCamera()
         self.camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
-        self.camera.fixedcamid = model.camera(camera).id
+        self.camera_name = camera
         self.option = visual_only_option()
-        self.scene = mujoco.MjvScene(model, maxgeom=max(1000, 2 * model.ngeom))
         self.rect = mujoco.MjrRect(0, 0, width, height)
         self.rgb = np.empty((height, width, 3), dtype=np.uint8)
+        self.context: mujoco.MjrContext | None = None
+        self.rebind(model, data)
+
+    def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """Render a recompiled model (a model was spawned or deleted): the GL context stays, the model's meshes and
+        textures are uploaded again."""
+        self.close()
+        self.model, self.data = model, data
+        self._pose = mujoco.MjData(model)
+        self.camera.fixedcamid = model.camera(self.camera_name).id
+        self.scene = mujoco.MjvScene(model, maxgeom=max(1000, 2 * model.ngeom))
         self.gl.make_current()
         try:
-            self.context: mujoco.MjrContext | None = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_50)
+            self.context = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_50)
         except mujoco.FatalError as exc:  # e.g. MuJoCo's GL loader bound to another backend earlier in the process
             raise RenderingError(f"MuJoCo cannot render in the {self.gl.backend} context ({exc}): "
                                  "run with --no-camera") from None

@@ -46,7 +46,13 @@ class RayCaster:
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, fan: Fan, own_body: int, group: int,
                  cell_size: float | None = None) -> None:
-        self.model, self.data, self.fan = model, data, fan
+        self.fan, self.group, self.cell_size = fan, group, cell_size
+        self.rebind(model, data, own_body)
+
+    def rebind(self, model: mujoco.MjModel, data: mujoco.MjData, own_body: int) -> None:
+        """Cast in a recompiled model (a model was spawned or deleted): the world is sliced again (milliseconds)."""
+        self.model, self.data = model, data
+        fan, group, cell_size = self.fan, self.group, self.cell_size
         geoms = seen_geoms(model, group)
         own = np.isin(model.geom_bodyid[geoms], subtree_bodies(model, own_body))
         static = np.array([is_static(model, g) for g in geoms], bool)

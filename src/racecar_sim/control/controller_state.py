@@ -1,0 +1,77 @@
+"""`/racecar/<controller>/state` (control_msgs/JointControllerState) of the running joint controllers.
+
+ros_controllers' effort controllers publish their state from the 1 kHz update loop on every 10th update, i.e. at
+100 Hz. Here the loop runs inside MuJoCo, so a 100 Hz task reads what the loop works with from MjData - the held
+command (ctrl), the joint's position and velocity, the integral states (act) - and computes what the controller
+outputs for the next step, exactly as the actuator will (control/controllers.py):
+
+  JointVelocityController   command = p (w_cmd - w) + I,   I = clamp(i (act - q), +-i_clamp) (the I-term actuator)
+  JointPositionController   command = p (q_cmd - q) - d w + i act   (act: MuJoCo's PID integral, clamped by imax)
+
+Like ros_control, `command` is the PID output before the joint's effort limit (+-10 N m), which the hardware layer
+(DefaultRobotHWSim, here the actuator's forcerange) applies; /racecar/joint_states carries the applied effort.
+A stopped controller is not updated, so it publishes nothing; nothing is computed for a topic nobody listens to.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from racecar_sim.bus import Bus
+from racecar_sim.control.controllers import VELOCITY, ControllerConfig, JointController
+from racecar_sim.core.names import CarNames
+from racecar_sim.core.scheduler import Scheduler
+from racecar_sim.msgs import Header, JointControllerState
+from racecar_sim.physics.state import CarState
+
+STATE_RATE = 100.0  # Hz: every 10th update of ros_control's 1 kHz loop
+
+
+@dataclass
+class _Controller:
+    """One controller's state topic and its joint's addresses (kept up to date by CarState)."""
+
+    config: JointController
+    topic: str
+    qpos: np.ndarray
+    dof: np.ndarray
+
+
+class ControllerStatePublisher:
+    """Publishes each running joint controller's JointControllerState at 100 Hz of sim time, while someone listens."""
+
+    def __init__(self, bus: Bus, scheduler: Scheduler, state: CarState, config: ControllerConfig,
+                 running: Callable[[str], bool], names: CarNames = CarNames()) -> None:
+        self.bus, self.state, self.running = bus, state, running
+        self.controllers = [_Controller(c, names.topic(f"{c.namespace}/{c.name}/state"),
+                                        *state.joint_indices([c.joint])) for c in config.controllers]
+        scheduler.every(STATE_RATE, self.publish, "controller_state")
+
+    def publish(self, now_ns: int) -> None:
+        for c in self.controllers:
+            if self.running(c.config.name) and self.bus.has_listeners(c.topic):
+                self.bus.publish(c.topic, self.message(c, now_ns))
+
+    def message(self, c: _Controller, now_ns: int) -> JointControllerState:
+        state, g, name = self.state, c.config.gains, c.config.name
+        model, d = state.model, state.data
+        q, w = float(d.qpos[c.qpos[0]]), float(d.qvel[c.dof[0]])
+        set_point = float(d.ctrl[state.actuator_ctrl(name)[0]])
+        i_term = 0.0
+        if g.i:  # the integral state: of the velocity I-term actuator (the last id), else of the position PID
+            integral = state.actuator_ids(name)[-1]
+            act = float(d.act[model.actuator_actadr[integral] + model.actuator_actnum[integral] - 1])
+            i_term = g.i * (act - q) if c.config.type == VELOCITY else g.i * act
+            if c.config.type == VELOCITY and g.i_clamp:
+                i_term = min(max(i_term, -g.i_clamp), g.i_clamp)
+        if c.config.type == VELOCITY:
+            value, value_dot, error = w, 0.0, set_point - w  # ros_control leaves process_value_dot at 0 here
+            command = g.p * error + i_term
+        else:
+            value, value_dot, error = q, w, set_point - q
+            command = g.p * error - g.d * w + i_term
+        return JointControllerState(Header.at(now_ns), set_point, value, value_dot, error,
+                                    float(model.opt.timestep), command, g.p, g.i, g.d, g.i_clamp, False)
