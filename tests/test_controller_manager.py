@@ -437,8 +437,8 @@ def test_recording_writes_the_state_topics_with_their_schema(sim, tmp_path: Path
 
 # --- a fleet -----------------------------------------------------------------------------------------------------
 def test_each_car_of_a_fleet_has_its_own_controller_manager():
-    sim = Simulator(world="empty", cars=[Car("car1"), Car("car2", spawn=Spawn(0, 3, 0.05, 0))], camera=False,
-                    lidar=False)
+    sim = Simulator(world="empty", cars=[Car("car1", camera=False, lidar=False),
+                                         Car("car2", spawn=Spawn(0, 3, 0.05, 0), camera=False, lidar=False)])
     car1, car2 = sim.cars
     for car in (car1, car2):
         assert set(listed(sim, f"/{car.name}").values()) == {"running"}

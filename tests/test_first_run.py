@@ -101,6 +101,13 @@ def test_no_options_still_run_wall_follow(tmp_path):
     assert "driver wall-follow" in result.stdout
 
 
+def test_seed_physics_and_profile_reach_the_simulator(tmp_path):
+    result = run_cli("run", "--world", "empty", "--driver", "constant", "--duration", "0.5", "--seed", "5",
+                     "--physics", "gazebo", "--profile", "mit-2017", "--no-record", *QUIET, cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert "profile mit-2017, physics gazebo (step 1 ms), seed 5" in result.stdout
+
+
 def test_run_help_shows_the_defaults_of_its_driver_options():
     text = " ".join(run_cli("run", "--help").stdout.split())
     wall_follow = yaml.safe_load(WALL_FOLLOW_YAML.read_text())

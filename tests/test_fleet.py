@@ -156,6 +156,8 @@ def test_fleet_errors_are_one_line_config_errors(corridor):
         Simulator(world=corridor, cars=[Car("a"), Car("a", spawn=Spawn(-2, 0, 0.05, 0))])
     with pytest.raises(ConfigError, match="car name"):
         Car("2fast")
+    with pytest.raises(ConfigError, match="camera"):  # a single-car option next to cars=[...] would be ignored
+        Simulator(world=corridor, camera=False, cars=column(2))
     with pytest.raises(WorldError, match="car2"):  # spawned into the first car
         Simulator(world=corridor, cars=[Car("car1", camera=False), Car("car2", spawn=Spawn(0.1, 0, 0.05, 0),
                                                                        camera=False)])
@@ -198,6 +200,17 @@ def test_reset_keeps_drivers_timers_recorders_and_subscriptions(tmp_path):
     with AnyReader([tmp_path / "run.mcap"], default_typestore=get_typestore(Stores.EMPTY)) as reader:
         counts = {c.topic: c.msgcount for c in reader.connections}
     assert counts["/vesc/odom"] == 80  # the recorder kept recording across the reset
+
+
+def test_a_reset_asked_for_inside_a_callback_happens_after_that_event():
+    sim = Simulator(world="empty", camera=False, lidar=False)
+    stamps: list[int] = []
+    sim.subscribe("/vesc/odom", lambda msg: stamps.append(msg.header.stamp.to_ns()))
+    sim.scheduler.at(500_000_000, lambda now: sim.reset(), "user reset")
+    sim.run_until(0.6)
+    assert sim.time == pytest.approx(0.6)
+    # 20 Hz up to 0.5 s, then the clock starts again at 0: no message is stamped with the old time twice
+    assert stamps == [50_000_000 * k for k in range(1, 11)] + [50_000_000 * k for k in range(1, 13)]
 
 
 def test_reset_with_a_new_seed_changes_the_noise_and_spawn_poses_are_honoured(corridor):

@@ -59,6 +59,8 @@ BOX = """<sdf version="1.6"><model name="{name}"><static>{static}</static><link 
 
 
 def _sim(world: str = "empty", **kwargs) -> Simulator:
+    if "cars" in kwargs:  # a fleet takes its sensor switches per car
+        return Simulator(world=world, **kwargs)
     return Simulator(world=world, camera=False, **kwargs)
 
 
@@ -112,7 +114,7 @@ def test_nobody_listening_nothing_published():
 
 
 def test_a_fleet_is_named_by_model():
-    sim = _sim(cars=[Car("car1"), Car("car2", spawn=Spawn(0.0, 2.0, 0.05, 0.0))])
+    sim = _sim(cars=[Car("car1", camera=False), Car("car2", spawn=Spawn(0.0, 2.0, 0.05, 0.0), camera=False)])
     links = sim.gazebo.link_states().name
     assert sim.gazebo.model_names == ["ground_plane", "car1", "car2"]
     assert "car1::base_link" in links and "car2::base_link" in links and "car2::left_front_wheel" in links
@@ -257,7 +259,7 @@ def test_spawn_urdf_model_adds_a_second_car_that_drives():
 
 
 def test_delete_model_takes_a_car_and_its_nodes_away():
-    sim = _sim(cars=[Car("car1"), Car("car2", spawn=Spawn(0.0, 2.0, 0.05, 0.0))])
+    sim = _sim(cars=[Car("car1", camera=False), Car("car2", spawn=Spawn(0.0, 2.0, 0.05, 0.0), camera=False)])
     log = Log(sim, "/car2/vesc/odom", "/car1/vesc/odom")
     sim.run_until(0.5)
     res = sim.bus.call("/gazebo/delete_model", DeleteModelRequest("car2"))

@@ -171,8 +171,9 @@ def _simulator(args: argparse.Namespace) -> Simulator:
     if args.cars is None:
         if args.car_spacing is not None:
             raise ConfigError("--car-spacing places a fleet: give --cars N too")
-        return Simulator(world=args.world, profile=args.profile, spawn=args.spawn, odometry=args.odometry,
-                         model_path=args.model_path, wall_height=args.wall_height, **sensor_options(args))
+        return Simulator(world=args.world, profile=args.profile, seed=args.seed, physics=args.physics,
+                         spawn=args.spawn, odometry=args.odometry, model_path=args.model_path,
+                         wall_height=args.wall_height, **sensor_options(args))
     world = load_world(args.world, args.spawn, [Path(p) for p in args.model_path], args.wall_height)
     centerline = None
     if args.spawn is None and _is_track(args.world):

@@ -48,7 +48,7 @@ def add_car(spec: mujoco.MjSpec, robot: Robot, spawn: Spawn, preset: PhysicsPres
             names: CarNames = CarNames()) -> None:
     """One car from its URDF at `spawn`, every MuJoCo name of it from `names` (no prefix for the unnamed car)."""
     _add_robot(spec, robot, spawn, preset, names)
-    _friction_min_rule(spec)
+    friction_min_rule(spec)
 
 
 def _options(spec: mujoco.MjSpec, world: World, preset: PhysicsPreset) -> None:
@@ -156,7 +156,7 @@ def _add_robot(spec: mujoco.MjSpec, robot: Robot, spawn: Spawn, preset: PhysicsP
         spec.add_exclude(bodyname1=names.mj(a), bodyname2=names.mj(b))
 
 
-def _friction_min_rule(spec: mujoco.MjSpec) -> None:
+def friction_min_rule(spec: mujoco.MjSpec) -> None:
     """Gazebo combines friction with min(mu_a, mu_b); MuJoCo takes the max unless priorities differ.
 
     Ranking geoms so that lower friction wins the priority reproduces the min rule for every pair

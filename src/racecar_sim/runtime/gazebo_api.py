@@ -56,7 +56,7 @@ from racecar_sim.msgs.gazebo_msgs import (
 )
 from racecar_sim.msgs.std_srvs import EmptyRequest, EmptyResponse
 from racecar_sim.physics import check_spawn
-from racecar_sim.physics.builder import _friction_min_rule
+from racecar_sim.physics.builder import friction_min_rule
 from racecar_sim.physics.world_geoms import add_world
 from racecar_sim.runtime.car import Car
 from racecar_sim.worlds import Spawn, World
@@ -625,7 +625,7 @@ def _attach_bodies(spec: mujoco.MjSpec, bodies: list[WorldBody], prefix: str) ->
     sky = spec.texture(f"{prefix}sky")  # the loader's skybox: the scene has its own
     if sky is not None:
         spec.delete(sky)
-    _friction_min_rule(spec)
+    friction_min_rule(spec)
 
 
 def _remove_bodies(spec: mujoco.MjSpec, bodies: list[WorldBody]) -> None:

@@ -73,6 +73,13 @@ class Simulator:
         self.sensor_noise = sensor_noise
         if cars is None:
             cars = [Car("", xacro, xacro_args, profile, controllers, spawn, lidar, camera, odometry)]
+        else:
+            given = [name for name, value, default in (
+                ("profile", profile, "seed"), ("spawn", spawn, None), ("odometry", odometry, "original"),
+                ("xacro", xacro, DEFAULT_XACRO), ("xacro_args", xacro_args, None), ("controllers", controllers, None),
+                ("lidar", lidar, True), ("camera", camera, True)) if value != default]
+            if given:
+                raise ConfigError(f"with cars=[...], give {', '.join(given)} to each Car, not to the Simulator")
         self.cars = _checked_fleet(cars)
         for car in self.cars:
             car.load()
@@ -238,8 +245,13 @@ class Simulator:
         car in order, or a mapping of car names to poses), and a new noise `seed` if given.
 
         Nothing is rebuilt: subscriptions, timers, recorders, bridges and every node stay attached; each car's
-        muxes go idle, its sensors take the seed, and the hooks given to on_reset() run.
+        muxes go idle, its sensors take the seed, and the hooks given to on_reset() run. Asked for from inside an
+        event (a callback or a timer), the reset happens once that event is over, and a run_until in progress
+        then goes on on the new clock, to its target time.
         """
+        if self._in_event:
+            self.defer(lambda: self.reset(seed, spawn))
+            return
         if seed is not None:
             self.seed = check_seed(seed)
         poses = _spawn_poses(self, spawn)
