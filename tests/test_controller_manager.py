@@ -186,13 +186,18 @@ def test_starting_resets_the_command_as_effort_controllers_do(sim):
     assert sim.data.ctrl[state.actuator_ctrl(HINGES[0])[0]] == -0.2  # a running controller takes commands
 
 
-def test_an_i_term_is_switched_off_with_its_controller_and_reset_at_start(tmp_path):
+def with_i_terms(tmp_path) -> Simulator:
+    """A sim whose rear-left wheel and left hinge controllers have I-terms (the shipped YAML has none)."""
     data = yaml.safe_load(SHIPPED.read_text())
     data["racecar"][REAR[0]]["pid"].update(i=3.0, i_clamp=0.4)
     data["racecar"][HINGES[0]]["pid"].update(i=2.0, i_clamp=1.0)
     custom = tmp_path / "control.yaml"
     custom.write_text(yaml.safe_dump(data))
-    sim = Simulator(world="empty", controllers=custom, camera=False, lidar=False)
+    return Simulator(world="empty", controllers=custom, camera=False, lidar=False)
+
+
+def test_an_i_term_is_switched_off_with_its_controller_and_reset_at_start(tmp_path):
+    sim = with_i_terms(tmp_path)
     ConstantCommand(sim.bus, sim.scheduler, 1.0, 0.3)
     sim.run_until(1.0)
     i_term = sim.model.actuator(f"{REAR[0]}/i_term").id
@@ -384,12 +389,7 @@ def test_state_is_published_only_when_running_and_listened_to(sim):
 
 
 def test_state_with_an_i_term_matches_the_actuator(tmp_path):
-    data = yaml.safe_load(SHIPPED.read_text())
-    data["racecar"][REAR[0]]["pid"].update(i=3.0, i_clamp=0.4)
-    data["racecar"][HINGES[0]]["pid"].update(i=2.0, i_clamp=1.0)
-    custom = tmp_path / "control.yaml"
-    custom.write_text(yaml.safe_dump(data))
-    sim = Simulator(world="empty", controllers=custom, camera=False, lidar=False)
+    sim = with_i_terms(tmp_path)
     last = {}
     for name in (REAR[0], HINGES[0]):
         sim.subscribe(f"/racecar/{name}/state", lambda m, name=name: last.__setitem__(name, m))

@@ -60,6 +60,10 @@ class Bus:
             raise ValueError(f"service {name} is already offered")
         self._services[name] = handler
 
+    def unadvertise_service(self, name: str) -> None:
+        """Stop offering service `name` (a model deleted at run time takes its services with it)."""
+        self._services.pop(name, None)
+
     def call(self, name: str, request: Any) -> Any:
         """Call service `name` with `request` and return its response; ServiceError if nobody offers it."""
         handler = self._services.get(name)

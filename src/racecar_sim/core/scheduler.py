@@ -72,9 +72,10 @@ class Scheduler:
     def reset(self) -> None:
         """Sim time is back at 0: every periodic task starts over (next fire at its first period) and one-shot
         tasks are dropped (a node that wants a timer after a reset sets it again in its reset hook)."""
-        tasks = [entry.task for entry in self._heap if not entry.task.cancelled and entry.task.period_ns is not None]
+        tasks = [entry.task for entry in sorted(self._heap)  # a periodic task has one entry: its next firing
+                 if not entry.task.cancelled and entry.task.period_ns is not None]
         self._heap = []
-        for task in sorted(set(tasks), key=tasks.index):
+        for task in tasks:
             task.start_ns, task.index = 0, 1
             self._push(_ceil(task.period_ns), task)
 

@@ -209,12 +209,8 @@ class _CarBus:
     def release(self) -> None:
         for sub in self._subscriptions:
             sub.unsubscribe()
-        withdraw = getattr(self._bus, "unadvertise_service", None)
         for name in self._services:
-            if withdraw is not None:
-                withdraw(name)
-            else:
-                self._bus._services.pop(name, None)  # noqa: SLF001 - the bus has no public way to withdraw one
+            self._bus.unadvertise_service(name)
         self._subscriptions, self._services = [], []
 
     def __getattr__(self, name: str) -> Any:

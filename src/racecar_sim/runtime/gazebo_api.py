@@ -399,7 +399,7 @@ class GazeboApi:
             _remove_bodies(spec, m.bodies)
             sim.world.bodies = [b for b in sim.world.bodies if all(b is not own for own in m.bodies)]
         self._order.remove(m.name)
-        sim._install(*sim._compile_spec())
+        sim.install_model(*sim.compile_spec())
         return DeleteModelResponse(True, "DeleteModel: successfully deleted model")
 
     def _initial_pose(self, req: SpawnModelRequest) -> PoseArrays | str:
@@ -448,7 +448,7 @@ class GazeboApi:
             return SpawnModelResponse(False, f"SpawnModel: {exc}")
         sim.spec.body(names.mj(car.robot.root)).quat = list(quat)  # the full orientation, not only the heading
         try:
-            model, data = sim._compile_spec()
+            model, data = sim.compile_spec()
             check_spawn(model, data, sim.world, car.robot, names, car.spawn)
         except RacecarSimError as exc:
             car.remove_from(sim.spec)
@@ -456,7 +456,7 @@ class GazeboApi:
         car.start(model, data, sim.bus, sim.scheduler, lambda: sim.time_ns, sim.static_tf, sim.seed, sim.sensor_noise)
         sim.cars.append(car)
         self._order.append(name)
-        sim._install(model, data)
+        sim.install_model(model, data)
         log.info("spawned car %s at (%.3g, %.3g, %.3g)", name, *pos)
         return SpawnModelResponse(True, "SpawnModel: Successfully spawned entity")
 
@@ -476,14 +476,14 @@ class GazeboApi:
         self._spawned += 1
         _attach_bodies(sim.spec, bodies, f"gazebo_spawn{self._spawned}/")
         try:
-            model, data = sim._compile_spec()
+            model, data = sim.compile_spec()
         except RacecarSimError as exc:
             _remove_bodies(sim.spec, bodies)
             return SpawnModelResponse(False, f"SpawnModel: {exc}")
         sim.world.bodies.extend(bodies)
         self._frames[name] = frame
         self._order.append(name)
-        sim._install(model, data)
+        sim.install_model(model, data)
         return SpawnModelResponse(True, "SpawnModel: Successfully spawned entity")
 
     def _known(self) -> str:

@@ -293,8 +293,8 @@ class Simulator:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    # --- internals --------------------------------------------------------------------------------
-    def _compile_spec(self) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    # --- changing the model at run time (the Gazebo API's spawn and delete) -------------------------------
+    def compile_spec(self) -> tuple[mujoco.MjModel, mujoco.MjData]:
         """Recompile `self.spec` after a change (a model spawned or deleted) into a new model and data that keep the
         state of everything that stays (MjSpec.recompile maps it by name); nothing is installed yet."""
         try:
@@ -304,7 +304,7 @@ class Simulator:
         mujoco.mj_forward(model, data)
         return model, data
 
-    def _install(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+    def install_model(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         """Go on with a recompiled model: every node is rebound (none is rebuilt), and reset() puts every model that
         is in it back at its initial pose."""
         self.model, self.data = model, data
@@ -323,6 +323,7 @@ class Simulator:
         for hook in self._rebuild_hooks:
             hook(model, data)
 
+    # --- internals --------------------------------------------------------------------------------
     def _check_collisions(self) -> None:
         touching = self._contacts.pairs(self.data)
         for a, b in sorted(touching - self._touching):
