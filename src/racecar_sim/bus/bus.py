@@ -34,6 +34,13 @@ class _Topic:
     latched: bool = False
     last: Any = None
     count: int = 0
+    declared: type | None = None  # the message class a subscriber said it takes (what a bridge subscribes as)
+
+
+@dataclass
+class _Tap:
+    callback: Tap
+    wants: Callable[[str], bool] | None
 
 
 class ServiceError(LookupError):
@@ -50,6 +57,8 @@ class Bus:
     def __init__(self) -> None:
         self._topics: dict[str, _Topic] = {}
         self._taps: list[Tap] = []
+        self._tap_entries: list[_Tap] = []
+        self._all_taps = False  # a tap without `wants` listens to every topic
         self._services: dict[str, Callable[[Any], Any]] = {}
 
     def advertise_service(self, name: str, handler: Callable[[Any], Any]) -> None:
@@ -99,19 +108,38 @@ class Bus:
         for sub in list(t.subscribers):
             sub.callback(msg)
 
-    def subscribe(self, topic: str, callback: Callback) -> Subscription:
-        """Call `callback(msg)` for every message on `topic`; a latched topic's last message is delivered at once."""
+    def subscribe(self, topic: str, callback: Callback, msgtype: type | None = None) -> Subscription:
+        """Call `callback(msg)` for every message on `topic`; a latched topic's last message is delivered at once.
+
+        `msgtype`: the message class the subscriber takes, declared by nodes that take commands from outside (the
+        muxes' inputs, the controllers' commands) so that a bridge can subscribe to them before anyone publishes.
+        """
         t = self._topic(topic)
+        if msgtype is not None:
+            t.declared = msgtype
         sub = Subscription(self, topic, callback)
         t.subscribers.append(sub)
         if t.latched and t.last is not None:
             callback(t.last)
         return sub
 
-    def tap(self, callback: Tap) -> Callable[[], None]:
-        """Call `callback(topic, msg)` for every message on every topic (recorders, bridges); returns a remover."""
+    def tap(self, callback: Tap, wants: Callable[[str], bool] | None = None) -> Callable[[], None]:
+        """Call `callback(topic, msg)` for every message on every topic (recorders, bridges); returns a remover.
+
+        `wants(topic)`: whether this tap needs the topic's messages made at all (a bridge: whether a ROS node
+        subscribes); has_listeners() asks it, so a sensor nobody reads skips its work. Without it, every topic.
+        """
+        entry = _Tap(callback, wants)
         self._taps.append(callback)
-        return lambda: self._taps.remove(callback)
+        self._tap_entries.append(entry)
+        self._all_taps = any(e.wants is None for e in self._tap_entries)
+
+        def remove() -> None:
+            self._taps.remove(callback)
+            self._tap_entries.remove(entry)
+            self._all_taps = any(e.wants is None for e in self._tap_entries)
+
+        return remove
 
     def _unsubscribe(self, sub: Subscription) -> None:
         subs = self._topics[sub.topic].subscribers
@@ -127,7 +155,17 @@ class Bus:
 
         Sensors check this before doing expensive work, as gazebo_ros plugins render only for subscribers.
         """
-        return bool(self._taps) or (topic in self._topics and bool(self._topics[topic].subscribers))
+        if self._all_taps or (topic in self._topics and self._topics[topic].subscribers):
+            return True
+        return any(e.wants(topic) for e in self._tap_entries)  # type: ignore[misc]  # all have wants here
+
+    def listened(self) -> dict[str, type | None]:
+        """Every topic with a subscriber, and the message class a subscriber declared for it (None: none did)."""
+        return {name: t.declared for name, t in sorted(self._topics.items()) if t.subscribers}
+
+    def is_latched(self, topic: str) -> bool:
+        """Whether `topic` is latched (its last message goes to late subscribers)."""
+        return topic in self._topics and self._topics[topic].latched
 
     def count(self, topic: str) -> int:
         """How many messages have been published on `topic`."""

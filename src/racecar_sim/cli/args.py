@@ -5,10 +5,14 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import re
 from pathlib import Path
 
 from racecar_sim.core.errors import ConfigError
+from racecar_sim.core.ros_packages import add_model_path, add_package_path
 from racecar_sim.worlds import DEFAULT_WALL_HEIGHT, Spawn
+
+_ARG_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_\-]*")
 
 
 def finite_float(text: str) -> float:
@@ -62,11 +66,47 @@ def spawn_pose(text: str) -> Spawn:
 
 
 def xacro_arg(text: str) -> tuple[str, str]:
-    """'name:=value', as on the xacro command line."""
-    if ":=" not in text:
+    """'name:=value', as on the xacro command line (the name a xacro/roslaunch argument name)."""
+    name, sep, value = text.partition(":=")
+    if not sep:
         raise argparse.ArgumentTypeError(f"'{text}' is not name:=value")
-    name, value = text.split(":=", 1)
+    if not _ARG_NAME.fullmatch(name):
+        raise argparse.ArgumentTypeError(f"'{text}': '{name}' is not an argument name (letters, digits, _ and -, "
+                                         "not starting with a digit)")
     return name, value
+
+
+def add_xacro_arguments(p: argparse.ArgumentParser) -> None:
+    """--xacro FILE and --xacro-arg NAME:=VALUE: the user's own car."""
+    p.add_argument("--xacro", metavar="FILE", help="the car's xacro or URDF file, e.g. a description package's "
+                                                   "(default: the shipped racecar.xacro); $(find pkg) and package:// "
+                                                   "go through --package-path and ROS_PACKAGE_PATH")
+    p.add_argument("--xacro-arg", dest="xacro_args", type=xacro_arg, action="append", default=[],
+                   metavar="NAME:=VALUE", help="xacro argument of the car, repeatable (over the profile's own)")
+
+
+def xacro_options(args: argparse.Namespace) -> dict:
+    """Car / Simulator keyword arguments from --xacro and --xacro-arg (none when not given)."""
+    options: dict = {}
+    if args.xacro is not None:
+        options["xacro"] = Path(args.xacro)
+    if args.xacro_args:
+        options["xacro_args"] = dict(args.xacro_args)
+    return options
+
+
+def add_ros_path_options(p: argparse.ArgumentParser) -> None:
+    """--package-path DIR (repeatable): folders of ROS packages, searched before ROS_PACKAGE_PATH."""
+    p.add_argument("--package-path", action="append", default=[], metavar="DIR",
+                   help="folder holding ROS packages (package.xml), searched before ROS_PACKAGE_PATH for $(find pkg), "
+                        "package:// and, with the folders holding them, model:// (repeatable)")
+
+
+def apply_ros_path_options(args: argparse.Namespace) -> None:
+    """Put --package-path (and --model-path) first on ROS_PACKAGE_PATH (GAZEBO_MODEL_PATH), for this process and
+    the ROS processes it starts; ConfigError for a folder that does not exist."""
+    add_package_path(getattr(args, "package_path", None) or [])
+    add_model_path(getattr(args, "model_path", None) or [])
 
 
 def add_world_arguments(p: argparse.ArgumentParser, world_option: bool = True, default_world: str = "empty") -> None:

@@ -3,6 +3,9 @@
 With no arguments: wall-follow round the `walker` racecourse for 60 s of sim time with the lidar and the
 camera on, then runs/<timestamp>/ holds run.mcap, summary.png and camera.mp4, and a summary is printed.
 
+`--xacro FILE [--xacro-arg name:=value ...]` runs a user's own car: `$(find pkg)` and `package://` resolve through
+`--package-path DIR` and ROS_PACKAGE_PATH before the packages racecar-sim ships.
+
 `--cars N` runs a fleet: car1 ... carN (topics /carK/..., frames carK/...), car1 at the world's spawn pose and
 each next one `--car-spacing` m behind the one before, along the spawn heading (or back along a track CSV's
 centerline), each with its own instance of the run's driver.
@@ -24,9 +27,11 @@ from tqdm import tqdm
 import mujoco
 import numpy as np
 
-from racecar_sim.cli.args import (add_sensor_arguments, add_world_arguments, check_folder, check_record_path,
-                                  finite_float, make_folder, positive_float, positive_int, seed_value, sensor_options)
+from racecar_sim.cli.args import (add_ros_path_options, add_sensor_arguments, add_world_arguments, add_xacro_arguments,
+                                  apply_ros_path_options, check_folder, check_record_path, finite_float, make_folder,
+                                  positive_float, positive_int, seed_value, sensor_options, xacro_options)
 from racecar_sim.cli.live import LiveViews, RealTimePacer, add_live_arguments
+from racecar_sim.cli.ros_env import PAUSED_WAIT, add_ros_arguments, check_ros, start_ros_bridge
 from racecar_sim.control.profiles import profile_names
 from racecar_sim.core.errors import ConfigError, WorldError
 from racecar_sim.core.names import NAVIGATION, ODOM
@@ -74,6 +79,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--path", metavar="FILE.csv",
                    help="pure-pursuit: waypoint CSV (x,y[,speed]) or track centerline (default: the --world CSV)")
     p.add_argument("--profile", default="seed", choices=profile_names(), help="driving profile (default seed)")
+    add_xacro_arguments(p)
+    add_ros_path_options(p)
     p.add_argument("--physics", default="default", choices=preset_names(), help="physics preset (default: default)")
     p.add_argument("--odometry", default="original", choices=["original", "ros"],
                    help="original: map->odom as the 2017 sim; ros: odom->base_link, body twist")
@@ -93,6 +100,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_sensor_arguments(p)
     add_live_arguments(p)
     p.add_argument("--realtime", action="store_true", help="run no faster than real time")
+    add_ros_arguments(p)
 
 
 def choose_driver(args: argparse.Namespace) -> str:
@@ -173,7 +181,7 @@ def _simulator(args: argparse.Namespace) -> Simulator:
             raise ConfigError("--car-spacing places a fleet: give --cars N too")
         return Simulator(world=args.world, profile=args.profile, seed=args.seed, physics=args.physics,
                          spawn=args.spawn, odometry=args.odometry, model_path=args.model_path,
-                         wall_height=args.wall_height, **sensor_options(args))
+                         wall_height=args.wall_height, **sensor_options(args), **xacro_options(args))
     world = load_world(args.world, args.spawn, [Path(p) for p in args.model_path], args.wall_height)
     centerline = None
     if args.spawn is None and _is_track(args.world):
@@ -183,7 +191,7 @@ def _simulator(args: argparse.Namespace) -> Simulator:
     spacing = CAR_SPACING if args.car_spacing is None else args.car_spacing
     sensors = sensor_options(args)
     cars = [Car(f"car{k + 1}", profile=args.profile, spawn=spawn, lidar=sensors["lidar"], camera=sensors["camera"],
-                odometry=args.odometry)
+                odometry=args.odometry, **xacro_options(args))
             for k, spawn in enumerate(fleet_spawns(world, args.cars, spacing, centerline))]
     sim = Simulator(world=world, cars=cars, **common)  # WorldError: a car in a wall or another car, or off the ground
     if centerline is None:
@@ -245,7 +253,9 @@ def _terminate(signum: int, frame: object) -> None:
 
 def main(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGTERM, _terminate)
+    apply_ros_path_options(args)
     args.driver = choose_driver(args)
+    check_ros(args)
     out, record = _output_paths(args)
     with _simulator(args) as sim:
         for car in sim.cars:
@@ -306,12 +316,15 @@ def _drive(args: argparse.Namespace, sim: Simulator, live: LiveViews) -> tuple[f
     chunk = LIVE_CHUNK if live.realtime else CHUNK
     bar = tqdm(total=round(args.duration, 3), unit="sim s", disable=args.duration < PROGRESS_MIN_DURATION or None,
                bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]", file=sys.stderr)
+    bridge = start_ros_bridge(args, sim)
     pacer = RealTimePacer()
     start = time.perf_counter()
     interrupted = False
     try:
         while sim.time < args.duration - 1e-9 and not live.closed:
             sim.run_until(min(sim.time + chunk, args.duration))
+            if bridge is not None:  # between events too: a paused sim still answers /gazebo/unpause_physics
+                bridge.spin_once(PAUSED_WAIT if sim.paused else 0.0)
             live.update()
             bar.n = min(round(sim.time, 3), bar.total)  # never past the total: tqdm would warn and count down below 0
             bar.update(0)  # redraws no more often than tqdm's mininterval
@@ -321,6 +334,8 @@ def _drive(args: argparse.Namespace, sim: Simulator, live: LiveViews) -> tuple[f
         interrupted = True
     finally:
         bar.close()
+        if bridge is not None:
+            bridge.close()
     return time.perf_counter() - start, interrupted
 
 

@@ -12,14 +12,18 @@ from pathlib import Path
 from typing import TextIO
 
 from racecar_sim.cli.args import (
+    add_ros_path_options,
     add_sensor_arguments,
     add_world_arguments,
+    add_xacro_arguments,
+    apply_ros_path_options,
     check_record_path,
     finite_float,
     make_folder,
     positive_float,
     seed_value,
     sensor_options,
+    xacro_options,
 )
 from racecar_sim.cli.live import LiveViews, RealTimePacer, add_live_arguments
 from racecar_sim.cli.terminal import RawTerminal, StopSignals, stdin_is_tty
@@ -60,6 +64,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="end the session after S sim seconds (default: at q or Ctrl-C)")
     p.add_argument("--seed", type=seed_value, default=0, help="random seed (default 0)")
     p.add_argument("--record", metavar="FILE.mcap", help="record every topic to an MCAP file")
+    add_xacro_arguments(p)
+    add_ros_path_options(p)
     add_sensor_arguments(p)
     add_live_arguments(p)
 
@@ -180,9 +186,10 @@ def main(args: argparse.Namespace) -> int:
         raise ConfigError(NOT_A_TTY)
     if args.record:
         check_record_path(Path(args.record))
+    apply_ros_path_options(args)
     with StopSignals() as signals, Simulator(world=args.world, seed=args.seed, spawn=args.spawn,
                                              model_path=args.model_path, wall_height=args.wall_height,
-                                             **sensor_options(args)) as sim:
+                                             **sensor_options(args), **xacro_options(args)) as sim:
         if args.record:
             make_folder("--record", Path(args.record).parent)
         recorder = sim.record(args.record) if args.record else None

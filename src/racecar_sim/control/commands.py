@@ -34,7 +34,7 @@ class ControllerCommands:
                 self.limits[c.name] = (-limit.velocity, limit.velocity)
             elif c.type != VELOCITY and robot.joints[c.joint].type == "revolute":
                 self.limits[c.name] = (limit.lower, limit.upper)  # JointPositionController enforces joint limits
-            bus.subscribe(names.topic(c.command_topic), partial(self._on_command, c))
+            bus.subscribe(names.topic(c.command_topic), partial(self._on_command, c), Float64)
 
     def _on_command(self, controller: JointController, msg: Float64) -> None:
         value = msg.data

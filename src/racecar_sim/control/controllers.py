@@ -16,14 +16,16 @@ from pathlib import Path
 import mujoco
 import yaml
 
-from racecar_sim.core.errors import ConfigError
+from racecar_sim.core.errors import ConfigError, DescriptionError
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.tables import finite_number
 from racecar_sim.description.urdf import Robot
+from racecar_sim.description.vehicle import VehicleGeometry
 
 VELOCITY = "effort_controllers/JointVelocityController"
 POSITION = "effort_controllers/JointPositionController"
 JOINT_STATE = "joint_state_controller/JointStateController"
+STEERING_HINGES = ("left_steering_hinge_joint", "right_steering_hinge_joint")  # racecar_control.yaml's
 _EFFORT_INTERFACES = {"EffortJointInterface", "hardware_interface/EffortJointInterface"}
 
 
@@ -78,6 +80,7 @@ def load_controller_config(path: str | Path, robot: Robot) -> ControllerConfig:
     if not isinstance(entries, dict):
         raise ConfigError(f"{path}: {namespace}: expected a mapping of controller names to their parameters")
     effort_joints = {t.joint for t in robot.transmissions if t.hardware_interface in _EFFORT_INTERFACES}
+    description = robot.source or f"of robot '{robot.name}'"
     controllers, rate = [], 0.0
     for name, entry in entries.items():
         where = f"{path}: {namespace}/{name}"
@@ -93,9 +96,11 @@ def load_controller_config(path: str | Path, robot: Robot) -> ControllerConfig:
             raise ConfigError(f"{where}: controller type '{kind}' is not supported")
         joint = entry.get("joint")
         if joint not in robot.joints:
-            raise ConfigError(f"{where}: joint '{joint}' is not in the robot description")
+            raise ConfigError(f"{where}: joint '{joint}' is not in the robot description {description}: add the "
+                              "joint to the xacro, or drop the controller")
         if joint not in effort_joints:
-            raise ConfigError(f"{where}: joint '{joint}' has no EffortJointInterface transmission")
+            raise ConfigError(f"{where}: joint '{joint}' has no <transmission> with an EffortJointInterface in "
+                              f"{description}: add one for it to the xacro")
         pid = entry.get("pid") or {}
         if not isinstance(pid, dict):
             raise ConfigError(f"{where}/pid: expected a mapping of gains (p, i, d, i_clamp), got {pid!r}")
@@ -103,7 +108,26 @@ def load_controller_config(path: str | Path, robot: Robot) -> ControllerConfig:
         if kind == VELOCITY and gains.d != 0.0:
             raise ConfigError(f"{where}: a d gain on a JointVelocityController (acceleration feedback) is not supported")
         controllers.append(JointController(name, kind, joint, gains, f"/{namespace}"))
+    _check_drivable(path, robot, controllers, description)
     return ControllerConfig(f"/{namespace}", tuple(controllers), rate)
+
+
+def _check_drivable(path: Path, robot: Robot, controllers: list[JointController], description: str) -> None:
+    """servo_commands drives four wheels and steers two hinges, each through a controller of the YAML: a
+    description without them is refused here, with one line, rather than deep inside the first run."""
+    try:
+        geometry = VehicleGeometry.from_robot(robot)
+    except DescriptionError as exc:
+        hinges = [c.joint for c in controllers if c.type == POSITION] or list(STEERING_HINGES)
+        raise DescriptionError(f"{description}: servo_commands cannot drive it ({exc}): it needs the steering hinge "
+                               f"joints {' and '.join(hinges)} (as {path.name} expects), each carrying a front wheel, "
+                               "and two rear wheels") from None
+    driven = {c.joint for c in controllers}
+    for wheel in geometry.wheels:
+        for joint, kind in ((wheel.joint, VELOCITY), (wheel.hinge_joint, POSITION)):
+            if joint is not None and joint not in driven:
+                raise ConfigError(f"{path}: no controller for joint '{joint}' of {description} (servo_commands "
+                                  f"commands every wheel and steering hinge): add a {kind} for it")
 
 
 def _gain(pid: dict, key: str, where: str) -> float:

@@ -9,7 +9,7 @@ re-publishes on its own.
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
@@ -27,6 +27,7 @@ from racecar_sim.core.tables import finite_number
 from racecar_sim.core.throttle import ThrottledWarning, is_finite_number
 
 DATA = Path(__file__).parent / "data"
+MUX_WIRING = DATA / "mux.yaml"  # the original racecar.launch's chain
 IDLE_ZERO = "idle (zero command)"  # nobody drives: the 6 Hz default zero command holds the car
 log = logging.getLogger("racecar_sim.ackermann_cmd_mux")
 _DRIVE_FIELDS = ("speed", "steering_angle", "steering_angle_velocity", "acceleration", "jerk")
@@ -111,7 +112,7 @@ class AckermannCmdMux:
         bus.latch(self.active_topic)
         bus.publish(self.active_topic, String("idle"))
         for inp in inputs:
-            bus.subscribe(f"{namespace}/{inp.topic}", partial(self._on_command, inp))
+            bus.subscribe(f"{namespace}/{inp.topic}", partial(self._on_command, inp), AckermannDriveStamped)
 
     def _on_command(self, inp: MuxInput, msg: AckermannDriveStamped) -> None:
         if not accept_command(f"{self.namespace}/{inp.topic}", msg, self.warn):
@@ -145,36 +146,47 @@ class AckermannCmdMux:
 
 
 class CommandChain:
-    """mux.launch: the high- and low-level muxes, the topic relays and the 6 Hz default zero command."""
+    """mux.launch: the high- and low-level muxes, the topic relays and the 6 Hz default zero command.
 
-    def __init__(self, bus: Bus, scheduler: Scheduler, now: Callable[[], int], config: Path = DATA / "mux.yaml",
+    `config`: the wiring as a YAML file (mux.yaml) or the same as a mapping (a launch file's nodes; its mux files
+    absolute paths, `source` naming where it came from, `default_command` optional)."""
+
+    def __init__(self, bus: Bus, scheduler: Scheduler, now: Callable[[], int], config: Path | Mapping = MUX_WIRING,
                  names: CarNames = CarNames()) -> None:
         try:
-            data = yaml.safe_load(config.read_text())
+            if isinstance(config, Mapping):
+                data, folder = config, Path(".")
+                config = config.get("source", "the mux wiring")
+            else:
+                data, folder = yaml.safe_load(config.read_text()), config.parent
             self.output_topic: str = names.topic(data["output"])
-            default = data["default_command"]
+            default = data.get("default_command")
             muxes, relays = data["muxes"], data["relays"]
-        except (OSError, yaml.YAMLError, KeyError, TypeError) as exc:
+        except (OSError, yaml.YAMLError, KeyError, TypeError, AttributeError) as exc:
             raise ConfigError(f"{config}: malformed mux wiring: {' '.join(str(exc).split())}") from None
         self.warn = ThrottledWarning(log, now)
-        where = f"{config}: default_command"
-        rate = _number(default, "rate", where, positive=True)
-        if not isinstance(default.get("topic"), str):
-            raise ConfigError(f"{where}: topic must be a topic name, got {default.get('topic')!r}")
-        self.default_topic: str = names.topic(default["topic"])
-        speed, steering = _number(default, "speed", where), _number(default, "steering_angle", where)
+        self.default_topic: str | None = None
+        if default is not None:
+            where = f"{config}: default_command"
+            rate = _number(default, "rate", where, positive=True)
+            if not isinstance(default.get("topic"), str):
+                raise ConfigError(f"{where}: topic must be a topic name, got {default.get('topic')!r}")
+            self.default_topic = names.topic(default["topic"])
+            speed, steering = _number(default, "speed", where), _number(default, "steering_angle", where)
         self.muxes = []
         for namespace, file in muxes.items():
-            inputs, output = load_mux_inputs(config.parent / file)
+            inputs, output = load_mux_inputs(folder / file)
             self.muxes.append(AckermannCmdMux(bus, scheduler, now, names.topic(namespace), inputs, output))
         relays = [(names.topic(source), names.topic(target)) for source, target in relays]
         for source, target in relays:
-            bus.subscribe(source, partial(self._relay, source, target))
+            bus.subscribe(source, partial(self._relay, source, target), AckermannDriveStamped)
         self.bus = bus
         self._feeders = {target: mux for source, target in relays for mux in self.muxes if mux.output_topic == source}
         self._final = next((m for m in self.muxes if m.output_topic == self.output_topic), None)
         if self._final is None:
             raise ConfigError(f"{config}: output {self.output_topic} is no mux's output")
+        if default is None:
+            return
         command = AckermannDrive(steering_angle=float(steering), speed=float(speed))
 
         def publish_default(now_ns: int) -> None:

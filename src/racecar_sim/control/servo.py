@@ -66,7 +66,7 @@ class ServoCommands:
         self._warned = False
         self.input_topic = input_topic
         self.warn = ThrottledWarning(log, now)
-        bus.subscribe(input_topic, self._on_drive)
+        bus.subscribe(input_topic, self._on_drive, AckermannDriveStamped)
 
     def _max_curvature(self) -> float:
         """The tightest turn whose inner hinge angle stays within its joint limit (formula (2) solved for 1/R)."""

@@ -132,6 +132,7 @@ class Robot:
     plugins: dict[str, dict[str, str]]
     urdf: str = field(repr=False, default="")
     materials: dict[str, tuple[float, float, float, float]] = field(default_factory=dict)
+    source: str = ""  # the file it was read from (errors name it; relative mesh paths start from its folder)
 
     @property
     def root(self) -> str:
@@ -313,7 +314,8 @@ def parse_urdf(text: str, source: str = "<urdf>") -> Robot:
         _surface(el, links[ref].surface, f"{source}: gazebo {ref}")
         sensors += [_sensor(s, ref, f"{source}: gazebo {ref}") for s in el.findall("sensor")]
 
-    robot = Robot(root.get("name", ""), links, joints, transmissions, sensors, plugins, text, materials)  # type: ignore[arg-type]
+    robot = Robot(root.get("name", ""), links, joints, transmissions, sensors, plugins, text,  # type: ignore[arg-type]
+                  materials, source)
     roots = [n for n in links if robot.joint_to(n) is None]
     if len(roots) != 1:
         raise DescriptionError(f"{source}: the links form {len(roots)} trees ({', '.join(roots)}), expected one")

@@ -1,4 +1,6 @@
-"""Expand the shipped xacro files with the PyPI `xacro` package, no ROS install needed."""
+"""Expand xacro files with the PyPI `xacro` package, no ROS install needed; `$(find pkg)` goes through
+ROS_PACKAGE_PATH (then the packages racecar-sim ships), as rospack resolves it. The shipped car's own includes
+stay its own, so that a user's racecar_description on the path changes the user's car, not the default one."""
 
 from __future__ import annotations
 
@@ -10,7 +12,8 @@ from pathlib import Path
 import xacro
 import xacro.substitution_args as substitution_args
 
-from racecar_sim.core.errors import DescriptionError
+from racecar_sim.core.errors import DescriptionError, RacecarSimError
+from racecar_sim.core.ros_packages import SHIPPED_ROOTS, PackageNotFound, find_package
 from racecar_sim.description.urdf import Robot, parse_urdf
 
 _DATA = Path(str(resources.files("racecar_sim.description") / "data"))
@@ -18,22 +21,52 @@ DEFAULT_XACRO = _DATA / "racecar_description" / "urdf" / "racecar.xacro"
 
 
 def package_path(package: str) -> Path:
-    """Where `$(find package)` points: the package's own data folder."""
-    path = _DATA / package
-    if not path.is_dir():
-        raise DescriptionError(f"$(find {package}): no such package in {_DATA}")
-    return path
+    """The folder of a package racecar-sim ships (its own defaults, whatever ROS_PACKAGE_PATH holds: read at
+    import time, they must not depend on the user's path); `find_package` is what `$(find package)` uses."""
+    for root in SHIPPED_ROOTS:
+        if (root / package / "package.xml").is_file():
+            return root / package
+    raise DescriptionError(f"package '{package}': racecar-sim ships no such package "
+                           f"(in {', '.join(map(str, SHIPPED_ROOTS))})")
 
 
-@contextlib.contextmanager
-def _find_from_package_data() -> Iterator[None]:
-    # xacro resolves $(find) through ament_index_python, which is not on PyPI.
-    original = substitution_args._eval_find
-    substitution_args._eval_find = lambda pkg: str(package_path(pkg))
-    try:
-        yield
-    finally:
-        substitution_args._eval_find = original
+def _shipped_package_of(path: Path) -> Path | None:
+    """The shipped package folder a file lies in, or None for a user's file."""
+    path = path.resolve()
+    for root in SHIPPED_ROOTS:
+        if path.is_relative_to(root):
+            parts = path.relative_to(root).parts
+            return root / parts[0] if len(parts) > 1 else None
+    return None
+
+
+class _PackageFinder:
+    """Stands in for xacro's `$(find)` (ament_index_python, not on PyPI) with rospack's crawl; keeps the first
+    PackageNotFound, which xacro would otherwise wrap into a message of its own."""
+
+    def __init__(self, top: Path) -> None:
+        self.top = top
+        self.error: PackageNotFound | None = None
+
+    def __call__(self, package: str) -> str:
+        asker = xacro.filestack[-1] if getattr(xacro, "filestack", None) and xacro.filestack[-1] else self.top
+        own = _shipped_package_of(Path(asker))
+        if own is not None and own.name == package:
+            return str(own)  # the shipped car's own includes stay its own, whatever the user's path shadows
+        try:
+            return str(find_package(package, needed_by=asker))
+        except PackageNotFound as exc:
+            self.error = self.error or exc
+            raise
+
+    @contextlib.contextmanager
+    def installed(self) -> Iterator[None]:
+        original = substitution_args._eval_find
+        substitution_args._eval_find = self
+        try:
+            yield
+        finally:
+            substitution_args._eval_find = original
 
 
 def expand_xacro(path: str | Path = DEFAULT_XACRO, args: Mapping[str, str] | None = None) -> str:
@@ -42,12 +75,15 @@ def expand_xacro(path: str | Path = DEFAULT_XACRO, args: Mapping[str, str] | Non
     if not path.is_file():
         raise DescriptionError(f"{path}: xacro file not found")
     mappings = {k: str(v) for k, v in (args or {}).items()}
+    finder = _PackageFinder(path)
     try:
-        with _find_from_package_data():
+        with finder.installed():
             doc = xacro.process_file(str(path), mappings=mappings)
-    except DescriptionError:
+    except RacecarSimError:
         raise
     except Exception as exc:  # xacro raises XacroException, XML errors, NameError, ...
+        if finder.error is not None:
+            raise finder.error from None
         message = " ".join(str(exc).split())
         raise DescriptionError(f"{path}: xacro expansion failed: {message}") from None
     return doc.toprettyxml(indent="  ")

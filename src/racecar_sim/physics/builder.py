@@ -9,19 +9,22 @@ from __future__ import annotations
 import itertools
 import logging
 import warnings
+from pathlib import Path
 
 import mujoco
 import numpy as np
 
-from racecar_sim.core.errors import DescriptionError
+from racecar_sim.core.errors import ConfigError, DescriptionError, WorldError
 from racecar_sim.core.names import CarNames
+from racecar_sim.core.ros_packages import PackageNotFound, resolve_uri
 from racecar_sim.core.transforms import quat_from_axis_angle, quat_from_rpy
 from racecar_sim.description.urdf import Link, Robot, Shape
 from racecar_sim.physics.contact import solref_solimp
 from racecar_sim.physics.presets import CONES, INTEGRATORS, SOLVERS, PhysicsPreset
 from racecar_sim.physics.world_geoms import COLLISION_GROUP, GEOM_TYPES, VISUAL_GROUP, add_world, mj_size
 from racecar_sim.worlds.materials import gazebo_material_rgba
-from racecar_sim.worlds.world import Spawn, World
+from racecar_sim.worlds.meshes import MeshPart, convex_pieces, load_mesh
+from racecar_sim.worlds.world import Mesh, Spawn, World
 
 ROOT_JOINT = "root"
 
@@ -89,27 +92,82 @@ def _collision_type(shape: Shape, is_wheel: bool, preset: PhysicsPreset) -> tupl
     return GEOM_TYPES[kind], mj_size(kind, size)
 
 
-def _add_shapes(body: mujoco.MjsBody, link: Link, robot: Robot, preset: PhysicsPreset, is_wheel: bool,
-                names: CarNames) -> None:
+def _mesh_parts(robot: Robot, link: Link, shape: Shape, what: str) -> list[MeshPart]:
+    """The parts of a shape's mesh file: package://, model://, file:// or a path relative to the xacro's folder."""
+    source = robot.source or f"robot {robot.name}"
+    filename = shape.geometry.filename
+    if not filename.strip():
+        raise DescriptionError(f"{source}: link {link.name} {what} <mesh> has no filename")
+    base = Path(robot.source).parent if robot.source and Path(robot.source).is_file() else None
+    try:
+        path = resolve_uri(filename, base, needed_by=f"{source} (link {link.name} {what} mesh)")
+    except PackageNotFound:
+        raise
+    except ConfigError as exc:
+        raise DescriptionError(str(exc)) from None
+    try:
+        return load_mesh(path, shape.geometry.scale)
+    except WorldError as exc:
+        raise DescriptionError(f"{source}: link {link.name} {what} mesh {filename}: {exc}") from None
+
+
+def _add_mesh(spec: mujoco.MjSpec, mesh: Mesh, name: str) -> str:
+    m = spec.add_mesh(name=name, uservert=mesh.vertices.ravel().tolist(), userface=mesh.faces.ravel().tolist())
+    m.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL  # the link's <inertial> gives the mass; any surface will do
+    return name
+
+
+def _add_shapes(spec: mujoco.MjSpec, body: mujoco.MjsBody, link: Link, robot: Robot, preset: PhysicsPreset,
+                is_wheel: bool, names: CarNames) -> None:
+    _add_collisions(spec, body, link, robot, preset, is_wheel, names)
+    _add_visuals(spec, body, link, robot, names)
+
+
+def _add_collisions(spec: mujoco.MjSpec, body: mujoco.MjsBody, link: Link, robot: Robot, preset: PhysicsPreset,
+                    is_wheel: bool, names: CarNames) -> None:
+    """Collision geoms; a mesh collides as the convex hulls of its connected pieces (as SDF meshes do)."""
     for i, shape in enumerate(link.collisions):
-        if shape.geometry.kind == "mesh":
-            raise DescriptionError(f"link {link.name}: mesh collisions are not supported yet")
-        geom_type, geom_size = _collision_type(shape, is_wheel, preset)
+        base_name = names.mj(f"{link.name}_collision{'' if i == 0 else i}")
         surface = link.surface
         mu = surface.mu1 if surface.mu1 is not None else 1.0  # SDF default friction
         solref, solimp = solref_solimp(surface.kp, _sprung_mass(robot), preset.contact_timeconst)
-        body.add_geom(name=names.mj(f"{link.name}_collision{'' if i == 0 else i}"), type=geom_type, size=geom_size,
-                      pos=list(shape.origin.xyz),
-                      quat=list(quat_from_rpy(shape.origin.rpy)), group=COLLISION_GROUP, contype=1, conaffinity=1,
-                      condim=3, friction=[mu, 0.0, 0.0], solref=solref, solimp=solimp, rgba=[0.9, 0.3, 0.3, 0.4])
-    for i, shape in enumerate(link.visuals):
+        contact = dict(pos=list(shape.origin.xyz), quat=list(quat_from_rpy(shape.origin.rpy)), group=COLLISION_GROUP,
+                       contype=1, conaffinity=1, condim=3, friction=[mu, 0.0, 0.0], solref=solref, solimp=solimp,
+                       rgba=[0.9, 0.3, 0.3, 0.4])
         if shape.geometry.kind == "mesh":
-            warnings.warn(f"link {link.name}: mesh visual {shape.geometry.filename} is not rendered", stacklevel=3)
+            pieces = []
+            for part in _mesh_parts(robot, link, shape, "collision"):
+                part_pieces, convex = convex_pieces(part.mesh)
+                if not convex:
+                    warnings.warn(f"{robot.source or robot.name}: link {link.name} collision mesh "
+                                  f"{shape.geometry.filename} is not convex: it collides as the convex hull of each "
+                                  "of its connected pieces", stacklevel=3)
+                pieces += part_pieces
+            for j, piece in enumerate(pieces):
+                name = base_name if j == 0 else f"{base_name}#{j}"
+                body.add_geom(name=name, type=GEOM_TYPES["mesh"], meshname=_add_mesh(spec, piece, f"{name}/mesh"),
+                              **contact)
             continue
-        body.add_geom(name=names.mj(f"{link.name}_visual{'' if i == 0 else i}"), type=GEOM_TYPES[shape.geometry.kind],
-                      size=mj_size(shape.geometry.kind, shape.geometry.size), pos=list(shape.origin.xyz),
-                      quat=list(quat_from_rpy(shape.origin.rpy)), group=VISUAL_GROUP, contype=0, conaffinity=0,
-                      rgba=_link_rgba(link, shape), mass=0.0)
+        geom_type, geom_size = _collision_type(shape, is_wheel, preset)
+        body.add_geom(name=base_name, type=geom_type, size=geom_size, **contact)
+
+
+def _add_visuals(spec: mujoco.MjSpec, body: mujoco.MjsBody, link: Link, robot: Robot, names: CarNames) -> None:
+    """Visual geoms (drawn, never touched); a mesh's parts keep the file's own colours unless the URDF gives one."""
+    for i, shape in enumerate(link.visuals):
+        name = names.mj(f"{link.name}_visual{'' if i == 0 else i}")
+        placed = dict(pos=list(shape.origin.xyz), quat=list(quat_from_rpy(shape.origin.rpy)), group=VISUAL_GROUP,
+                      contype=0, conaffinity=0, mass=0.0)
+        if shape.geometry.kind == "mesh":
+            own_colour = shape.rgba is not None or link.surface.material
+            for j, part in enumerate(_mesh_parts(robot, link, shape, "visual")):
+                part_name = name if j == 0 else f"{name}#{j}"
+                rgba = _link_rgba(link, shape) if own_colour or part.rgba is None else list(part.rgba)
+                body.add_geom(name=part_name, type=GEOM_TYPES["mesh"], rgba=rgba,
+                              meshname=_add_mesh(spec, part.mesh, f"{part_name}/mesh"), **placed)
+            continue
+        body.add_geom(name=name, type=GEOM_TYPES[shape.geometry.kind],
+                      size=mj_size(shape.geometry.kind, shape.geometry.size), rgba=_link_rgba(link, shape), **placed)
 
 
 def _add_link(spec: mujoco.MjSpec, parent: mujoco.MjsBody, robot: Robot, name: str, preset: PhysicsPreset,
@@ -138,7 +196,7 @@ def _add_link(spec: mujoco.MjSpec, parent: mujoco.MjsBody, robot: Robot, name: s
         if joint.limit and joint.limit.effort > 0:
             mj_joint.actfrcrange = [-joint.limit.effort, joint.limit.effort]
             mj_joint.actfrclimited = mujoco.mjtLimited.mjLIMITED_TRUE
-    _add_shapes(body, link, robot, preset, joint is not None and joint.type == "continuous", names)
+    _add_shapes(spec, body, link, robot, preset, joint is not None and joint.type == "continuous", names)
     for child in (j.child for j in robot.joints.values() if j.parent == name):
         _add_link(spec, body, robot, child, preset, names)
 

@@ -2,7 +2,8 @@
 
 `Car(...)` is what a user asks for; the Simulator builds it into the shared MuJoCo model (add_to) and then
 starts its nodes on the shared bus (start): its own mux chain, servo_commands, controllers, joint states,
-robot_state_publisher, odometry, lidar and camera, all named through its `CarNames`.
+robot_state_publisher, odometry, lidar and camera, all named through its `CarNames`. `CarNodes` says which of
+the original stack's nodes it runs (all of them by default; a launch file may leave some to ROS nodes).
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from __future__ import annotations
 import logging
 import weakref
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -17,15 +19,28 @@ import mujoco
 
 from racecar_sim.bus import Bus
 from racecar_sim.control.commands import ControllerCommands
-from racecar_sim.control.controller_manager import ControllerManager
-from racecar_sim.control.controllers import ControllerConfig, add_actuators, load_controller_config
-from racecar_sim.control.mux import CommandChain
+from racecar_sim.control.controller_manager import (
+    JOINT_STATE_CONTROLLER,
+    ControllerManager,
+)
+from racecar_sim.control.controllers import (
+    ControllerConfig,
+    add_actuators,
+    load_controller_config,
+)
+from racecar_sim.control.mux import MUX_WIRING, CommandChain
 from racecar_sim.control.profiles import Profile, load_profile
 from racecar_sim.control.servo import ServoCommands
 from racecar_sim.core.errors import ConfigError
-from racecar_sim.core.names import CarNames
+from racecar_sim.core.names import ODOM_RELAY, CarNames
 from racecar_sim.core.scheduler import Scheduler, Task
-from racecar_sim.description import DEFAULT_XACRO, Robot, load_robot, package_path, parse_urdf
+from racecar_sim.description import (
+    DEFAULT_XACRO,
+    Robot,
+    load_robot,
+    package_path,
+    parse_urdf,
+)
 from racecar_sim.physics import PhysicsPreset, add_car
 from racecar_sim.physics.state import CarState
 from racecar_sim.sensors.joint_states import JointStatePublisher
@@ -41,6 +56,29 @@ log = logging.getLogger("racecar_sim")
 DEFAULT_CONTROLLERS = package_path("racecar_control") / "config" / "racecar_control.yaml"
 
 
+@dataclass(frozen=True)
+class CarNodes:
+    """Which nodes of the original stack a car runs; the defaults are racecar.launch's full set. A launch file
+    that leaves one out leaves its work to someone else (a user's own ROS node through the bridge).
+
+    mux: the ackermann_cmd_mux chain's wiring (control/mux.py: a YAML path or the same as a mapping), None for
+        no muxes, relays or default command. servo_input: servo_commands' input topic (car-relative), "" for the
+        chain's output, None for no servo_commands. controllers: those the spawner loads and starts (None: every
+        controller of the YAML; joint_state_controller included), stopped: those it only loads (--stopped).
+    robot_state: robot_state_publisher, reading `joint_states` (car-relative; None: <controller ns>/joint_states).
+    odometry: gazebo_odometry.py; odom_relay: the topic_tools relay of /vesc/odom (None: no relay).
+    """
+
+    mux: Path | Mapping[str, Any] | None = MUX_WIRING
+    servo_input: str | None = ""
+    controllers: tuple[str, ...] | None = None
+    stopped: tuple[str, ...] = ()
+    robot_state: bool = True
+    joint_states: str | None = None
+    odometry: bool = True
+    odom_relay: str | None = ODOM_RELAY
+
+
 class Car:
     """One RACECAR (or a user's own car) in a Simulator.
 
@@ -50,7 +88,8 @@ class Car:
 
     def __init__(self, name: str = "", xacro: str | Path = DEFAULT_XACRO, xacro_args: Mapping[str, str] | None = None,
                  profile: str = "seed", controllers: str | Path | None = None, spawn: Spawn | None = None,
-                 lidar: bool = True, camera: bool = True, odometry: str = "original") -> None:
+                 lidar: bool = True, camera: bool = True, odometry: str = "original",
+                 nodes: CarNodes = CarNodes()) -> None:
         self.names = CarNames(name)
         self.name = name
         self.xacro = Path(xacro)
@@ -62,6 +101,11 @@ class Car:
         if odometry not in FRAMES:
             raise ConfigError(f"odometry mode {odometry!r} is not one of {', '.join(FRAMES)}")
         self.odometry_mode = odometry
+        self.nodes = nodes
+        self.chain: CommandChain | None = None
+        self.servo: ServoCommands | None = None
+        self.robot_state: RobotStatePublisher | None = None
+        self.odometry: OdometryPublisher | None = None
         # set by the Simulator
         self.profile: Profile | None = None
         self.robot: Robot | None = None
@@ -97,7 +141,9 @@ class Car:
         add_car(spec, self.robot, spawn, preset, self.names)
         add_actuators(spec, self.controllers, self.robot, self.names)
         if self.has_camera:
-            from racecar_sim.sensors.camera import add_camera  # GL bindings load only when a camera is wanted
+            from racecar_sim.sensors.camera import (
+                add_camera,  # GL bindings load only when a camera is wanted
+            )
 
             add_camera(spec, self.robot, self.names)
 
@@ -110,17 +156,26 @@ class Car:
         names, robot, controllers, profile = self.names, self.robot, self.controllers, self.profile
         self.state = CarState(model, data, robot.root, names)
         self.commands = ControllerCommands(bus, self.state, controllers, robot, now, names)
-        self.chain = CommandChain(bus, scheduler, now, names=names)
-        self.servo = ServoCommands(bus, robot, controllers, profile.servo, self.chain.output_topic,
-                                   profile.wheel_rate_per_speed, now, names)
+        nodes = self.nodes
+        if nodes.mux is not None:
+            self.chain = CommandChain(bus, scheduler, now, nodes.mux, names=names)
+        if nodes.servo_input is not None:
+            servo_input = names.topic(nodes.servo_input) if nodes.servo_input else self._chain_output()
+            self.servo = ServoCommands(bus, robot, controllers, profile.servo, servo_input,
+                                       profile.wheel_rate_per_speed, now, names)
         joints = [c.joint for c in controllers.controllers]
         joint_states = names.topic(f"{controllers.namespace}/joint_states")
         self.joint_states = JointStatePublisher(bus, scheduler, self.state, joints, controllers.joint_state_rate,
                                                 joint_states)
         self.controller_manager = ControllerManager(bus, scheduler, self.state, controllers, robot, self.joint_states,
                                                     names)
-        self.robot_state = RobotStatePublisher(bus, robot, joint_states, names, static_tf)
-        self.odometry = OdometryPublisher(bus, scheduler, self.state, self.odometry_mode, names=names)
+        self._spawn_controllers()
+        if nodes.robot_state:
+            rsp_input = names.topic(nodes.joint_states) if nodes.joint_states else joint_states
+            self.robot_state = RobotStatePublisher(bus, robot, rsp_input, names, static_tf)
+        if nodes.odometry:
+            self.odometry = OdometryPublisher(bus, scheduler, self.state, self.odometry_mode,
+                                              relay_topic=nodes.odom_relay, names=names)
         if self.has_lidar:
             from racecar_sim.sensors.lidar import LidarPublisher
 
@@ -134,10 +189,34 @@ class Car:
                 log.error("%s; continuing without the camera", exc)
                 self.has_camera, self.camera = False, None
 
+    def _chain_output(self) -> str:
+        if self.chain is None:
+            raise ConfigError(f"{self.model_name}: servo_commands reads the mux chain's output, but the car has no "
+                              "mux chain: give CarNodes(servo_input=TOPIC)")
+        return self.chain.output_topic
+
+    def _spawn_controllers(self) -> None:
+        """What the spawner leaves: the controllers it names loaded (and started unless --stopped), no others."""
+        wanted, stopped = self.nodes.controllers, set(self.nodes.stopped)
+        if wanted is None and not stopped:
+            return
+        defined = [c.name for c in self.controllers.controllers] + [JOINT_STATE_CONTROLLER]
+        keep = stopped | set(defined if wanted is None else wanted)
+        unknown = sorted(keep - set(defined))
+        if unknown:
+            raise ConfigError(f"{self.model_name}: controller {', '.join(unknown)} is not in the controller parameters "
+                              f"(namespace {self.controllers.namespace}): load its parameters (rosparam) or drop it")
+        manager = self.controller_manager
+        manager.switch_controller([], [c for c in defined if c not in keep or c in stopped])
+        for name in [c for c in defined if c not in keep]:
+            manager.unload_controller(name)
+
     def reset(self, seed: int) -> None:
         """Back to a fresh start: muxes idle, no held command, sensors' noise from `seed`."""
-        self.chain.reset()
+        if self.chain is not None:
+            self.chain.reset()
         self.controller_manager.reset()  # every controller of the YAML loaded and running, as the spawner leaves them
+        self._spawn_controllers()
         for sensor in (self.lidar, self.camera):
             if sensor is not None:
                 sensor.seed = seed
@@ -197,8 +276,8 @@ class _CarBus:
         self._subscriptions: list[Any] = []
         self._services: list[str] = []
 
-    def subscribe(self, topic: str, callback: Callable[[Any], None]) -> Any:
-        sub = self._bus.subscribe(topic, callback)
+    def subscribe(self, topic: str, callback: Callable[[Any], None], msgtype: type | None = None) -> Any:
+        sub = self._bus.subscribe(topic, callback, msgtype)
         self._subscriptions.append(sub)
         return sub
 

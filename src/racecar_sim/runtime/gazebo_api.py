@@ -48,6 +48,7 @@ from racecar_sim.msgs.gazebo_msgs import (
     GetWorldPropertiesRequest,
     GetWorldPropertiesResponse,
     LinkStates,
+    ModelState,
     ModelStates,
     SetModelStateRequest,
     SetModelStateResponse,
@@ -117,7 +118,7 @@ class GazeboApi:
         self._index()
         sim.on_rebuild(lambda model, data: self._index())
         self.task = sim.scheduler.every(STATES_RATE, self._tick, "gazebo_ros_api_plugin")
-        self.bus.subscribe(SET_MODEL_STATE, lambda msg: self.set_model_state(SetModelStateRequest(msg)))
+        self.bus.subscribe(SET_MODEL_STATE, lambda msg: self.set_model_state(SetModelStateRequest(msg)), ModelState)
         for name, handler in (("get_model_state", self.get_model_state), ("set_model_state", self.set_model_state),
                               ("spawn_urdf_model", self.spawn_urdf_model), ("spawn_sdf_model", self.spawn_sdf_model),
                               ("delete_model", self.delete_model), ("get_world_properties", self.get_world_properties),

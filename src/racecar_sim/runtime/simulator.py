@@ -168,9 +168,12 @@ class Simulator:
         """Publish on the bus now (at the current sim time)."""
         self.bus.publish(topic, msg)
 
-    def subscribe(self, topic: str, callback: Callable[[Any], None]) -> Subscription:
-        """Call `callback(msg)` for every message on `topic` (the bus lives as long as the Simulator)."""
-        return self.bus.subscribe(topic, callback)
+    def subscribe(self, topic: str, callback: Callable[[Any], None], msgtype: type | None = None) -> Subscription:
+        """Call `callback(msg)` for every message on `topic` (the bus lives as long as the Simulator).
+
+        `msgtype` declares the message class taken, so that a ROS bridge subscribes to the topic on the ROS side.
+        """
+        return self.bus.subscribe(topic, callback, msgtype)
 
     def on_reset(self, hook: Callable[[], None]) -> None:
         """Call `hook()` after every reset(), once the physics is back at its start (a driver clears its state)."""

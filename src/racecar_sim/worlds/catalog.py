@@ -34,7 +34,8 @@ def load_world(name_or_path: str | Path, spawn: Spawn | None = None, model_path:
                wall_height: float = DEFAULT_WALL_HEIGHT) -> World:
     """A built-in world by name, or a world file by path; `spawn` overrides the world's own spawn pose.
 
-    model_path: folders searched for model:// URIs before GAZEBO_MODEL_PATH / GZ_SIM_RESOURCE_PATH.
+    model_path: folders searched for model:// URIs before GAZEBO_MODEL_PATH / GZ_SIM_RESOURCE_PATH and the
+    packages on ROS_PACKAGE_PATH (see core.ros_packages.gazebo_model_dirs).
     wall_height: height of the walls extruded from an occupancy map or a track's borders.
     """
     key = str(name_or_path)

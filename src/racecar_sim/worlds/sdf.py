@@ -1,8 +1,9 @@
 """Load the SDF subset (1.4 - 1.9) that Gazebo worlds use into a `World`.
 
 Read: <world> with <physics>, <gravity>, <scene>, <light>, <model> and <include> of model:// models (built-in
-sun and ground_plane, then --model-path, GAZEBO_MODEL_PATH, GZ_SIM_RESOURCE_PATH); an include's <pose>,
-<name> and <static> override the model's own. <model> with <static>, <pose>, nested <model>/<include>, <link>
+sun and ground_plane, then --model-path, GAZEBO_MODEL_PATH, GZ_SIM_RESOURCE_PATH, and the packages on
+ROS_PACKAGE_PATH as gazebo_ros adds them: their gazebo_model_path exports and the folders holding them); an
+include's <pose>, <name> and <static> override the model's own. <model> with <static>, <pose>, nested <model>/<include>, <link>
 with <pose>, <inertial> and <collision>/<visual> (box, cylinder, sphere, plane, capsule, ellipsoid, mesh),
 <surface><friction><ode><mu>/<mu2>, <material> (Gazebo script names, colours, <pbr> albedo_map).
 Anything else gets a warning naming the element and where it is; nothing is dropped silently.
@@ -100,7 +101,7 @@ def _link(el: ET.Element, model: str, static: bool, model_pose: Pose, ctx: SdfCo
         surface = shape.find("surface")
         if surface is not None:
             ctx.warn_unknown(surface, {"friction"}, f"{where} <surface>")
-        for geom in shapes(shape, True, ctx, where):
+        for geom in shapes(shape, True, ctx, where, static=body.static):
             geom.mu, geom.mu2 = mu, mu2
             body.geoms.append(geom)
     for shape in el.findall("visual"):

@@ -9,19 +9,21 @@ import math
 import os
 import warnings
 import xml.etree.ElementTree as ET
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 from PIL import Image
 
 from racecar_sim.core.errors import WorldError
+from racecar_sim.core.ros_packages import gazebo_model_dirs
 from racecar_sim.core.transforms import quat_from_rpy, quat_mul
 from racecar_sim.worlds.materials import gazebo_material_rgba
-from racecar_sim.worlds.meshes import convex_pieces, load_mesh, textured_box
-from racecar_sim.worlds.world import WorldGeom
+from racecar_sim.worlds.mesh_surface import surface_pieces
+from racecar_sim.worlds.meshes import MeshPart, convex_pieces, load_mesh, textured_box
+from racecar_sim.worlds.world import Mesh, WorldGeom
 
 BUILTIN_MODELS = Path(__file__).parent / "data" / "models"
-MODEL_PATH_VARIABLES = ("GAZEBO_MODEL_PATH", "GZ_SIM_RESOURCE_PATH", "SDF_PATH")
 DEFAULT_RGBA = (0.7, 0.7, 0.7, 1.0)
 # Children the loader reads, or that have no effect on a ground robot's physics, sensors or pictures.
 GEOMETRY_SHAPES = ("box", "cylinder", "sphere", "plane", "mesh", "capsule", "ellipsoid")
@@ -57,11 +59,13 @@ class SdfContext:
             if child.tag not in known and isinstance(child.tag, str):
                 self.warn(child.tag, where)
 
-    def search_path(self) -> list[Path]:
-        path = [BUILTIN_MODELS, *self.model_path]
-        for var in MODEL_PATH_VARIABLES:
-            path += [Path(p) for p in os.environ.get(var, "").split(os.pathsep) if p]
-        return path
+    def search_path(self) -> Iterator[Path]:
+        """The built-in models, --model-path, then what Gazebo with gazebo_ros searches (GAZEBO_MODEL_PATH, the
+        packages on ROS_PACKAGE_PATH: their gazebo_model_path exports and the folders that hold them); lazily, so
+        that the built-in models never wait for a crawl of the package path."""
+        yield BUILTIN_MODELS
+        yield from self.model_path
+        yield from gazebo_model_dirs()
 
 
 def numbers(text: str | None, n: int, ctx: SdfContext, where: str) -> tuple[float, ...]:
@@ -119,7 +123,8 @@ def resolve_uri(uri: str, ctx: SdfContext, where: str) -> Path:
             if (folder / name).is_dir():
                 return folder / name / rest
         raise ctx.error(f"{where}: {uri}: model '{name}' not found in "
-                        f"{os.pathsep.join(str(p) for p in ctx.search_path())} (add its folder with --model-path)")
+                        f"{os.pathsep.join(str(p) for p in ctx.search_path())} (add its folder with --model-path, or "
+                        "the folder of the package that holds it with --package-path)")
     if uri.startswith("file://"):
         uri = uri[len("file://"):]
     elif "://" in uri:
@@ -138,8 +143,9 @@ def _plane_quat(normal: tuple[float, ...]) -> np.ndarray:
     return np.r_[math.cos(angle / 2), math.sin(angle / 2) * axis]
 
 
-def shapes(el: ET.Element, collides: bool, ctx: SdfContext, where: str) -> list[WorldGeom]:
-    """The geoms of one <collision> or <visual>: usually one, one per part or convex piece for meshes."""
+def shapes(el: ET.Element, collides: bool, ctx: SdfContext, where: str, static: bool = False) -> list[WorldGeom]:
+    """The geoms of one <collision> or <visual>: usually one, one per part or piece for meshes (a `static` link's
+    collision mesh collides as its surface, a free link's as convex hulls)."""
     geometry = el.find("geometry")
     if geometry is None or len(geometry) == 0:
         raise ctx.error(f"{where}: <geometry> is missing or empty")
@@ -161,7 +167,7 @@ def shapes(el: ET.Element, collides: bool, ctx: SdfContext, where: str) -> list[
         size = numbers(g.findtext("size") or "100 100", 2, ctx, f"{where} plane <size>")
         quat = quat_mul(quat, _plane_quat(normal))
     elif kind == "mesh":
-        return _mesh_shapes(g, el, collides, pos, quat, ctx, where)
+        return _mesh_shapes(g, el, collides, static, pos, quat, ctx, where)
     else:
         ctx.warn(kind, f"{where} <geometry>")
         return []
@@ -176,7 +182,7 @@ def shapes(el: ET.Element, collides: bool, ctx: SdfContext, where: str) -> list[
     return [geom]
 
 
-def _mesh_shapes(g: ET.Element, el: ET.Element, collides: bool, pos: np.ndarray, quat: np.ndarray,
+def _mesh_shapes(g: ET.Element, el: ET.Element, collides: bool, static: bool, pos: np.ndarray, quat: np.ndarray,
                  ctx: SdfContext, where: str) -> list[WorldGeom]:
     uri = g.findtext("uri")
     if not uri or not uri.strip():
@@ -192,12 +198,8 @@ def _mesh_shapes(g: ET.Element, el: ET.Element, collides: bool, pos: np.ndarray,
         raise ctx.error(f"{where} <mesh>: {exc}") from None
     geoms = []
     if collides:
-        for part in parts:
-            pieces, convex = convex_pieces(part.mesh)
-            if not convex:
-                ctx.warn(f"mesh><uri>{uri.strip()}</uri", where, "is not convex: it collides as the convex hull "
-                         "of each of its connected pieces")
-            geoms += [WorldGeom(where, "mesh", (), pos, quat, collides=True, mesh=m) for m in pieces]
+        geoms = [WorldGeom(where, "mesh", (), pos, quat, collides=True, mesh=m)
+                 for m in _collision_pieces(parts, static, uri.strip(), ctx, where)]
     else:
         material = el.find("material")
         texture = albedo_map(material, ctx, where)
@@ -209,6 +211,30 @@ def _mesh_shapes(g: ET.Element, el: ET.Element, collides: bool, pos: np.ndarray,
     for i, geom in enumerate(geoms[1:], start=1):
         geom.name = f"{where}#{i}"
     return geoms
+
+
+def _collision_pieces(parts: list[MeshPart], static: bool, uri: str, ctx: SdfContext, where: str) -> list[Mesh]:
+    """A static mesh collides as its surface (as Gazebo collides with its triangles): convex pieces whole, the
+    rest as flat convex pieces. A free body's collides as the convex hulls of its connected pieces (thin
+    triangles make poor contacts for a moving body)."""
+    pieces: list[Mesh] = []
+    flat = 0  # flat pieces standing for the non-convex parts of a static mesh
+    convex = True
+    for part in parts:
+        if static:
+            part_pieces, part_flat = surface_pieces(part.mesh)
+            flat += part_flat
+        else:
+            part_pieces, part_convex = convex_pieces(part.mesh)
+            convex = convex and part_convex
+        pieces += part_pieces
+    if flat:
+        ctx.warn(f"mesh><uri>{uri}</uri", where, f"is not convex: as in Gazebo, it collides as its faces where it is "
+                 f"not ({flat} flat pieces: coplanar faces merged while convex)")
+    elif not convex:
+        ctx.warn(f"mesh><uri>{uri}</uri", where, "is not convex: it collides as the convex hull of each of its "
+                 "connected pieces")
+    return pieces
 
 
 def rgba_of(material: ET.Element | None, ctx: SdfContext, where: str) -> tuple[float, float, float, float]:

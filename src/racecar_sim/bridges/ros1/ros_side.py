@@ -1,0 +1,302 @@
+"""The ROS 1 side of racecar-sim's bridge: a rospy node, run under the interpreter that has rospy.
+
+The sim (racecar_sim.bridges.ros1.bridge.RosBridge) starts it as `<ros python> ros_side.py --name NODE` and talks
+to it over its stdin and stdout; it imports nothing from racecar_sim (that package is not installed for the ROS
+interpreter), only the standard library and rospy, genpy and genmsg. `ros_side.py --generate DEFS OUT` instead
+generates Python message packages from the `.msg`/`.srv` folders under DEFS into OUT, as catkin's genpy step does.
+
+Frames, both ways: a little-endian uint32 length of what follows, one byte of kind, the payload.
+  CONTROL (0): a pickled dict with an "op" (protocol 4).
+  DATA (1): a uint32 id (the topic's, given by the sim's advertise or subscribe) and the ROS 1 message bytes.
+Sim -> ROS ops: advertise {id, topic, type, latch}, subscribe {id, topic, type}, service {name, type},
+  unservice {name}, reply {call, data | error}, shutdown.
+ROS -> sim ops: ready {name}, connections {id, count}, call {call, service, data}, error {text}.
+Messages are never converted here: publishers and subscribers use classes that carry the real type's _type,
+_md5sum and _full_text but hold the raw bytes, so rospy checks the types and nothing is deserialized twice.
+"""
+
+import argparse
+import importlib
+import os
+import pickle
+import struct
+import sys
+import threading
+import time
+
+CONTROL, DATA = 0, 1
+_HEAD = struct.Struct("<IB")
+_ID = struct.Struct("<I")
+CONNECTION_POLL = 0.05  # s between checks of how many ROS subscribers each publisher has
+
+
+def _real_class(ros_type, kind="msg"):
+    package, name = ros_type.split("/")
+    return getattr(importlib.import_module("%s.%s" % (package, kind)), name)
+
+
+def _raw_class(real):
+    """A message class with `real`'s identity whose instances hold the serialized bytes."""
+    import genpy
+
+    class Raw(genpy.Message):
+        __slots__ = ("data",)
+        _type, _md5sum, _full_text, _has_header = real._type, real._md5sum, real._full_text, False
+        _slot_types = []
+
+        def __init__(self, data=b""):
+            self.data = data
+
+        def serialize(self, buff):
+            buff.write(self.data)
+
+        def deserialize(self, data):
+            self.data = bytes(data)
+            return self
+
+    return Raw
+
+
+def _raw_service(ros_type):
+    real = _real_class(ros_type, "srv")
+
+    class RawService:
+        _type, _md5sum = real._type, real._md5sum
+        _request_class = _raw_class(real._request_class)
+        _response_class = _raw_class(real._response_class)
+
+    return RawService
+
+
+class Link:
+    """The framed pipe to the sim: reads on the main thread, writes from any thread."""
+
+    def __init__(self, inp, out):
+        self.inp, self.out = inp, out
+        self.lock = threading.Lock()
+
+    def send(self, kind, payload):
+        with self.lock:
+            self.out.write(_HEAD.pack(len(payload) + 1, kind))
+            self.out.write(payload)
+            self.out.flush()
+
+    def send_control(self, **fields):
+        self.send(CONTROL, pickle.dumps(fields, protocol=4))
+
+    def read(self):
+        head = self._exact(_HEAD.size)
+        if head is None:
+            return None, None
+        size, kind = _HEAD.unpack(head)
+        return kind, self._exact(size - 1)
+
+    def _exact(self, n):
+        chunks, left = [], n
+        while left:
+            chunk = self.inp.read(left)
+            if not chunk:
+                return None
+            chunks.append(chunk)
+            left -= len(chunk)
+        return b"".join(chunks)
+
+
+class RosSide:
+    """The node: publishers, subscribers and services that forward bytes to and from the sim."""
+
+    def __init__(self, link):
+        import rospy
+
+        self.rospy, self.link = rospy, link
+        self.publishers = {}  # id -> rospy.Publisher
+        self.counts = {}  # id -> connections last reported
+        self.subscribers = []
+        self.subscribed = set()  # resolved names of the topics subscribed to
+        self.services = {}
+        self.calls = {}  # call id -> [threading.Event, reply]
+        self.next_call = 0
+        self.lock = threading.Lock()
+
+    def handle(self, op):
+        name = op["op"]
+        if name == "advertise":
+            cls = _raw_class(_real_class(op["type"]))
+            pub = self.rospy.Publisher(op["topic"], cls, latch=op["latch"], queue_size=op.get("queue_size", 10))
+            self.publishers[op["id"]] = (pub, cls)
+        elif name == "subscribe":
+            cls = _raw_class(_real_class(op["type"]))
+            self.subscribers.append(self.rospy.Subscriber(op["topic"], cls, self._on_message, op["id"]))
+            self.subscribed.add(self.rospy.resolve_name(op["topic"]))
+        elif name == "service":
+            if op["name"] not in self.services:
+                srv = _raw_service(op["type"])
+                handler = lambda request, name=op["name"], srv=srv: self._on_call(name, srv, request)
+                self.services[op["name"]] = self.rospy.Service(op["name"], srv, handler)
+        elif name == "unservice":
+            service = self.services.pop(op["name"], None)
+            if service is not None:
+                service.shutdown("the sim no longer offers it")
+        elif name == "reply":
+            waiting = self.calls.get(op["call"])
+            if waiting is not None:
+                waiting[1] = op
+                waiting[0].set()
+
+    def publish(self, payload):
+        (topic_id,) = _ID.unpack_from(payload)
+        entry = self.publishers.get(topic_id)
+        if entry is not None:  # None: its advertise failed, and the sim was told
+            entry[0].publish(entry[1](payload[_ID.size:]))
+
+    def _on_message(self, msg, topic_id):
+        header = getattr(msg, "_connection_header", None) or {}
+        if header.get("callerid") == self.rospy.get_name():
+            return  # what the sim published itself, back through our own subscriber
+        self.link.send(DATA, _ID.pack(topic_id) + msg.data)
+
+    def _on_call(self, name, srv, request):
+        with self.lock:
+            self.next_call += 1
+            call = self.next_call
+            waiting = self.calls[call] = [threading.Event(), None]
+        self.link.send_control(op="call", call=call, service=name, data=request.data)
+        try:
+            while not waiting[0].wait(0.5):
+                if self.rospy.is_shutdown():
+                    raise self.rospy.ServiceException("racecar-sim is shutting down")
+        finally:
+            self.calls.pop(call, None)
+        reply = waiting[1]
+        if reply.get("error"):
+            raise self.rospy.ServiceException(reply["error"])
+        return srv._response_class(reply["data"])
+
+    def watch_connections(self):
+        """Tell the sim how many subscribers each publisher has, so it serializes only what someone reads."""
+        while not self.rospy.is_shutdown():
+            for topic_id, (pub, _) in list(self.publishers.items()):
+                # our own subscriber to a topic we also publish is no reader
+                count = max(0, pub.get_num_connections() - (pub.resolved_name in self.subscribed))
+                if self.counts.get(topic_id) != count:
+                    self.counts[topic_id] = count
+                    self.link.send_control(op="connections", id=topic_id, count=count)
+            time.sleep(CONNECTION_POLL)
+
+
+def serve(name):
+    """Run the node until the sim says shutdown or closes the pipe."""
+    out = os.fdopen(os.dup(1), "wb")
+    os.dup2(2, 1)  # anything rospy prints goes to stderr, never into the frames
+    link = Link(os.fdopen(0, "rb", buffering=0), out)
+    import rospy
+
+    rospy.init_node(name, anonymous=False, disable_signals=True)
+    node = RosSide(link)
+    link.send_control(op="ready", name=rospy.get_name())
+    threading.Thread(target=node.watch_connections, daemon=True).start()
+    while True:
+        kind, payload = link.read()
+        if kind is None:
+            break
+        if kind == DATA:
+            node.publish(payload)
+            continue
+        op = pickle.loads(payload)
+        if op["op"] == "shutdown":
+            break
+        try:
+            node.handle(op)
+        except Exception as exc:  # a type ROS does not know: report it, keep the rest going
+            link.send_control(op="error", id=op.get("id"), kind=op["op"], text="%s %s: %s: %s" % (op["op"], op.get("topic") or op.get("name"),
+                                                                  type(exc).__name__, exc))
+    rospy.signal_shutdown("racecar-sim closed the bridge")
+
+
+# --- message generation ----------------------------------------------------------------------------------------
+def _external_types(defs, packages):
+    """`pkg/Name` types the definitions use from packages other than theirs (std_msgs, geometry_msgs, ...)."""
+    import genmsg.msgs
+
+    found = set()
+    for package in packages:
+        for kind in ("msg", "srv"):
+            folder = os.path.join(defs, package, kind)
+            for fname in sorted(os.listdir(folder)) if os.path.isdir(folder) else ():
+                with open(os.path.join(folder, fname)) as f:
+                    for line in f:
+                        token = line.split("#", 1)[0].split()
+                        if len(token) >= 2 and "=" not in line.split("#", 1)[0]:
+                            base = genmsg.msgs.bare_msg_type(token[0])
+                            if base == "Header":
+                                base = "std_msgs/Header"
+                            if "/" in base and base.split("/")[0] not in packages:
+                                found.add(base)
+    return found
+
+
+def _write_dependencies(types, folder):
+    """The .msg files of types the system has (from its genpy classes' full texts), for genmsg's search path."""
+    search = {}
+    for ros_type in types:
+        blocks = _real_class(ros_type)._full_text.split("\n" + "=" * 80 + "\n")
+        texts = [(ros_type, blocks[0])] + [(b.split("\n", 1)[0][5:].strip(), b.split("\n", 1)[1]) for b in blocks[1:]]
+        for dep_type, text in texts:
+            package, name = dep_type.split("/")
+            msg_dir = os.path.join(folder, package, "msg")
+            os.makedirs(msg_dir, exist_ok=True)
+            with open(os.path.join(msg_dir, name + ".msg"), "w") as f:
+                f.write(text)
+            search[package] = [msg_dir]
+    return search
+
+
+def generate(defs, out, only=None):
+    """Generate `<pkg>/msg` and `<pkg>/srv` Python modules under `out` for each package under `defs` the system
+    cannot import (or each in `only`)."""
+    import genpy.generate_initpy
+    import genpy.generator
+
+    packages = sorted(p for p in os.listdir(defs) if os.path.isdir(os.path.join(defs, p)))
+    if only is None:
+        packages = [p for p in packages if not _importable(p)]
+    search = _write_dependencies(_external_types(defs, packages), os.path.join(out, ".deps"))
+    for package in packages:
+        search[package] = [os.path.join(defs, package, "msg")]
+    status = 0
+    for package in packages:
+        pkg_out = os.path.join(out, package)
+        for kind, gen in (("msg", genpy.generator.MsgGenerator()), ("srv", genpy.generator.SrvGenerator())):
+            folder = os.path.join(defs, package, kind)
+            if not os.path.isdir(folder):
+                continue
+            files = [os.path.join(folder, f) for f in sorted(os.listdir(folder)) if f.endswith("." + kind)]
+            status |= gen.generate_messages(package, files, os.path.join(pkg_out, kind), search)
+            genpy.generate_initpy.write_modules(os.path.join(pkg_out, kind))
+        with open(os.path.join(pkg_out, "__init__.py"), "w") as f:
+            f.write("")
+    print("\n".join(packages))
+    return status
+
+
+def _importable(package):
+    try:
+        importlib.import_module(package + ".msg")
+        return True
+    except ImportError:
+        return False
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n", 1)[0])
+    parser.add_argument("--name", default="racecar_sim", help="the node's name")
+    parser.add_argument("--generate", nargs=2, metavar=("DEFS", "OUT"), help="generate message packages and exit")
+    args = parser.parse_args(argv)
+    if args.generate:
+        return generate(*args.generate)
+    serve(args.name)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
