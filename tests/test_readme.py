@@ -27,3 +27,12 @@ def test_readme_driver_example_laps_the_racecourse(capsys):
     xy = [(x, y) for _, x, y in rows]
     # round the course (its far corner is ~20 m from the start) and back near the start line
     assert max(abs(x) for x, _ in xy) > 15.0 and min(y for _, y in xy) < -8.0 and max(y for _, y in xy) > 10.0
+
+
+def test_readme_gymnasium_example_runs():
+    code = re.search(r"## Learning.*?```python\n(.*?)```", README.read_text(), re.S).group(1)
+    scope: dict = {"__name__": "readme_envs"}
+    exec(compile(code, str(README), "exec"), scope)
+    assert scope["obs"]["scan"].shape == (1081,) and scope["reward"] == scope["reward"]  # a number, not NaN
+    assert scope["observations"]["scan"].shape == (4, 1081)  # 4 async envs, one scan each
+    scope["env"].close()

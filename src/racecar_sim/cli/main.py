@@ -8,11 +8,11 @@ import sys
 import warnings
 
 from racecar_sim import __version__
-from racecar_sim.cli import bench, describe, launch, recover, ros_env, run, teleop, worlds
+from racecar_sim.cli import bench, describe, launch, recover, ros_env, run, sweep, teleop, worlds
 from racecar_sim.core.errors import RacecarSimError
 
 SUBCOMMANDS = {"run": run, "teleop": teleop, "launch": launch, "describe": describe, "bench": bench, "worlds": worlds,
-               "recover": recover, "ros-env": ros_env}
+               "recover": recover, "ros-env": ros_env, "sweep": sweep}
 
 
 class _Parser(argparse.ArgumentParser):

@@ -34,17 +34,14 @@ from racecar_sim.cli.live import LiveViews, RealTimePacer, add_live_arguments
 from racecar_sim.cli.ros_env import PAUSED_WAIT, add_ros_arguments, check_ros, start_ros_bridge
 from racecar_sim.control.profiles import profile_names
 from racecar_sim.core.errors import ConfigError, WorldError
-from racecar_sim.core.names import NAVIGATION, ODOM
-from racecar_sim.description.vehicle import VehicleGeometry
-from racecar_sim.drivers import (ConstantCommand, PurePursuit, WallFollower, load_waypoints, pure_pursuit_config,
-                                 wall_follow_config)
+from racecar_sim.core.names import ODOM
+from racecar_sim.drivers import pure_pursuit_config, wall_follow_config
 from racecar_sim.physics import preset_names
 from racecar_sim.runtime import Car, Simulator
+from racecar_sim.runtime.driving import CONSTANT_DEFAULTS, DRIVERS, attach_driver, track_file
 from racecar_sim.runtime.run_log import RunLog, image_array
 from racecar_sim.worlds import Spawn, World, load_world
 
-DRIVERS = ("wall-follow", "pure-pursuit", "constant")
-CONSTANT_DEFAULTS = {"speed": 1.0, "steering": 0.0, "rate": 20.0}
 # the drivers each option applies to; an option given for another driver is an error, not silently ignored
 OPTION_DRIVERS = {"speed": DRIVERS, "steering": ("constant",), "rate": ("constant",), "side": ("wall-follow",),
                   "distance": ("wall-follow",), "path": ("pure-pursuit",)}
@@ -52,7 +49,6 @@ PROGRESS_MIN_DURATION = 5.0  # s of sim time; shorter runs finish before a bar i
 CHUNK = 0.1  # s of sim time between progress updates
 LIVE_CHUNK = 0.02  # s of sim time between viewer updates
 CAR_SPACING = 1.5  # m between the base_links of two cars in a row (--car-spacing)
-TRACK_SUFFIX = ".csv"  # a race-track centerline world: the fleet lines up along it
 ROW_CHECK_HEIGHT = 0.1  # m above the spawn height: the sight line between two cars in a row, under any wall's top
 
 
@@ -121,29 +117,19 @@ def choose_driver(args: argparse.Namespace) -> str:
 
 def _attach_driver(args: argparse.Namespace, sim: Simulator, car: Car) -> object:
     """The run's driver for `car`: its own instance, on the car's topics (`/carK/...` in a fleet)."""
-    navigation, odom = car.topic(NAVIGATION), car.topic(ODOM)
-    if args.driver == "constant":
-        options = {k: default if getattr(args, k) is None else getattr(args, k) for k, default in CONSTANT_DEFAULTS.items()}
-        try:
-            return ConstantCommand(sim.bus, sim.scheduler, options["speed"], options["steering"], options["rate"],
-                                   topic=navigation)
-        except ConfigError as exc:  # the scheduler refuses a rate above the physics rate
-            raise ConfigError(f"--rate: {exc}") from None
-    if args.driver == "wall-follow":
-        if car.lidar is None:
-            raise ConfigError("--driver wall-follow steers by the lidar: drop --no-lidar (or DISABLE_GAZEBO_LASER)")
-        return WallFollower(sim.bus, wall_follow_config(side=args.side, distance=args.distance, speed=args.speed),
-                            topic=navigation, scan_topic=car.lidar.topic, odom_topic=odom)
-    path = args.path or (args.world if _is_track(args.world) else None)
-    if path is None:
+    if args.driver == "wall-follow" and car.lidar is None:
+        raise ConfigError("--driver wall-follow steers by the lidar: drop --no-lidar (or DISABLE_GAZEBO_LASER)")
+    if args.driver == "pure-pursuit" and args.path is None and not _is_track(args.world):
         raise ConfigError("--driver pure-pursuit needs --path FILE.csv (or a track .csv as --world)")
-    wheelbase = VehicleGeometry.from_robot(car.robot).wheelbase  # the loaded xacro's, not the YAML's default
-    return PurePursuit(sim.bus, load_waypoints(path), pure_pursuit_config(speed=args.speed, wheelbase=wheelbase),
-                       topic=navigation, odom_topic=odom)
+    params = {name: getattr(args, name) for name, drivers in OPTION_DRIVERS.items() if args.driver in drivers}
+    try:
+        return attach_driver(sim, car, args.driver, params)
+    except ConfigError as exc:  # the scheduler refuses a rate above the physics rate
+        raise ConfigError(f"--rate: {exc}" if args.driver == "constant" else str(exc)) from None
 
 
 def _is_track(world: object) -> bool:
-    return Path(str(world)).suffix.lower() == TRACK_SUFFIX and Path(str(world)).is_file()
+    return track_file(world) is not None
 
 
 def fleet_spawns(world: World, count: int, spacing: float = CAR_SPACING,
