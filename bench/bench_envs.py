@@ -80,8 +80,8 @@ def batch(world: str, worlds: int, steps: int, rounds: int = 3) -> tuple[float, 
             state[:] = out[:, -1]
         for _ in range(rounds):
             batch_rate = max(batch_rate, rate(lambda: b.step(actions), steps, worlds))
-            for i, d in enumerate(b.datas):  # the bare rollout goes on from the batch's worlds, same setpoints
-                mujoco.mj_getState(model, d, state[i], spec)
+            for i in range(worlds):  # the bare rollout goes on from the batch's worlds, same setpoints
+                mujoco.mj_getState(model, b.world_data(i), state[i], spec)
             ctrl[:] = b.ctrl[:, None, :]
             bare_rate = max(bare_rate, rate(bare, steps, worlds))
     b.close()
@@ -98,8 +98,8 @@ def split(world: str, worlds: int, steps: int) -> tuple[float, float, float]:
     model, nstep = b.model, b.period_ns // b.step_ns
     spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
     state = np.empty((worlds, mujoco.mj_stateSize(model, spec)))
-    for i, d in enumerate(b.datas):
-        mujoco.mj_getState(model, d, state[i], spec)
+    for i in range(worlds):
+        mujoco.mj_getState(model, b.world_data(i), state[i], spec)
     ctrl = np.repeat(b.ctrl[:, None, :], nstep, axis=1)
     out = np.empty((worlds, nstep, state.shape[1]))
     with mujoco.rollout.Rollout(nthread=0) as pool:

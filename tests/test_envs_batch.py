@@ -39,8 +39,8 @@ def test_batch_of_8_matches_8_single_envs():
             for key in obs:
                 np.testing.assert_array_equal(obs[key], b_obs[key][w], err_msg=f"world {w} step {k} {key}")
             assert reward == b_reward[w] and terminated == b_terminated[w]
-        np.testing.assert_allclose(batch.datas[w].qpos, env.sim.data.qpos, rtol=0, atol=1e-9)
-        np.testing.assert_allclose(batch.datas[w].qvel, env.sim.data.qvel, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(batch.qpos[w], env.sim.data.qpos, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(batch.qvel[w], env.sim.data.qvel, rtol=0, atol=1e-9)
         env.close()
     batch.close()
 
@@ -63,6 +63,32 @@ def test_same_step_auto_reset():
     assert obs["speed"][1, 0] > 0.1 and batch.steps[1] == 1
     np.testing.assert_array_equal(batch.qpos[0], batch.template.data.qpos)  # back at the spawn state
     batch.close()
+
+
+def test_reset_world_goes_on_as_a_fresh_one():
+    """The worlds share their threads' MjData: a world reset mid-run holds nothing of its last episode (time, warm
+    start, velocities): it steps on exactly as a new batch's world does, and another world is not disturbed."""
+    rng = np.random.default_rng(3)
+    before, after = rng.uniform(-1, 1, (4, 2, 2)), rng.uniform(-1, 1, (6, 2, 2))
+    batch = DriveBatch(2, world="walker", seeds=[7, 8], max_episode_steps=4)
+    batch.reset()
+    batch.steps[1] = -100  # world 1 goes on
+    for k in range(4):
+        _, _, _, truncated, _ = batch.step(before[k])
+    assert list(truncated) == [True, False]
+    batch.max_episode_steps = None
+    fresh = DriveBatch(1, world="walker", seeds=[7], max_episode_steps=None)
+    fresh.reset()
+    for k in range(6):
+        batch.step(after[k])
+        fresh.step(after[k, :1])
+    mine, new = batch.world_data(0), fresh.world_data(0)
+    for field in ("qpos", "qvel", "qacc_warmstart", "time"):
+        np.testing.assert_array_equal(getattr(mine, field), getattr(new, field), err_msg=field)
+    assert batch.time_ns[0] == fresh.time_ns[0] and batch.time_ns[1] == 10 * batch.period_ns
+    assert np.abs(batch.qvel[1]).max() > 0.1  # world 1 drove on through world 0's reset
+    batch.close()
+    fresh.close()
 
 
 def test_warp_device_without_gpu_is_one_line_error():

@@ -3,13 +3,16 @@
 One `step(actions)` call steps every world one control period. Per world it is what DriveEnv does, without the
 node graph: the command path (the muxes forwarding the navigation command, servo_commands, the controllers'
 clamps) is array code over the batch (batch_command.py), the physics runs in MuJoCo on a pool of threads (each
-world's own MjData, mj_step with the GIL released), and the lidar is one batched 2-D cast (batch_lidar.py) with
+world's full integration state, warm start included, stepped with mj_step on its thread's MjData, the GIL
+released), and the lidar is one batched 2-D cast (batch_lidar.py) with
 each world's noise drawn as the single car draws it. For the same seeds and actions the state matches N
 DriveEnvs / Simulators bit for bit (tests/test_envs_batch.py), and the observations to float32 rounding.
 
-Why not mujoco.rollout: it restarts every rollout from a state vector without the solver's warm start
-(qacc_warmstart), so a rollout per control step drifts from a continuously stepped car by ~1e-9 in qvel after
-40 steps. The bench (bench/bench_envs.py) measures rollout as the bare physics rate to compare against.
+Why not mujoco.rollout: it takes a warm start in (initial_warmstart) but gives back only mjSTATE_FULLPHYSICS, which
+holds no warm start (mjSTATE_WARMSTART), so a chain of rollouts (one per control step, or per crash-check interval)
+cannot carry the solver's qacc_warmstart on and drifts from a continuously stepped car by ~1e-9 in qvel after 40
+steps; nor does it give back the contact list the crash check reads at its instants. The bench
+(bench/bench_envs.py) measures rollout as the bare physics rate to compare against.
 
 Auto-reset: Gymnasium's SAME_STEP mode. A world whose episode ends (terminated: a crash; truncated:
 max_episode_steps) is reset inside that step: the returned observation is the new episode's first, and
@@ -20,6 +23,7 @@ A world's next seed is drawn from its own generator, as DriveEnv.reset() without
 from __future__ import annotations
 
 import os
+import threading
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -57,6 +61,7 @@ DEVICES = ("cpu", "warp")
 MAX_EPISODE_STEPS = 1200
 CHUNK_WORLDS = 64  # at most this many worlds per task of the thread pool
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
+_EXTRA = mujoco.mjtState.mjSTATE_HISTORY | mujoco.mjtState.mjSTATE_PLUGIN | mujoco.mjtState.mjSTATE_PLASTIC
 
 
 class DriveBatch:
@@ -110,8 +115,18 @@ class DriveBatch:
         sim.reset(0)
         self._state0 = np.empty(mujoco.mj_stateSize(self.model, _STATE))
         mujoco.mj_getState(self.model, sim.data, self._state0, _STATE)
-        self.datas = [mujoco.MjData(self.model) for _ in range(num_worlds)]
         n, nq, nv = num_worlds, self.model.nq, self.model.nv
+        # Each world's state is kept in arrays and stepped on its thread's one MjData (an MjData per world: twice the
+        # memory at 1024 worlds, each one's working memory pulled through the cache). Only what mj_step changes is
+        # per world: time, qpos, qvel, act, the warm start (and any history/plugin/plastic state); ctrl is set each
+        # step, the rest (applied forces, mocap, eq_active, userdata) stays at the reset state. Copied as arrays, not
+        # with mj_setState/mj_getState: those release the GIL, and each re-acquisition can wait on another thread.
+        self._rest = self._fresh_data()
+        self._extra0 = np.empty(mujoco.mj_stateSize(self.model, _EXTRA))
+        mujoco.mj_getState(self.model, self._rest, self._extra0, _EXTRA)
+        self._extra = np.zeros((n, len(self._extra0)))
+        self._mj_time, self._act, self._warmstart = np.zeros(n), np.zeros((n, self.model.na)), np.zeros((n, nv))
+        self._scratch = threading.local()
         self.qpos, self.qvel, self.speed = np.zeros((n, nq)), np.zeros((n, nv)), np.zeros(n)
         self.ctrl = np.zeros((n, self.model.nu))
         self.crashed = np.zeros(n, bool)
@@ -196,12 +211,24 @@ class DriveBatch:
             self._pool.shutdown()
             self._pool = None
 
+    def world_data(self, world: int) -> mujoco.MjData:
+        """A new MjData holding world `world`'s current state (what mj_step goes on from; no forward pass run)."""
+        d = self._fresh_data()
+        self._load(d, world)
+        return d
+
     # --- internals ------------------------------------------------------------------------------------
+    def _fresh_data(self) -> mujoco.MjData:
+        """An MjData at the reset state (every world's state at the start of an episode)."""
+        d = mujoco.MjData(self.model)
+        mujoco.mj_setState(self.model, d, self._state0, _STATE)
+        return d
+
     def _reset_worlds(self, worlds: np.ndarray, seeds: np.ndarray) -> None:
-        for i in worlds.tolist():
-            mujoco.mj_setState(self.model, self.datas[i], self._state0, _STATE)
-            self.qpos[i], self.qvel[i] = self.datas[i].qpos, self.datas[i].qvel
-            self.ctrl[i] = self.datas[i].ctrl
+        rest = self._rest
+        self._mj_time[worlds], self.qpos[worlds], self.qvel[worlds] = rest.time, rest.qpos, rest.qvel
+        self._act[worlds], self._warmstart[worlds], self.ctrl[worlds] = rest.act, rest.qacc_warmstart, rest.ctrl
+        self._extra[worlds] = self._extra0
         self.seeds[worlds] = seeds
         self.time_ns[worlds] = 0
         self.steps[worlds] = 0
@@ -228,15 +255,21 @@ class DriveBatch:
             list(self._pool.map(lambda c: self._run_chunk(c, plans, noise), self._chunks))
 
     def _run_chunk(self, chunk: np.ndarray, plans: dict[int, list[int]], noise: list[tuple[int, int]] | None) -> None:
-        m, table, crashed = self.model, self.crash_table, self.crashed
+        m, table, crashed, extra = self.model, self.crash_table, self.crashed, self._extra
+        scratch = self._scratch
+        if not hasattr(scratch, "data"):
+            scratch.data = self._fresh_data()
+        d = scratch.data
         for i in chunk.tolist():
-            d = self.datas[i]
-            d.ctrl[:] = self.ctrl[i]
+            self._load(d, i)
             for n in plans[int(self.time_ns[i])]:
                 mujoco.mj_step(m, d, nstep=n)
                 if not crashed[i] and table.crashed(d):
                     crashed[i] = True
-            self.qpos[i], self.qvel[i] = d.qpos, d.qvel
+            self._mj_time[i], self.qpos[i], self.qvel[i], self._act[i] = d.time, d.qpos, d.qvel, d.act
+            self._warmstart[i] = d.qacc_warmstart
+            if extra.shape[1]:
+                mujoco.mj_getState(m, d, extra[i], _EXTRA)
             # DriveEnv's speed: mj_objectVelocity on the data as mj_step leaves it
             mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_XBODY, self.root_body, self._velocity[i], 1)
             self.speed[i] = self._velocity[i][3]
@@ -244,6 +277,13 @@ class DriveBatch:
         if self.lidar is not None:
             states = noise[chunk[0]:chunk[-1] + 1] if noise is not None else None  # chunks are contiguous
             self.scan[chunk] = self.lidar.scans(self.qpos[chunk], self.seeds[chunk], self.time_ns[chunk], states)
+
+    def _load(self, d: mujoco.MjData, i: int) -> None:
+        """World i's state (and its ctrl) into d."""
+        d.time, d.qpos[:], d.qvel[:], d.act[:] = self._mj_time[i], self.qpos[i], self.qvel[i], self._act[i]
+        d.qacc_warmstart[:], d.ctrl[:] = self._warmstart[i], self.ctrl[i]
+        if self._extra.shape[1]:
+            mujoco.mj_setState(self.model, d, self._extra[i], _EXTRA)
 
     def _observe(self, worlds: np.ndarray) -> None:
         """Scans at the current pose of the chosen worlds, stamped with their time (a reset's first scan)."""

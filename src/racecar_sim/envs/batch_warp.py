@@ -1,25 +1,196 @@
-"""The GPU path of DriveBatch: MuJoCo Warp (`pip install racecar-sim[gpu]`: mujoco-warp, warp-lang) on a CUDA GPU.
+"""The GPU path of DriveBatch: N copies of the sim's MuJoCo model stepped by MuJoCo Warp (the `[gpu]` extra:
+mujoco-warp, warp-lang), on a CUDA GPU, or on Warp's CPU device when asked for explicitly (for tests).
 
-Only the availability check is here so far: DriveBatch(device="warp") says in one line what is missing. The
-CPU path (threads over MuJoCo) always works.
+WarpWorlds holds the worlds on the Warp device; the batch puts states and controls in from host arrays, steps,
+and reads back what it needs after a control step (qpos, qvel, the car body's pose, the contacts for the crash
+check). On CUDA one `step(nsteps)` is a CUDA graph captured once per nsteps and replayed.
+
+MuJoCo Warp computes in float32, so the worlds agree with CPU MuJoCo to ~1e-4 m over a second of driving
+(tests/test_envs_batch_warp.py), not bit for bit as the CPU batch does.
+
+What the sim's model needs adapting: mujoco-warp 4.0.0 has no `pid` gain type (the ros_control controllers'
+actuators, control/controllers.py). A pid actuator with one setpoint input and no integral or slew state is a
+fixed-gain actuator with the same affine bias (force = kp u_pos + kv u_vel - kp l - kv v), so the Warp copy of the
+model uses that; any other pid actuator raises ConfigError. And it has no auto-reset of a diverged state, so the
+copy drops the disable-autoreset flag (the sim sets it) that mujoco-warp rejects.
 """
 
 from __future__ import annotations
 
+import copy
+from typing import Any
+
+import mujoco
+import numpy as np
+
 from racecar_sim.core.errors import ConfigError
 
 GPU_HINT = "install the [gpu] extra (pip install 'racecar-sim[gpu]': mujoco-warp, warp-lang) on a machine with a CUDA GPU"
+WARP_DEVICES = {"warp": "cuda", "warp-cpu": "cpu"}  # DriveBatch's device names -> Warp devices
+NCONMAX = 64  # contacts allocated per world: the car on the ground has 4 to 8; walls and other cars add a few
+_PID_INPUTS = {1: 1, 2: 2, 4: None}  # ctrlspec (mjINPUT_POS, _VEL, _FF) -> biasprm index of its gain (ff: gain 1)
 
 
 def require_warp() -> None:
     """Raise ConfigError (one line) unless mujoco_warp imports and warp sees a CUDA device."""
-    try:
-        import mujoco_warp  # noqa: F401
-        import warp
-    except ImportError:
-        raise ConfigError(f"DriveBatch device='warp' needs MuJoCo Warp: {GPU_HINT}") from None
-    warp.init()
+    _import_warp("warp")
+    import warp
+
     if not warp.get_cuda_device_count():
         raise ConfigError(f"DriveBatch device='warp' needs a CUDA GPU (warp sees none): {GPU_HINT}, or use "
                           "device='cpu'")
-    raise ConfigError("DriveBatch device='warp': the MuJoCo Warp stepping is not implemented yet; use device='cpu'")
+    # DriveBatch does not call WarpWorlds yet: refuse rather than silently run the CPU path
+    raise ConfigError("DriveBatch device='warp': the MuJoCo Warp stepping is not wired into DriveBatch yet; use "
+                      "device='cpu'")
+
+
+def _import_warp(device: str) -> Any:
+    try:
+        import mujoco_warp
+        import warp
+    except ImportError:
+        raise ConfigError(f"DriveBatch device={device!r} needs MuJoCo Warp: {GPU_HINT}") from None
+    warp.config.quiet = True
+    warp.init()
+    return mujoco_warp
+
+
+def warp_model(model: mujoco.MjModel) -> mujoco.MjModel:
+    """A copy of `model` that mujoco-warp can load: pid actuators become the equivalent fixed-gain ones."""
+    model = copy.copy(model)
+    # MuJoCo Warp never resets a diverged world (a NaN state stays NaN), so it refuses a model that asks not to
+    model.opt.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)
+    pid = np.flatnonzero(model.actuator_gaintype == mujoco.mjtGain.mjGAIN_PID)
+    for i in pid.tolist():
+        spec = int(model.actuator_ctrlspec[i])
+        stateful = model.actuator_dyntype[i] != mujoco.mjtDyn.mjDYN_NONE or model.actuator_gainprm[i, 0] != 0.0
+        if spec not in _PID_INPUTS or stateful or model.actuator_biastype[i] != mujoco.mjtBias.mjBIAS_AFFINE:
+            raise ConfigError(f"actuator '{model.actuator(i).name}': MuJoCo Warp runs no pid actuator with integral "
+                              "or slew state or several setpoint inputs; use device='cpu' or drop the controller's "
+                              "i gain")
+        index = _PID_INPUTS[spec]
+        gain = 1.0 if index is None else -model.actuator_biasprm[i, index]
+        model.actuator_gaintype[i] = mujoco.mjtGain.mjGAIN_FIXED
+        model.actuator_gainprm[i] = 0.0
+        model.actuator_gainprm[i, 0] = gain
+        model.actuator_ctrlspec[i] = 0
+    return model
+
+
+class WarpWorlds:
+    """N copies of a MuJoCo model and its state on a Warp device, stepped together by MuJoCo Warp.
+
+    model, data: the sim's model and an initial state (every world starts from it); device: "warp" (CUDA) or
+    "warp-cpu" (Warp's CPU device: slow, for tests); nconmax: contacts allocated per world.
+    """
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, num_worlds: int, device: str = "warp",
+                 nconmax: int = NCONMAX) -> None:
+        if device not in WARP_DEVICES:
+            raise ConfigError(f"WarpWorlds device={device!r} is not one of {', '.join(WARP_DEVICES)}")
+        mjw = _import_warp(device)
+        import warp as wp
+
+        if WARP_DEVICES[device] == "cuda" and not wp.get_cuda_device_count():
+            raise ConfigError(f"device={device!r} needs a CUDA GPU (warp sees none): {GPU_HINT}, or use "
+                              "device='cpu'")
+        self._wp, self._mjw = wp, mjw
+        self.device = wp.get_device(WARP_DEVICES[device])
+        self.num_worlds, self.model = num_worlds, model
+        self.nconmax = nconmax
+        try:
+            adapted = warp_model(model)
+            with wp.ScopedDevice(self.device):
+                self.mw = mjw.put_model(adapted)
+                # pyramidal cones: 2 (condim - 1) rows per contact; elliptic fewer
+                njmax = nconmax * 2 * (int(model.geom_condim.max(initial=1)) - 1 or 1)
+                self.dw = mjw.put_data(adapted, data, nworld=num_worlds, nconmax=nconmax, njmax=njmax)
+                if self.device.is_cuda:  # a graph capture needs every kernel loaded: step a scratch copy once
+                    mjw.step(self.mw, mjw.put_data(adapted, data, nworld=num_worlds, nconmax=nconmax, njmax=njmax))
+        except NotImplementedError as error:  # mujoco-warp names the unsupported feature
+            raise ConfigError(f"MuJoCo Warp cannot run this model: {error}; use device='cpu'") from None
+        self._graphs: dict[int, Any] = {}
+
+    # --- host -> device ---------------------------------------------------------------------------
+    def reset(self, qpos: np.ndarray, qvel: np.ndarray, worlds: np.ndarray | None = None,
+              ctrl: np.ndarray | None = None, qacc_warmstart: np.ndarray | None = None) -> None:
+        """Set the chosen worlds' state (default: all) from host arrays of one row per chosen world; their time
+        and act go to zero, and ctrl and warm start too unless given. xpos and the contacts stay those of the
+        last step until the next one."""
+        rows = np.arange(self.num_worlds) if worlds is None else np.asarray(worlds)
+        for field, value in (("qpos", qpos), ("qvel", qvel), ("ctrl", ctrl), ("qacc_warmstart", qacc_warmstart),
+                             ("act", None), ("time", None)):
+            target = getattr(self.dw, field)
+            if target.size:
+                host = target.numpy()
+                host[rows] = 0.0 if value is None else np.asarray(value).reshape(host[rows].shape)
+                target.assign(host)
+
+    def set_ctrl(self, ctrl: np.ndarray) -> None:
+        """Every world's actuator controls, (N, nu)."""
+        self.dw.ctrl.assign(np.asarray(ctrl, np.float32).reshape(self.num_worlds, self.model.nu))
+
+    # --- stepping -----------------------------------------------------------------------------------
+    def step(self, nsteps: int = 1) -> None:
+        """Every world `nsteps` physics steps on (on CUDA: one graph per nsteps, captured on first use)."""
+        wp, mjw = self._wp, self._mjw
+        with wp.ScopedDevice(self.device):
+            if not self.device.is_cuda:
+                for _ in range(nsteps):
+                    mjw.step(self.mw, self.dw)
+            else:
+                graph = self._graphs.get(nsteps)
+                if graph is None:
+                    with wp.ScopedCapture() as capture:
+                        for _ in range(nsteps):
+                            mjw.step(self.mw, self.dw)
+                    graph = self._graphs[nsteps] = capture.graph
+                wp.capture_launch(graph)
+            wp.synchronize_device(self.device)
+
+    # --- device -> host ---------------------------------------------------------------------------
+    def qpos(self) -> np.ndarray:
+        """(N, nq) float64."""
+        return self.dw.qpos.numpy().astype(np.float64)
+
+    def qvel(self) -> np.ndarray:
+        """(N, nv) float64."""
+        return self.dw.qvel.numpy().astype(np.float64)
+
+    def body_pose(self, body: int) -> tuple[np.ndarray, np.ndarray]:
+        """A body's frame in every world after the last step: xpos (N, 3) and xmat (N, 3, 3), float64."""
+        return (self.dw.xpos.numpy()[:, body].astype(np.float64),
+                self.dw.xmat.numpy()[:, body].reshape(self.num_worlds, 3, 3).astype(np.float64))
+
+    def body_velocity(self, body: int) -> np.ndarray:
+        """(N, 6) [angular, linear] velocity of a body's frame in that frame, after the last step: what
+        mj_objectVelocity(mjOBJ_XBODY, flg_local=1) gives on CPU MuJoCo's data after mj_step (DriveBatch's speed
+        is its [3])."""
+        d = self.dw
+        cvel = d.cvel.numpy()[:, body].astype(np.float64)  # at the subtree centre of mass of the body's root
+        offset = d.xpos.numpy()[:, body] - d.subtree_com.numpy()[:, int(self.model.body_rootid[body])]
+        angular, linear = cvel[:, :3], cvel[:, 3:] - np.cross(offset, cvel[:, :3])
+        xmat = d.xmat.numpy()[:, body].reshape(self.num_worlds, 3, 3).astype(np.float64)
+        return np.concatenate([np.einsum("nji,nj->ni", xmat, angular), np.einsum("nji,nj->ni", xmat, linear)], 1)
+
+    def contacts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The contacts of the last step over all worlds: world (K,), geom pair (K, 2), normal z (K,)."""
+        c = self.dw.contact
+        n = int(self.dw.nacon.numpy()[0])
+        if n > self.dw.naconmax:
+            raise ConfigError(f"MuJoCo Warp found {n} contacts, more than the {self.dw.naconmax} allocated: raise "
+                              "WarpWorlds nconmax")
+        return c.worldid.numpy()[:n], c.geom.numpy()[:n], c.frame.numpy()[:n, 0, 2].astype(np.float64)
+
+    def crashed(self, kind: np.ndarray, support_normal_z: float) -> np.ndarray:
+        """(N,) bool: whether each world's contacts hold a crash under a CrashTable's geom-pair `kind` table
+        (1 crash, 2 crash unless the normal is upright: |normal z| > support_normal_z)."""
+        world, geom, normal_z = self.contacts()
+        pair = kind[geom[:, 0], geom[:, 1]]
+        crash = (pair == 1) | ((pair == 2) & (np.abs(normal_z) <= support_normal_z))
+        out = np.zeros(self.num_worlds, bool)
+        out[world[crash]] = True
+        return out
+
+
+__all__ = ["NCONMAX", "WARP_DEVICES", "WarpWorlds", "require_warp", "warp_model"]
