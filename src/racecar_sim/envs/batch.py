@@ -38,7 +38,7 @@ from racecar_sim.core.time import ceil_to_step, to_ns
 from racecar_sim.envs.batch_command import BatchCommands
 from racecar_sim.envs.batch_lidar import BatchLidar, quat_to_matrices
 from racecar_sim.envs.batch_reward import BatchProgress, CrashTable
-from racecar_sim.envs.crash import CHECK_RATE
+from racecar_sim.envs.crash import CHECK_RATE, SUPPORT_NORMAL_Z
 from racecar_sim.envs.drive import CONTROL_RATE, CRASH_PENALTY, NAVIGATION_TIMEOUT
 from racecar_sim.envs.reward import world_centerline
 from racecar_sim.envs.spaces import (
@@ -57,7 +57,7 @@ from racecar_sim.physics.builder import ROOT_JOINT
 from racecar_sim.runtime.simulator import Simulator
 from racecar_sim.worlds import load_world
 
-DEVICES = ("cpu", "warp")
+DEVICES = ("cpu", "warp", "warp-cpu")
 MAX_EPISODE_STEPS = 1200
 CHUNK_WORLDS = 64  # at most this many worlds per task of the thread pool
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
@@ -68,7 +68,9 @@ class DriveBatch:
     """N worlds of DriveEnv (same keywords), with numpy observations of leading axis N.
 
     seeds: one per world (or one int: world i gets seed + i); threads: worker threads (default: CPU count).
-    device: "cpu", or "warp" (MuJoCo Warp on a CUDA GPU: the `[gpu]` extra; see batch_warp.py).
+    device: "cpu", "warp" (MuJoCo Warp on a CUDA GPU: the `[gpu]` extra; see batch_warp.py) or "warp-cpu" (MuJoCo
+    Warp on Warp's CPU device: slow, for tests). On Warp the physics is float32: the worlds agree with the CPU batch
+    to ~1e-4 m, not bit for bit; lidar, noise and progress stay on the CPU.
     """
 
     def __init__(self, num_worlds: int, world: str | Path = "walker", seeds: int | list[int] | None = None,
@@ -79,10 +81,6 @@ class DriveBatch:
                  sensor_noise: bool = True, threads: int | None = None, device: str = "cpu") -> None:
         if device not in DEVICES:
             raise ConfigError(f"DriveBatch device={device!r} is not one of {', '.join(DEVICES)}")
-        if device == "warp":
-            from racecar_sim.envs.batch_warp import require_warp
-
-            require_warp()
         if not (isinstance(num_worlds, int) and num_worlds >= 1):
             raise ConfigError(f"DriveBatch num_worlds must be a whole number >= 1, got {num_worlds!r}")
         if not (isinstance(control_rate, (int, float)) and 1.0 / NAVIGATION_TIMEOUT < control_rate < float("inf")):
@@ -145,6 +143,11 @@ class DriveBatch:
         self._chunks = [np.arange(k, min(k + per_chunk, n)) for k in range(0, n, per_chunk)]
         self._velocity = [np.zeros(6) for _ in range(n)]
         self._seeds_arg = seeds
+        self.warp = None
+        if device != "cpu":
+            from racecar_sim.envs.batch_warp import WarpWorlds
+
+            self.warp = WarpWorlds(self.model, self._rest, n, device=device)
 
     # --- the batch API ------------------------------------------------------------------------------
     def reset(self, seeds: int | list[int] | None = None) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
@@ -234,6 +237,9 @@ class DriveBatch:
         self.steps[worlds] = 0
         self.crashed[worlds] = False
         self.speed[worlds] = 0.0  # mj_resetData + mj_forward: at rest
+        if self.warp is not None:
+            self.warp.reset(self.qpos[worlds], self.qvel[worlds], worlds, ctrl=self.ctrl[worlds],
+                            qacc_warmstart=self._warmstart[worlds])
         xy, _ = self._planar_pose()
         self.progress.reset(worlds, xy[worlds])
 
@@ -248,7 +254,9 @@ class DriveBatch:
         """Every world one control period on from its own episode time."""
         plans = {start: self._substeps(start, start + self.period_ns) for start in np.unique(self.time_ns).tolist()}
         noise = self.lidar.noise_states(self.seeds, self.time_ns + self.period_ns) if self.lidar else None
-        if self._pool is None:
+        if self.warp is not None:
+            self._run_warp(plans, noise)
+        elif self._pool is None:
             for chunk in self._chunks:
                 self._run_chunk(chunk, plans, noise)
         else:
@@ -277,6 +285,28 @@ class DriveBatch:
         if self.lidar is not None:
             states = noise[chunk[0]:chunk[-1] + 1] if noise is not None else None  # chunks are contiguous
             self.scan[chunk] = self.lidar.scans(self.qpos[chunk], self.seeds[chunk], self.time_ns[chunk], states)
+
+    def _run_warp(self, plans: dict[int, list[int]], noise: list[tuple[int, int]] | None) -> None:
+        """Every world one control period on MuJoCo Warp. Worlds at different episode times check for crashes at
+        different offsets into the period: the period is stepped in segments between the union of those offsets,
+        and after each segment only the worlds whose own plan checks there are looked at."""
+        warp, crashed = self.warp, self.crashed
+        offsets = {start: set(np.cumsum(plan).tolist()) for start, plan in plans.items()}
+        starts = self.time_ns.tolist()
+        warp.set_ctrl(self.ctrl)
+        done = 0
+        for offset in sorted(set().union(*offsets.values())):
+            warp.step(offset - done)
+            done = offset
+            checks_here = np.array([offset in offsets[start] for start in starts])
+            crashed |= warp.crashed(self.crash_table.kind, SUPPORT_NORMAL_Z) & checks_here
+        self.qpos[:], self.qvel[:] = warp.qpos(), warp.qvel()
+        self._mj_time += done * self.model.opt.timestep
+        self._warmstart[:], self._act[:] = warp.qacc_warmstart(), warp.act()
+        self.speed[:] = warp.body_velocity(self.root_body)[:, 3]
+        self.time_ns += self.period_ns
+        if self.lidar is not None:
+            self.scan[:] = self.lidar.scans(self.qpos, self.seeds, self.time_ns, noise)
 
     def _load(self, d: mujoco.MjData, i: int) -> None:
         """World i's state (and its ctrl) into d."""

@@ -31,19 +31,6 @@ NCONMAX = 64  # contacts allocated per world: the car on the ground has 4 to 8; 
 _PID_INPUTS = {1: 1, 2: 2, 4: None}  # ctrlspec (mjINPUT_POS, _VEL, _FF) -> biasprm index of its gain (ff: gain 1)
 
 
-def require_warp() -> None:
-    """Raise ConfigError (one line) unless mujoco_warp imports and warp sees a CUDA device."""
-    _import_warp("warp")
-    import warp
-
-    if not warp.get_cuda_device_count():
-        raise ConfigError(f"DriveBatch device='warp' needs a CUDA GPU (warp sees none): {GPU_HINT}, or use "
-                          "device='cpu'")
-    # DriveBatch does not call WarpWorlds yet: refuse rather than silently run the CPU path
-    raise ConfigError("DriveBatch device='warp': the MuJoCo Warp stepping is not wired into DriveBatch yet; use "
-                      "device='cpu'")
-
-
 def _import_warp(device: str) -> Any:
     try:
         import mujoco_warp
@@ -157,6 +144,14 @@ class WarpWorlds:
         """(N, nv) float64."""
         return self.dw.qvel.numpy().astype(np.float64)
 
+    def qacc_warmstart(self) -> np.ndarray:
+        """(N, nv) float64: the solver's warm start for the next step."""
+        return self.dw.qacc_warmstart.numpy().astype(np.float64)
+
+    def act(self) -> np.ndarray:
+        """(N, na) float64: actuator activations."""
+        return self.dw.act.numpy().astype(np.float64).reshape(self.num_worlds, self.model.na)
+
     def body_pose(self, body: int) -> tuple[np.ndarray, np.ndarray]:
         """A body's frame in every world after the last step: xpos (N, 3) and xmat (N, 3, 3), float64."""
         return (self.dw.xpos.numpy()[:, body].astype(np.float64),
@@ -193,4 +188,4 @@ class WarpWorlds:
         return out
 
 
-__all__ = ["NCONMAX", "WARP_DEVICES", "WarpWorlds", "require_warp", "warp_model"]
+__all__ = ["NCONMAX", "WARP_DEVICES", "WarpWorlds", "warp_model"]
