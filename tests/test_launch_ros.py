@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 import pytest
+from ros_package_helpers import write_package_xml
 
 from racecar_sim.bridges.ros1 import ros_available
 from racecar_sim.bridges.ros1.environment import ros_environment
@@ -53,6 +54,16 @@ LAUNCH = """<launch>
 """
 
 
+def driver_package(tmp_path: Path) -> None:
+    """A user's package `my_driver` under tmp_path/src, its executable scripts/driver.py the DRIVER node."""
+    package = tmp_path / "src" / "my_driver"
+    (package / "scripts").mkdir(parents=True)
+    write_package_xml(package, "my_driver")
+    script = package / "scripts" / "driver.py"
+    script.write_text(DRIVER)
+    script.chmod(0o755)
+
+
 @pytest.fixture
 def master():
     core = Master(None, ros_environment(None, None), port=None)
@@ -61,14 +72,7 @@ def master():
 
 
 def test_a_users_ros_node_from_the_launch_drives_the_car(master, tmp_path, monkeypatch):
-    package = tmp_path / "src" / "my_driver"
-    (package / "scripts").mkdir(parents=True)
-    (package / "package.xml").write_text("<package format='2'><name>my_driver</name><version>1.0.0</version>"
-                                         "<description>d</description><maintainer email='a@b.c'>m</maintainer>"
-                                         "<license>BSD</license></package>")
-    script = package / "scripts" / "driver.py"
-    script.write_text(DRIVER)
-    script.chmod(0o755)
+    driver_package(tmp_path)
     (tmp_path / "drive.launch").write_text(LAUNCH)
     monkeypatch.setenv("ROS_PACKAGE_PATH", str(tmp_path / "src"))
     setup = map_plan(load_launch(tmp_path / "drive.launch"), ros=True, camera=False, lidar=False)
@@ -106,12 +110,7 @@ def test_a_carless_launch_file_joins_a_running_sim(master, tmp_path, monkeypatch
     from racecar_sim.bridges.ros1 import RosBridge
     from racecar_sim.runtime import Simulator
 
-    package = tmp_path / "src" / "my_driver"
-    (package / "scripts").mkdir(parents=True)
-    (package / "package.xml").write_text("<package format='2'><name>my_driver</name><version>1.0.0</version>"
-                                         "<description>d</description><maintainer email='a@b.c'>m</maintainer>"
-                                         "<license>BSD</license></package>")
-    (package / "scripts" / "driver.py").write_text(DRIVER)
+    driver_package(tmp_path)
     (tmp_path / "teleop.launch").write_text(TELEOP_LAUNCH)
     monkeypatch.setenv("ROS_PACKAGE_PATH", str(tmp_path / "src"))
     monkeypatch.setenv("ROS_MASTER_URI", master.uri)

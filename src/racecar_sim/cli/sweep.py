@@ -45,7 +45,7 @@ def main(args: argparse.Namespace) -> int:
     check_folder("--out", out)
     episodes = len(spec.episodes())
     where = "here, one by one" if args.local else f"on Ray ({args.address or 'local or RAY_ADDRESS'})"
-    print(f"sweep {args.file}: {episodes} episodes of {spec.duration:g} s sim, {where}", file=sys.stderr)
+    print(f"sweep {args.file}: {episodes} episodes of {spec.settings.duration:g} s sim, {where}", file=sys.stderr)
     bar = tqdm(total=episodes, unit="episode", file=sys.stderr)
 
     def progress(row: dict[str, Any]) -> None:

@@ -10,21 +10,14 @@ from typing import Any
 
 from racecar_sim.control.teleop import KeyboardTeleop
 from racecar_sim.core.errors import ConfigError
-from racecar_sim.description.vehicle import VehicleGeometry
-from racecar_sim.drivers import (
-    ConstantCommand,
-    PurePursuit,
-    WallFollower,
-    load_waypoints,
-    pure_pursuit_config,
-    wall_follow_config,
-)
 from racecar_sim.launch.errors import LaunchError
 from racecar_sim.launch.mapping import DriverSpec, SimSetup
 from racecar_sim.runtime import Simulator
+from racecar_sim.runtime.driving import attach_driver
 
 log = logging.getLogger("racecar_sim.launch")
-CONSTANT_DEFAULTS = {"speed": 1.0, "steering": 0.0, "rate": 20.0}
+# a launch file's driver node types and the run command's driver names
+DRIVER_NAMES = {"wall_follow": "wall-follow", "pure_pursuit": "pure-pursuit", "constant": "constant"}
 
 
 class LaunchRun:
@@ -50,27 +43,9 @@ class LaunchRun:
             raise
 
     def _driver(self, spec: DriverSpec) -> object:
-        sim, params = self.sim, dict(spec.params)
         try:
-            if spec.kind == "wall_follow":
-                return WallFollower(sim.bus, wall_follow_config(**params), spec.topic, spec.scan_topic, spec.odom_topic)
-            if spec.kind == "pure_pursuit":
-                path = params.pop("path", None)
-                if not path:
-                    raise LaunchError(spec.node.where, "pure_pursuit needs a path param (a waypoint CSV)",
-                                      "add <param name=\"path\" value=\"FILE.csv\"/> to the node")
-                wheelbase = VehicleGeometry.from_robot(sim.car_named(spec.car).robot).wheelbase
-                config = pure_pursuit_config(**{"wheelbase": wheelbase, **params})
-                return PurePursuit(sim.bus, load_waypoints(path), config, spec.topic, spec.odom_topic)
-            unknown = sorted(set(params) - set(CONSTANT_DEFAULTS))
-            if unknown:
-                raise LaunchError(spec.node.where, f"constant has no param {unknown[0]!r}",
-                                  f"use {', '.join(CONSTANT_DEFAULTS)}")
-            options = {**CONSTANT_DEFAULTS, **params}
-            return ConstantCommand(sim.bus, sim.scheduler, float(options["speed"]), float(options["steering"]),
-                                   float(options["rate"]), spec.topic)
-        except LaunchError:
-            raise
+            return attach_driver(self.sim, self.sim.car_named(spec.car), DRIVER_NAMES[spec.kind], spec.params,
+                                 spec.topic, spec.scan_topic, spec.odom_topic)
         except (ConfigError, TypeError, ValueError) as exc:
             raise LaunchError(spec.node.where, f"{spec.kind}: {' '.join(str(exc).split())}",
                               "fix the node's private params") from None

@@ -49,8 +49,12 @@ def track_file(world: object) -> Path | None:
     return path if path.suffix.lower() == TRACK_SUFFIX and path.is_file() else None
 
 
-def attach_driver(sim: Simulator, car: Car, driver: str, params: Mapping[str, object] | None = None) -> object:
+def attach_driver(sim: Simulator, car: Car, driver: str, params: Mapping[str, object] | None = None,
+                  topic: str | None = None, scan_topic: str | None = None, odom_topic: str | None = None) -> object:
     """A new `driver` node for `car`, on its topics (`/carK/...` in a fleet), commanding the navigation mux input.
+
+    `topic`, `scan_topic`, `odom_topic`: other topics than the car's navigation input, scan and odometry (a
+    launch file's remaps).
 
     `params` override the driver's defaults (None values keep them); pure-pursuit's `path` defaults to the world's
     track CSV and its wheelbase to the car's own. ConfigError (one line) for an unknown driver or parameter, a
@@ -61,7 +65,7 @@ def attach_driver(sim: Simulator, car: Car, driver: str, params: Mapping[str, ob
     unknown = sorted(set(params) - set(known))
     if unknown:
         raise ConfigError(f"{driver} has no parameter {unknown[0]!r} (it takes: {', '.join(known)})")
-    navigation, odom = car.topic(NAVIGATION), car.topic(ODOM)
+    navigation, odom = topic or car.topic(NAVIGATION), odom_topic or car.topic(ODOM)
     if driver == "constant":
         options = {name: finite_number(value, f"constant: {name}")
                    for name, value in {**CONSTANT_DEFAULTS, **params}.items()}
@@ -69,10 +73,10 @@ def attach_driver(sim: Simulator, car: Car, driver: str, params: Mapping[str, ob
         return ConstantCommand(sim.bus, sim.scheduler, options["speed"], options["steering"], options["rate"],
                                topic=navigation)
     if driver == "wall-follow":
-        if car.lidar is None:
+        if car.lidar is None and scan_topic is None:  # a given scan topic may be fed from elsewhere (ROS)
             raise ConfigError("wall-follow steers by the lidar: the car needs its lidar on")
-        return WallFollower(sim.bus, wall_follow_config(**params), topic=navigation, scan_topic=car.lidar.topic,
-                            odom_topic=odom)
+        return WallFollower(sim.bus, wall_follow_config(**params), topic=navigation,
+                            scan_topic=scan_topic or car.lidar.topic, odom_topic=odom)
     path = params.pop("path", None) or track_file(sim.world.source)
     if path is None:
         raise ConfigError("pure-pursuit needs a path: a waypoint CSV (x,y[,speed]) or a track centerline, or a track "

@@ -31,23 +31,24 @@ def run_episode(episode: Episode, folder: str | Path) -> dict[str, Any]:
     """
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
+    settings = episode.settings
     row: dict[str, Any] = {"index": episode.index, "world": episode.world_label, "driver": episode.driver,
-                           "seed": episode.seed, "params": dict(episode.params), "duration": episode.duration}
+                           "seed": episode.seed, "params": dict(episode.params), "duration": settings.duration}
     start = time.perf_counter()
     sim = runlog = contacts = None
     error = ""
     try:
-        sim = Simulator(world=episode.world, profile=episode.profile, seed=episode.seed, physics=episode.physics,
-                        lidar=episode.lidar, camera=episode.camera, sensor_noise=episode.noise)
+        sim = Simulator(world=episode.world, profile=settings.profile, seed=episode.seed, physics=settings.physics,
+                        lidar=settings.lidar, camera=settings.camera, sensor_noise=settings.noise)
         attach_driver(sim, sim.car, episode.driver, episode.params)
-        if episode.record:
+        if settings.record:
             sim.record(folder / MCAP)
         runlog = RunLog(sim.bus, sim.lidar.topic if sim.lidar else None,
-                        sim.camera.spec.image_topic if sim.camera and episode.summary_png else None, odom_topic=ODOM)
+                        sim.camera.spec.image_topic if sim.camera and settings.summary_png else None, odom_topic=ODOM)
         contacts = CrashCounter(sim.model, sim.car)
         sim.scheduler.every(CHECK_RATE, lambda now: contacts.update(sim.data, now), "sweep crash count")
         start = time.perf_counter()  # the episode's own time: building the world is not the sim's speed
-        sim.run_until(episode.duration)
+        sim.run_until(settings.duration)
     except RacecarSimError as exc:
         error = f"{type(exc).__name__}: {' '.join(str(exc).split())}"
     # a bug in one episode must not lose the sweep's other results
@@ -61,7 +62,7 @@ def run_episode(episode: Episode, folder: str | Path) -> dict[str, Any]:
     row.update(_measures(sim, runlog, contacts, wall))
     row["error"] = error
     (folder / SUMMARY_JSON).write_text(json.dumps(_json_safe(row), indent=2) + "\n")
-    if episode.summary_png and sim is not None and runlog is not None:
+    if settings.summary_png and sim is not None and runlog is not None:
         _summary_png(episode, sim, runlog, row, folder / SUMMARY_PNG)
     return row
 

@@ -63,14 +63,9 @@ class DriverGrid:
 
 
 @dataclass(frozen=True)
-class Episode:
-    """One cell of the grid: a world, a driver with its parameter values, a seed, and the shared settings."""
+class RunSettings:
+    """What every episode of a sweep shares: its sim time, sensors, physics, profile and what it writes."""
 
-    index: int
-    world: str
-    driver: str
-    params: dict[str, Any]
-    seed: int
     duration: float
     camera: bool = False
     lidar: bool = True
@@ -79,6 +74,18 @@ class Episode:
     profile: str = "seed"
     record: bool = True
     summary_png: bool = False
+
+
+@dataclass(frozen=True)
+class Episode:
+    """One cell of the grid: a world, a driver with its parameter values, a seed, and the shared settings."""
+
+    index: int
+    world: str
+    driver: str
+    params: dict[str, Any]
+    seed: int
+    settings: RunSettings
 
     @property
     def world_label(self) -> str:
@@ -96,25 +103,16 @@ class SweepSpec:
     """A sweep file read and checked: `episodes()` is the grid, worlds outermost, seeds innermost."""
 
     source: str
-    duration: float
     worlds: list[str]
     seeds: list[int]
     drivers: list[DriverGrid]
-    camera: bool = False
-    lidar: bool = True
-    noise: bool = True
-    physics: str = "default"
-    profile: str = "seed"
-    record: bool = True
-    summary_png: bool = False
+    settings: RunSettings
 
     def episodes(self) -> list[Episode]:
         """Every world x driver x parameter combination x seed, numbered from 0."""
-        shared = {name: getattr(self, name) for name in ("duration", "camera", "lidar", "noise", "physics", "profile",
-                                                         "record", "summary_png")}
         cells = [(world, grid.driver, params, seed) for world in self.worlds for grid in self.drivers
                  for params in grid.combinations() for seed in self.seeds]
-        return [Episode(i, world, driver, params, seed, **shared)
+        return [Episode(i, world, driver, params, seed, self.settings)
                 for i, (world, driver, params, seed) in enumerate(cells)]
 
     @property
@@ -160,8 +158,8 @@ def load_sweep(path: str | Path) -> SweepSpec:
         if grid.driver == "pure-pursuit" and "path" not in grid.params and pathless:
             raise ConfigError(f"{path}: drivers[{k}].params.path: pure-pursuit needs a path (a waypoint CSV) on "
                               f"{pathless[0]!r}, which is not a track .csv")
-    return SweepSpec(str(path), duration, worlds, _seeds(data["seeds"], where("seeds")), drivers, physics=physics,
-                     profile=profile, **flags)
+    return SweepSpec(str(path), worlds, _seeds(data["seeds"], where("seeds")), drivers,
+                     RunSettings(duration, physics=physics, profile=profile, **flags))
 
 
 def _flag(data: dict, name: str, default: bool, where: str) -> bool:

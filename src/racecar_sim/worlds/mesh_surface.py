@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
+from racecar_sim.core.geometry import convex_hull
 from racecar_sim.worlds.world import Mesh
 
 SLAB_THICKNESS = 1e-3  # m, behind each flat piece: thin enough to stay inside any wall, thick enough for qhull
@@ -87,7 +88,7 @@ class _Surface:
         faces = self.faces[region]
         area = _signed_areas(flat, faces)
         faces = np.where((area < 0)[:, None], faces[:, ::-1], faces)  # a face wound against the rest: turn it
-        hull = _convex_hull(flat[used])
+        hull = convex_hull(flat[used])
         hull_area = _polygon_area(hull)
         if abs(np.abs(area).sum() - hull_area) <= _AREA_TOL * hull_area:
             polygons = [hull]
@@ -156,24 +157,6 @@ def _signed_areas(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
 def _polygon_area(points: np.ndarray) -> float:
     x, y = points[:, 0], points[:, 1]
     return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
-
-
-def _convex_hull(points: np.ndarray) -> np.ndarray:
-    """The 2-D convex hull, counter-clockwise, by Andrew's monotone chain (no qhull: nothing printed)."""
-    pts = sorted(set(map(tuple, points.tolist())))
-    if len(pts) < 3:
-        return np.array(pts)
-
-    def half(seq: list) -> list:
-        chain: list = []
-        for p in seq:
-            while len(chain) >= 2 and ((chain[-1][0] - chain[-2][0]) * (p[1] - chain[-2][1])
-                                       - (chain[-1][1] - chain[-2][1]) * (p[0] - chain[-2][0])) <= 0:
-                chain.pop()
-            chain.append(p)
-        return chain
-
-    return np.array(half(pts)[:-1] + half(pts[::-1])[:-1])
 
 
 def _root(owner: list[int], i: int) -> int:
