@@ -29,6 +29,7 @@ from racecar_sim.runtime import Simulator
 from racecar_sim.sensors.lidar import LidarPublisher
 
 MAP_SIZE, MAP_RESOLUTION = (60.0, 40.0), 0.05  # m, m per cell
+SPAWN_INSET = 2.6  # m from the map's lower left corner to the spawn pose, between the walls
 
 
 def write_map(folder: Path, seed: int) -> Path:
@@ -45,9 +46,11 @@ def write_map(folder: Path, seed: int) -> Path:
         r, c = rng.integers(10, rows - 30), rng.integers(10, cols - 30)
         h, w = rng.integers(3, 20, 2)
         occupied[r:r + h, c:c + w] = True
+    spawn = round(SPAWN_INSET / MAP_RESOLUTION)  # the world's spawn pose (0, 0) lies SPAWN_INSET m in, kept clear
+    occupied[-spawn - 20:-spawn + 20, spawn - 20:spawn + 20] = False
     Image.fromarray(np.where(occupied, 0, 254).astype(np.uint8)).save(folder / "clutter.pgm")
     path = folder / "clutter.yaml"
-    path.write_text(f"image: clutter.pgm\nresolution: {MAP_RESOLUTION}\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n"
+    path.write_text(f"image: clutter.pgm\nresolution: {MAP_RESOLUTION}\norigin: [{-SPAWN_INSET}, {-SPAWN_INSET}, 0.0]\nnegate: 0\n"
                     "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
     return path
 

@@ -407,3 +407,21 @@ def test_osmesa_renders_when_chosen_or_when_egl_fails(env):
     backend, sky, ground = out.split()
     assert backend == "osmesa" and abs(int(sky) - 178) <= 1 and 60 < int(ground) < 230, out
     assert "Traceback" not in result.stderr and "Exception ignored" not in result.stderr, result.stderr
+
+
+@needs_gl
+def test_compiled_frame_noise_is_gazebos_noise_from_the_noise_table():
+    from racecar_sim.core.rng import NoiseTable
+    from racecar_sim.sensors.camera import add_noise
+
+    sim = camera_sim(seed=4)
+    camera = sim.camera
+    camera.noise = False
+    clean = camera.capture(2_000_000_000)
+    camera.noise = True
+    noisy = camera.capture(2_000_000_000)
+    unit = NoiseTable.shared("camera", HEIGHT * WIDTH, np.float32).sample(camera.seed ^ camera._stream_key,
+                                                                           2_000_000_000)
+    assert np.array_equal(noisy, add_noise(clean, unit, 0.0, 0.007 * 255))  # numpy's reference, value for value
+    assert not np.array_equal(noisy, camera.capture(2_033_333_333 - 1)), "another stamp, other noise"
+    sim.close()

@@ -115,8 +115,10 @@ def test_derived_dimensions(robot):
 def test_mujoco_model_merges_fixed_links_like_gazebo():
     sim = Simulator()
     m = sim.model
-    bodies = {m.body(i).name for i in range(1, m.nbody)}
+    car = m.body("base_link").id
+    bodies = {m.body(i).name for i in range(1, m.nbody) if m.body_rootid[i] == car}
     assert bodies == {"base_link", *WHEELS, *HINGES}  # Gazebo's 7 links
+    assert all(m.body_jntnum[i] == 0 for i in range(1, m.nbody) if m.body_rootid[i] != car)  # the rest: static world
     base = m.body("base_link")
     assert base.mass[0] == pytest.approx(4.13003)  # chassis + laser + the three camera links
     # centre of mass of the merged base: mass-weighted mean of its parts (original_stack.md §1.4)

@@ -1,6 +1,5 @@
 """The native batch (envs/batch.py) against single DriveEnvs (same seeds and actions: same state and observations), and
-its parts against independent references: the batched cast of tilted scans against MuJoCo's rays, the noise against
-sample_stream."""
+its parts against independent references: the batched cast of tilted scans against MuJoCo's rays."""
 
 from __future__ import annotations
 
@@ -11,10 +10,7 @@ import numpy as np
 import pytest
 
 from racecar_sim.core.errors import ConfigError
-from racecar_sim.core.rng import sample_stream
 from racecar_sim.envs.batch import DriveBatch
-from racecar_sim.envs.batch_lidar import quat_to_matrices
-from racecar_sim.envs.batch_noise import ScanNoise
 from racecar_sim.envs.drive import DriveEnv
 from racecar_sim.physics import COLLISION_GROUP
 from racecar_sim.sensors.raycast import RayCaster
@@ -120,9 +116,7 @@ def test_batched_cast_of_tilted_scans_matches_mujoco_rays():
     model = copy.copy(batch.model)
     data = mujoco.MjData(model)
     caster = RayCaster(model, data, lidar.fan, batch.root_body, COLLISION_GROUP)
-    rotation = quat_to_matrices(qpos[:, root + 3:root + 7])
-    origin = qpos[:, root:root + 3] + rotation @ lidar.local_origin
-    axes = rotation @ lidar.local_axes
+    origin, axes = lidar.mount.poses(qpos)  # LaserMount is checked against MuJoCo's kinematics in test_laser_mount.py
     for k in range(len(tilts)):
         data.qpos[:] = qpos[k]
         mujoco.mj_kinematics(model, data)
@@ -134,15 +128,3 @@ def test_batched_cast_of_tilted_scans_matches_mujoco_rays():
     assert len(fallback) == 0  # all answered by the batched cast, none by a RayCaster
     assert ranges[-1][0] < level[-1][0] - 0.5  # tail pitched down 15 degrees: the rear beams meet the floor's top
     batch.close()
-
-
-def test_scan_noise_of_a_batch_is_sample_stream_bit_for_bit():
-    """The batch's noise generators, set up as array code, draw what sample_stream(seed, name, stamp) draws, for
-    seeds and stamps of one and two 32-bit words and zero."""
-    seeds = np.array([0, 1, 100, 2**31 - 1, 2**32 - 1, 2**32, 2**40, 7])
-    stamps = np.array([0, 50_000_000, 2**32 - 1, 2**32, 1, 2**62, 123_456_789_000, 0])
-    noise = ScanNoise("car1/scan", 0.0, 0.01, 16)
-    ranges = np.zeros((len(seeds), 16))
-    noise.add(ranges, noise.states(seeds, stamps))
-    for i, (seed, stamp) in enumerate(zip(seeds.tolist(), stamps.tolist())):
-        np.testing.assert_array_equal(ranges[i], sample_stream(seed, "car1/scan", stamp).normal(0.0, 0.01, 16))

@@ -1,8 +1,9 @@
 """The main job: `racecar-sim run` with no arguments (here shortened by --duration) leaves runs/<time>/ with the
-MCAP, summary.png and camera.mp4, and prints the summary."""
+MCAP (camera images as JPEG CompressedImage), summary.png and camera.mp4, and prints the summary."""
 
 from __future__ import annotations
 
+import io
 import subprocess
 import sys
 
@@ -34,12 +35,17 @@ def test_run_with_no_arguments_writes_the_run_folder(tmp_path):
 
     with AnyReader([folder / "run.mcap"], default_typestore=get_typestore(Stores.EMPTY)) as reader:
         counts = {c.topic: c.msgcount for c in reader.connections}
-        assert counts["/scan"] == 160 and counts["/camera/zed/rgb/image_rect_color"] == 120
+        # camera images as ROS users record them: JPEG CompressedImage on .../compressed (raw with --raw-images)
+        assert counts["/scan"] == 160 and counts["/camera/zed/rgb/image_rect_color/compressed"] == 120
+        assert "/camera/zed/rgb/image_rect_color" not in counts
         assert counts["/vesc/odom"] == 80 and counts["/vesc/ackermann_cmd_mux/input/navigation"] == 160
-        images = [c for c in reader.connections if c.topic == "/camera/zed/rgb/image_rect_color"]
+        images = [c for c in reader.connections if c.topic == "/camera/zed/rgb/image_rect_color/compressed"]
         connection, _, raw = next(reader.messages(connections=images))
         image = reader.deserialize(raw, connection.msgtype)
-        assert (image.width, image.height, image.encoding) == (640, 480, "bgr8") and len(image.data) == 640 * 480 * 3
+        assert connection.msgtype == "sensor_msgs/msg/CompressedImage"
+        assert image.format == "bgr8; jpeg compressed bgr8"
+        with Image.open(io.BytesIO(bytes(image.data))) as jpeg:
+            assert jpeg.format == "JPEG" and jpeg.size == (640, 480)
 
     with av.open(str(folder / "camera.mp4")) as video:
         stream = video.streams.video[0]

@@ -117,6 +117,8 @@ SAMPLES: dict[str, Callable[[np.random.Generator], Message]] = {
     ),
     "sensor_msgs/msg/LaserScan": _laser_scan,
     "sensor_msgs/msg/Image": _image,
+    "sensor_msgs/msg/CompressedImage": lambda rng: msgs.sensor_msgs.CompressedImage(
+        _stamped(33_000_000, "camera_link"), "bgr8; jpeg compressed bgr8", rng.bytes(1001)),
     "sensor_msgs/msg/RegionOfInterest": lambda _: msgs.RegionOfInterest(1, 2, 3, 4, True),
     "sensor_msgs/msg/CameraInfo": lambda _: _camera_info(),
     "tf2_msgs/msg/TFMessage": lambda _: msgs.TFMessage(

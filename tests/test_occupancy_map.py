@@ -13,6 +13,7 @@ from PIL import Image
 from conftest import run_cli_error
 from racecar_sim import Simulator
 from racecar_sim.core.errors import WorldError
+from racecar_sim.drivers import ConstantCommand
 from racecar_sim.physics.builder import COLLISION_GROUP
 from racecar_sim.worlds import load_world
 from racecar_sim.worlds.occupancy_map import occupied_cells
@@ -99,6 +100,72 @@ def test_solid_block_is_one_rectangle_and_room_outline_four():
     assert cell_rectangles(block) == [(5, 3, 25, 37)]
     assert cell_rectangles(np.zeros((3, 3), dtype=bool)) == []
     assert len(cell_rectangles(room_image() == OCCUPIED)) == 5  # four walls and the pillar
+
+
+def test_a_wall_meeting_another_is_two_boxes_and_an_askew_wall_one_per_step():
+    tee = np.zeros((12, 12), dtype=bool)
+    tee[1:11, 5] = True  # a wall with another branching off its middle: merging rows would cut it in three
+    tee[6, 6:11] = True
+    assert sorted(cell_rectangles(tee)) == [(1, 5, 11, 6), (6, 6, 7, 11)]
+    askew = np.zeros((10, 100), dtype=bool)
+    askew[np.arange(100) // 10, np.arange(100)] = True  # a wall at 1 in 10, as a scan draws it: ten steps
+    assert cell_rectangles(askew) == [(k, 10 * k, k + 1, 10 * k + 10) for k in range(10)]
+
+
+def scanned_map() -> np.ndarray:
+    """A scanned map's occupancy (row 0 on top): one-cell walls at several angles, a thick wall, speckle."""
+    rng = np.random.default_rng(7)
+    grid = np.zeros((160, 200), dtype=bool)
+    for (r0, c0), (r1, c1) in [((5, 5), (5, 195)), ((5, 5), (155, 12)), ((155, 12), (150, 195)),
+                               ((20, 40), (120, 140)), ((30, 150), (140, 170))]:  # 0, 3, 2, 45 and 80 degrees
+        n = max(abs(r1 - r0), abs(c1 - c0)) + 1
+        grid[np.rint(np.linspace(r0, r1, n)).astype(int), np.rint(np.linspace(c0, c1, n)).astype(int)] = True
+    grid[60:64, 20:90] = True
+    grid[tuple(rng.integers(0, 160, (2, 80)))] = True
+    grid[tuple(rng.integers(0, 160, (2, 80)) + [[0], [40]])] = True
+    return grid
+
+
+def test_scanned_map_merges_into_few_boxes_on_exactly_its_occupied_cells(tmp_path):
+    """The compiled model's wall boxes, read back from MuJoCo, cover each occupied cell once and nothing else."""
+    occupied = scanned_map()
+    image = np.where(occupied, OCCUPIED, FREE).astype(np.uint8)
+    sim = Simulator(world=str(write_map(tmp_path, image, (-1.0, -1.0, 0.0), name="scan")), lidar=False,
+                    camera=False)
+    model, data = sim.model, sim.data
+    walls = [g for g in range(model.ngeom) if model.geom(g).name.startswith("map_wall")
+             and model.geom_group[g] == COLLISION_GROUP]
+    assert all(model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX for g in walls)
+    assert len(walls) < occupied.sum() / 4
+    rows = occupied.shape[0]
+    coverage = np.zeros(occupied.shape, dtype=int)
+    for g in walls:
+        np.testing.assert_allclose(data.geom_xmat[g], np.eye(3).ravel(), atol=1e-12)
+        lo = (data.geom_xpos[g][:2] - model.geom_size[g][:2] - (-1.0, -1.0)) / RES
+        hi = (data.geom_xpos[g][:2] + model.geom_size[g][:2] - (-1.0, -1.0)) / RES
+        np.testing.assert_allclose(np.r_[lo, hi], np.round(np.r_[lo, hi]), atol=1e-6)  # on cell boundaries
+        c0, y0, c1, y1 = np.round(np.r_[lo, hi]).astype(int)
+        coverage[rows - y1:rows - y0, c0:c1] += 1
+    np.testing.assert_array_equal(coverage, occupied.astype(int))
+
+
+def test_the_car_stops_at_the_face_of_the_occupied_cells(tmp_path):
+    """Driving straight into a wall of cells, the car touches it on the cells' edge and goes no further."""
+    image = np.full((40, 120), FREE, dtype=np.uint8)
+    image[:, 80:83] = OCCUPIED  # the wall's near face at column 80: x = -2 + 80 * 0.05 = 2.0 m
+    image[10, 40:60] = OCCUPIED  # a thin wall beside the car's path, so that the map is several boxes
+    sim = Simulator(world=str(write_map(tmp_path, image, (-2.0, -1.0, 0.0), name="wall")), lidar=False,
+                    camera=False)
+    ConstantCommand(sim.bus, sim.scheduler, 1.0, 0.0)
+    touches = []
+    for k in range(40):
+        sim.run_until(0.1 * (k + 1))
+        for contact in sim.data.contact[:sim.data.ncon]:
+            names = [sim.model.geom(g).name for g in contact.geom]
+            if any(n.startswith("map_wall") for n in names):
+                touches.append(contact.pos[0] + 0.5 * contact.dist)  # the wall's side of the contact
+    assert touches, "the car never reached the wall"
+    np.testing.assert_allclose(touches, 2.0, atol=2e-3)
 
 
 # --- loading a map ------------------------------------------------------------------------------------------------

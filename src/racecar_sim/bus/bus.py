@@ -7,7 +7,7 @@ is a pure function of its inputs.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -22,12 +22,13 @@ class Subscription:
     bus: Bus
     topic: str
     callback: Callback
+    feeds: tuple[tuple[str, type], ...] = ()  # (topic, message class) it publishes one message on per message
 
     def unsubscribe(self) -> None:
         self.bus._unsubscribe(self)
 
 
-@dataclass
+@dataclass(slots=True)
 class _Topic:
     msgtype: type | None = None
     subscribers: list[Subscription] = field(default_factory=list)
@@ -35,6 +36,14 @@ class _Topic:
     last: Any = None
     count: int = 0
     declared: type | None = None  # the message class a subscriber said it takes (what a bridge subscribes as)
+    callbacks: tuple[Callback, ...] = ()  # the subscribers' callbacks, rebuilt when they change: publish copies nothing
+    plain: bool = False  # a subscriber that listens for itself (not only to feed other topics)
+    feeds: tuple[tuple[str, type], ...] = ()  # what the other subscribers publish per message
+
+    def refresh(self) -> None:
+        self.callbacks = tuple(sub.callback for sub in self.subscribers)
+        self.plain = any(not sub.feeds for sub in self.subscribers)
+        self.feeds = tuple(feed for sub in self.subscribers for feed in sub.feeds)
 
 
 @dataclass
@@ -95,30 +104,51 @@ class Bus:
 
     def publish(self, topic: str, msg: Any) -> None:
         """Deliver `msg` to the topic's subscribers and taps now."""
-        t = self._topic(topic)
-        if t.msgtype is None:
+        t = self._topics.get(topic) or self._topic(topic)
+        if type(msg) is not t.msgtype:
+            if t.msgtype is not None:
+                raise TypeError(f"topic {topic} carries {t.msgtype.__name__}, got {type(msg).__name__}")
             t.msgtype = type(msg)
-        elif type(msg) is not t.msgtype:
-            raise TypeError(f"topic {topic} carries {t.msgtype.__name__}, got {type(msg).__name__}")
         t.count += 1
         if t.latched:
             t.last = msg
-        for tap in self._taps:
-            tap(topic, msg)
-        for sub in list(t.subscribers):
-            sub.callback(msg)
+        if self._taps:
+            for tap in self._taps:
+                tap(topic, msg)
+        for callback in t.callbacks:  # those subscribed when delivery began, as a copy of the list would be
+            callback(msg)
 
-    def subscribe(self, topic: str, callback: Callback, msgtype: type | None = None) -> Subscription:
+    def tally(self, topic: str, msgtype: type) -> None:
+        """Count a message of class `msgtype` on `topic` that nobody would receive (has_listeners() is False), without
+        the message being made: topics() and count() read as if it had been published. Not for a latched topic (a
+        late subscriber would get its last message)."""
+        t = self._topics.get(topic) or self._topic(topic)
+        if t.latched:
+            raise ValueError(f"topic {topic} is latched: publish its messages")
+        if t.msgtype is None:
+            t.msgtype = msgtype
+        elif msgtype is not t.msgtype:
+            raise TypeError(f"topic {topic} carries {t.msgtype.__name__}, got {msgtype.__name__}")
+        t.count += 1
+        for feed, feed_type in t.feeds:  # what its subscribers would have published in turn, unheard as well
+            self.tally(feed, feed_type)
+
+    def subscribe(self, topic: str, callback: Callback, msgtype: type | None = None,
+                  feeds: Mapping[str, type] | None = None) -> Subscription:
         """Call `callback(msg)` for every message on `topic`; a latched topic's last message is delivered at once.
 
         `msgtype`: the message class the subscriber takes, declared by nodes that take commands from outside (the
         muxes' inputs, the controllers' commands) so that a bridge can subscribe to them before anyone publishes.
+        `feeds` ({topic: message class}), for a node that only turns each message into one message on each of those
+        topics (robot_state_publisher: a joint state into a /tf message): it listens only while someone listens
+        there (has_listeners), and a message tallied on `topic` is tallied there too. No cycles.
         """
         t = self._topic(topic)
         if msgtype is not None:
             t.declared = msgtype
-        sub = Subscription(self, topic, callback)
+        sub = Subscription(self, topic, callback, tuple((feeds or {}).items()))
         t.subscribers.append(sub)
+        t.refresh()
         if t.latched and t.last is not None:
             callback(t.last)
         return sub
@@ -142,9 +172,10 @@ class Bus:
         return remove
 
     def _unsubscribe(self, sub: Subscription) -> None:
-        subs = self._topics[sub.topic].subscribers
-        if sub in subs:
-            subs.remove(sub)
+        t = self._topics[sub.topic]
+        if sub in t.subscribers:
+            t.subscribers.remove(sub)
+            t.refresh()
 
     def topics(self) -> dict[str, type | None]:
         """Every topic seen so far and its message class."""
@@ -155,9 +186,12 @@ class Bus:
 
         Sensors check this before doing expensive work, as gazebo_ros plugins render only for subscribers.
         """
-        if self._all_taps or (topic in self._topics and self._topics[topic].subscribers):
+        if self._all_taps:
             return True
-        return any(e.wants(topic) for e in self._tap_entries)  # type: ignore[misc]  # all have wants here
+        t = self._topics.get(topic)
+        if t is not None and t.callbacks and (t.plain or any(self.has_listeners(feed) for feed, _ in t.feeds)):
+            return True
+        return bool(self._tap_entries) and any(e.wants(topic) for e in self._tap_entries)  # type: ignore[misc]
 
     def listened(self) -> dict[str, type | None]:
         """Every topic with a subscriber, and the message class a subscriber declared for it (None: none did)."""

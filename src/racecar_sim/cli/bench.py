@@ -7,12 +7,15 @@ share of wall time that MuJoCo itself takes.
 from __future__ import annotations
 
 import argparse
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 import mujoco
 
 from racecar_sim.cli.args import positive_float, positive_int
-from racecar_sim.core.errors import RacecarSimError
+from racecar_sim.core.errors import ConfigError, RacecarSimError
 from racecar_sim.drivers import ConstantCommand
 from racecar_sim.physics import preset_names
 from racecar_sim.runtime import Simulator
@@ -25,6 +28,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=positive_float, default=30.0, help="sim seconds per measurement (default 30)")
     p.add_argument("--repeat", type=positive_int, default=3, help="measurements; the best is reported (default 3)")
     p.add_argument("--no-camera", action="store_true", help="skip the lidar + camera measurement (no OpenGL)")
+    p.add_argument("--speed", action="store_true",
+                   help="instead: every speed figure (main job, lidar pipeline, start-up, maps, scaling) by the source "
+                        "checkout's bench/bench_speed.py")
+    p.add_argument("--quick", action="store_true", help="with --speed: short runs")
+    p.add_argument("--compare", metavar="SRC", help="with --speed: also measure the code in SRC (before/after)")
 
 
 SENSOR_TOPICS = ("/scan", "/camera/zed/rgb/image_rect_color", "/camera/zed/rgb/camera_info")
@@ -73,7 +81,19 @@ def bare_rtf(world: str, physics: str, duration: float) -> float:
     return duration / (time.perf_counter() - start)
 
 
+def speed(args: argparse.Namespace) -> int:
+    """Run bench/bench_speed.py of the checkout this package is installed from (pip install -e)."""
+    script = Path(__file__).resolve().parents[3] / "bench" / "bench_speed.py"
+    if not script.is_file():
+        raise ConfigError(f"racecar-sim bench --speed: {script} is missing: it runs the benches of a source checkout "
+                          "(git clone, then pip install -e .)")
+    extra = (["--quick"] if args.quick else []) + (["--compare", args.compare] if args.compare else [])
+    return subprocess.run([sys.executable, str(script), *extra], check=False).returncode
+
+
 def main(args: argparse.Namespace) -> int:
+    if args.speed:
+        return speed(args)
     print(f"world {args.world}, physics preset {args.physics}, {args.duration:g} sim s, best of {args.repeat}")
     bare = max(bare_rtf(args.world, args.physics, args.duration) for _ in range(args.repeat))
     print(f"bare mj_step               real-time factor {bare:7.1f}x")

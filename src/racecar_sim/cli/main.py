@@ -3,16 +3,20 @@
 from __future__ import annotations
 
 import argparse
+import importlib
 import logging
 import sys
 import warnings
+from collections.abc import Sequence
+from types import ModuleType
 
 from racecar_sim import __version__
-from racecar_sim.cli import bench, describe, launch, recover, ros_env, run, sweep, teleop, worlds
 from racecar_sim.core.errors import RacecarSimError
+from racecar_sim.sensors.gl import guard_mujoco_import, mujoco_gl_disabled
 
-SUBCOMMANDS = {"run": run, "teleop": teleop, "launch": launch, "describe": describe, "bench": bench, "worlds": worlds,
-               "recover": recover, "ros-env": ros_env, "sweep": sweep}
+# the module of each subcommand, in --help's order; only the one being run is imported (start-up time)
+SUBCOMMANDS = {"run": "run", "teleop": "teleop", "launch": "launch", "describe": "describe", "bench": "bench",
+               "worlds": "worlds", "recover": "recover", "ros-env": "ros_env", "sweep": "sweep"}
 
 
 class _Parser(argparse.ArgumentParser):
@@ -22,13 +26,27 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def subcommand(name: str) -> ModuleType:
+    """The module of subcommand `name` (imported now)."""
+    return importlib.import_module(f"racecar_sim.cli.{SUBCOMMANDS[name]}")
+
+
+def build_parser(commands: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The parser with the given subcommands (all by default)."""
     parser = _Parser(prog="racecar-sim", description="The MIT RACECAR simulator, without ROS or Gazebo.")
     parser.add_argument("--version", action="version", version=f"racecar-sim {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name, module in SUBCOMMANDS.items():
-        module.add_parser(sub)
+    for name in SUBCOMMANDS if commands is None else commands:
+        subcommand(name).add_parser(sub)
     return parser
+
+
+def _command_named(argv: Sequence[str]) -> str | None:
+    """The subcommand argv starts with, or None when the top-level parser must see everything (--help,
+    --version, no or an unknown command: all subcommands then, so help and errors read as they always did)."""
+    if argv and argv[0] in SUBCOMMANDS:
+        return argv[0]
+    return None
 
 
 def _one_line_warning(message, category, filename, lineno, line=None) -> str:  # noqa: ANN001 (warnings' hook)
@@ -38,12 +56,16 @@ def _one_line_warning(message, category, filename, lineno, line=None) -> str:  #
 def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.WARNING, format="racecar-sim: %(message)s")
     warnings.formatwarning = _one_line_warning
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    command = _command_named(argv)
+    with mujoco_gl_disabled():  # the camera's context comes from sensors.gl, the viewer's from glfw
+        parser = build_parser(None if command is None else [command])
+    guard_mujoco_import()  # for a subcommand that imports mujoco later
     args = parser.parse_args(argv)
     if args.command is None:
-        args = parser.parse_args(["run", *(argv or [])])
+        args = parser.parse_args(["run", *argv])
     try:
-        return SUBCOMMANDS[args.command].main(args)
+        return subcommand(args.command).main(args)
     except RacecarSimError as exc:
         print(f"racecar-sim: error: {exc}", file=sys.stderr)
         return 2

@@ -84,6 +84,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", metavar="DIR", help="folder for the run's files (default runs/<date-time>)")
     p.add_argument("--record", metavar="FILE.mcap", help="the MCAP's path (default OUT/run.mcap)")
     p.add_argument("--no-record", action="store_true", help="no MCAP recording")
+    p.add_argument("--raw-images", action="store_true",
+                   help="record camera images as raw sensor_msgs/Image on the image topic (default: JPEG "
+                        "sensor_msgs/CompressedImage on <image topic>/compressed, as image_transport records them)")
     p.add_argument("--no-video", action="store_true", help="no camera.mp4")
     p.add_argument("--no-summary", action="store_true", help="no summary.png")
     p.add_argument("--cars", type=positive_int, metavar="N",
@@ -228,6 +231,8 @@ def _output_paths(args: argparse.Namespace) -> tuple[Path, Path | None]:
     out = Path(args.out) if args.out else Path("runs") / datetime.now().strftime("%Y%m%d-%H%M%S")
     record = None if args.no_record else Path(args.record) if args.record else out / "run.mcap"
     check_folder("--out", out)
+    if args.raw_images and record is None:
+        raise ConfigError("--raw-images says how camera images are recorded: drop --no-record")
     if record is not None:
         check_record_path(record)
     return out, record
@@ -248,21 +253,24 @@ def main(args: argparse.Namespace) -> int:
             _attach_driver(args, sim, car)
         if not args.no_summary or (sim.camera is not None and not args.no_video):
             make_folder("--out", out)
-        if record is not None:
-            make_folder("--record", record.parent)
-            sim.record(record)
-        runlogs = [RunLog(sim.bus, car.lidar.topic if car.lidar else None,
-                          car.camera.spec.image_topic if car.camera and i == 0 else None, odom_topic=car.topic(ODOM))
-                   for i, car in enumerate(sim.cars)]
-        runlog = runlogs[0]
-        video = _video(args, sim, out)
-        written: list[Path] = [record] if record is not None else []
+        recording = _recording(args, sim, record)
         try:
-            with LiveViews(sim, args.viewer, args.foxglove) as live:
-                wall, interrupted = _drive(args, sim, live)
+            runlogs = [RunLog(sim.bus, car.lidar.topic if car.lidar else None,
+                              car.camera.spec.image_topic if car.camera and i == 0 else None,
+                              odom_topic=car.topic(ODOM))
+                       for i, car in enumerate(sim.cars)]
+            runlog = runlogs[0]
+            video = _video(args, sim, out)
+            written: list[Path] = [record] if record is not None else []
+            try:
+                with LiveViews(sim, args.viewer, args.foxglove) as live:
+                    wall, interrupted = _drive(args, sim, live)
+            finally:
+                if video is not None and video.frames:
+                    written.append(video.close())
         finally:
-            if video is not None and video.frames:
-                written.append(video.close())
+            if recording is not None:
+                recording.close()  # writes what the writer thread still holds, then the summary and footer
         if sim.lidar is not None and runlog.last_scan is not None:
             origin, ends = sim.lidar.beam_ends(runlog.last_scan.ranges)
         else:
@@ -284,13 +292,25 @@ def main(args: argparse.Namespace) -> int:
     return 0
 
 
+def _recording(args: argparse.Namespace, sim: Simulator, record: Path | None) -> object:
+    """The run's MCAP, written on a writer thread; camera images as JPEG CompressedImage unless --raw-images."""
+    if record is None:
+        return None
+    from racecar_sim.recording.run_recording import RunRecording  # mcap and Pillow load only when a run records
+
+    make_folder("--record", record.parent)
+    image_topics = [car.camera.spec.image_topic for car in sim.cars if car.camera is not None]
+    return RunRecording(sim.bus, lambda: sim.time_ns, record, image_topics=image_topics,
+                        raw_images=args.raw_images)
+
+
 def _video(args: argparse.Namespace, sim: Simulator, out: Path) -> object:
     if args.no_video or sim.camera is None:
         return None
     from racecar_sim.recording.video import VideoWriter  # PyAV loads only when a video is written
 
     spec = sim.camera.spec
-    video = VideoWriter(out / "camera.mp4", spec.rate_hz, spec.width, spec.height)
+    video = VideoWriter(out / "camera.mp4", spec.rate_hz, spec.width, spec.height, background=True)
     sim.subscribe(spec.image_topic, lambda msg: video.write(image_array(msg)))
     return video
 

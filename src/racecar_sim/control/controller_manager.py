@@ -81,6 +81,12 @@ class _Muted:
     def publish(self, topic: str, msg: Any) -> None:
         pass
 
+    def has_listeners(self, topic: str) -> bool:
+        return False
+
+    def tally(self, topic: str, msgtype: type) -> None:
+        pass
+
 
 class ControllerManager:
     """The controller_manager of one car (ros_control's, under `<namespace>/controller_manager`)."""

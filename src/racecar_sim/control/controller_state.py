@@ -48,11 +48,20 @@ class ControllerStatePublisher:
         self.bus, self.state, self.running = bus, state, running
         self.controllers = [_Controller(c, names.topic(f"{c.namespace}/{c.name}/state"),
                                         *state.joint_indices([c.joint])) for c in config.controllers]
-        scheduler.every(STATE_RATE, self.publish, "controller_state")
+        scheduler.every(STATE_RATE, self.publish, "controller_state", unheard=self._unheard)
+
+    def _unheard(self, _now_ns: int) -> bool:
+        """Nobody listens to any state topic: then there is nothing to do."""
+        listened = self.bus.has_listeners
+        for c in self.controllers:
+            if listened(c.topic):
+                return False
+        return True
 
     def publish(self, now_ns: int) -> None:
+        listened = self.bus.has_listeners  # asked first: the cheaper question, and mostly no
         for c in self.controllers:
-            if self.running(c.config.name) and self.bus.has_listeners(c.topic):
+            if listened(c.topic) and self.running(c.config.name):
                 self.bus.publish(c.topic, self.message(c, now_ns))
 
     def message(self, c: _Controller, now_ns: int) -> JointControllerState:

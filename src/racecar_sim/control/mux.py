@@ -9,6 +9,7 @@ re-publishes on its own.
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import partial
@@ -22,7 +23,7 @@ from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.time import to_ns
 from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header, String
-from racecar_sim.core.scheduler import Scheduler, Task
+from racecar_sim.core.scheduler import Scheduler, Timeout
 from racecar_sim.core.tables import finite_number
 from racecar_sim.core.throttle import ThrottledWarning, is_finite_number
 
@@ -35,6 +36,12 @@ _DRIVE_FIELDS = ("speed", "steering_angle", "steering_angle_velocity", "accelera
 
 def non_finite_field(msg: AckermannDriveStamped) -> str | None:
     """The first drive field of `msg` that is NaN or infinite (or not a number at all), else None."""
+    drive = getattr(msg, "drive", None)
+    if type(drive) is AckermannDrive:  # every command passes here: the common case in a few plain float checks
+        a, b, c, d, e = drive.speed, drive.steering_angle, drive.steering_angle_velocity, drive.acceleration, drive.jerk
+        if (type(a) is float and type(b) is float and type(c) is float and type(d) is float and type(e) is float
+                and math.isfinite(a + b + c + d + e)):  # a sum of finite numbers may overflow: then field by field
+            return None
     for name in _DRIVE_FIELDS:
         value = getattr(msg.drive, name, None)
         if not is_finite_number(value):
@@ -42,9 +49,28 @@ def non_finite_field(msg: AckermannDriveStamped) -> str | None:
     return None
 
 
+class _Forwarding:
+    """The command a node of the command path is handing on right now, having accepted it: the very message object
+    (unchanged, as a mux and a relay forward it) that the next nodes get, which need not check it again. The bus is
+    synchronous, so this is set only while that node's publish() runs."""
+
+    msg: AckermannDriveStamped | None = None
+
+
+def forward(bus: Bus, topic: str, msg: AckermannDriveStamped) -> None:
+    """Publish an accepted command unchanged on `topic`, vouching for it while its subscribers run."""
+    before, _Forwarding.msg = _Forwarding.msg, msg
+    try:
+        bus.publish(topic, msg)
+    finally:
+        _Forwarding.msg = before
+
+
 def accept_command(topic: str, msg: AckermannDriveStamped, warn: ThrottledWarning) -> bool:
     """Whether a command may enter the command path; a non-finite one is dropped with a throttled warning,
     so it neither drives the car nor refreshes any mux timeout (a NaN driver stops the car like a silent one)."""
+    if msg is _Forwarding.msg:  # accepted by the node that is forwarding it to us
+        return True
     bad = non_finite_field(msg)
     if bad is None:
         return True
@@ -108,30 +134,30 @@ class AckermannCmdMux:
         self.active_topic = f"{namespace}/active"
         self.holder: MuxInput | None = None
         self.last_forwarded: MuxInput | None = None  # whose command went out last (it still drives downstream)
-        self._timers: dict[str, Task] = {}
+        self._timers: dict[str, Timeout] = {}  # per input, restarted by each of its commands
         bus.latch(self.active_topic)
         bus.publish(self.active_topic, String("idle"))
         for inp in inputs:
-            bus.subscribe(f"{namespace}/{inp.topic}", partial(self._on_command, inp), AckermannDriveStamped)
+            topic = f"{namespace}/{inp.topic}"
+            timer = self._timers[inp.name] = scheduler.timeout(partial(self._on_timeout, inp),
+                                                               f"{namespace} {inp.name} timeout")
+            bus.subscribe(topic, partial(self._on_command, inp, (topic, to_ns(inp.timeout), timer)),
+                          AckermannDriveStamped)
 
-    def _on_command(self, inp: MuxInput, msg: AckermannDriveStamped) -> None:
-        if not accept_command(f"{self.namespace}/{inp.topic}", msg, self.warn):
+    def _on_command(self, inp: MuxInput, plan: tuple[str, int, Timeout], msg: AckermannDriveStamped) -> None:
+        topic, timeout_ns, timer = plan  # worked out once per input
+        if not accept_command(topic, msg, self.warn):
             return
-        timer = self._timers.get(inp.name)
-        if timer is not None:
-            timer.cancel()
-        self._timers[inp.name] = self.scheduler.at(self.now() + to_ns(inp.timeout), partial(self._on_timeout, inp),
-                                                   f"{self.namespace} {inp.name} timeout")
+        timer.restart(self.now() + timeout_ns)
         holder = self.holder
         if holder is None or holder is inp or inp.priority > holder.priority:
             if holder is not inp:
                 self.holder = inp
                 self.bus.publish(self.active_topic, String(inp.name))
             self.last_forwarded = inp
-            self.bus.publish(self.output_topic, msg)
+            forward(self.bus, self.output_topic, msg)
 
     def _on_timeout(self, inp: MuxInput, _now: int) -> None:
-        self._timers.pop(inp.name, None)
         if self.holder is inp:
             self.holder = None
             self.bus.publish(self.active_topic, String("idle"))
@@ -139,8 +165,7 @@ class AckermannCmdMux:
     def reset(self) -> None:
         """As a freshly started nodelet: no timers, nobody in control, `active` idle."""
         for timer in self._timers.values():
-            timer.cancel()
-        self._timers.clear()
+            timer.stop()
         self.holder = self.last_forwarded = None
         self.bus.publish(self.active_topic, String("idle"))
 
@@ -214,4 +239,4 @@ class CommandChain:
     def _relay(self, source: str, target: str, msg: AckermannDriveStamped) -> None:
         """topic_tools relay; a non-finite command is dropped here, naming the topic it was published on."""
         if accept_command(source, msg, self.warn):
-            self.bus.publish(target, msg)
+            forward(self.bus, target, msg)

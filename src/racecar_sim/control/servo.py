@@ -63,6 +63,10 @@ class ServoCommands:
                                             hinge_topic, np.array(w.hinge_axis_point) if w.hinge_axis_point else None,
                                             hinge_limits))
         self.max_curvature = self._max_curvature()
+        # each wheel's numbers as Python floats, for ackermann() at every command: (topic, centre x, y, hinge topic,
+        # hinge x, y or None, hinge limits or None)
+        self._plain = [(w.topic, *w.centre.tolist(), w.hinge_topic,
+                        None if w.hinge is None else tuple(w.hinge.tolist()), w.hinge_limits) for w in self.wheels]
         self._warned = False
         self.input_topic = input_topic
         self.warn = ThrottledWarning(log, now)
@@ -83,8 +87,9 @@ class ServoCommands:
             return
         speed, steer = msg.drive.speed, msg.drive.steering_angle
         commands = self.parallel(speed, steer) if self.mode == "parallel" else self.ackermann(speed, steer)
+        publish = self.bus.publish
         for topic, value in commands:
-            self.bus.publish(topic, Float64(float(value)))
+            publish(topic, Float64(value if type(value) is float else float(value)))
 
     def parallel(self, speed: float, steer: float) -> list[tuple[str, float]]:
         """The original: one wheel rate for all, one angle for both hinges."""
@@ -102,24 +107,25 @@ class ServoCommands:
                             "turning as tight as the limits allow", steer)
             kappa = math.copysign(self.max_curvature, kappa)
         yaw_rate = speed * kappa
+        radius = self.geometry.wheel_radius
         out = []
-        for w in self.wheels:
-            heading = 0.0
-            centre = w.centre
-            if w.hinge is not None:
+        for topic, cx, cy, hinge_topic, hinge, limits in self._plain:
+            heading, c, s = 0.0, 1.0, 0.0  # c, s: cos and sin of the heading (exactly these at 0)
+            if hinge is not None:
+                hx, hy = hinge
                 # atan(L / (R - y_hinge)), written with curvature so that straight ahead needs no special case
-                heading = math.atan2(w.hinge[0] * kappa, 1.0 - kappa * w.hinge[1])
+                heading = math.atan2(hx * kappa, 1.0 - kappa * hy)
                 if heading > math.pi / 2:
                     heading -= math.pi
                 elif heading < -math.pi / 2:
                     heading += math.pi
-                if w.hinge_limits:
-                    heading = min(max(heading, w.hinge_limits[0]), w.hinge_limits[1])
+                if limits:
+                    heading = min(max(heading, limits[0]), limits[1])
                 c, s = math.cos(heading), math.sin(heading)
-                offset = w.centre - w.hinge
-                centre = w.hinge + np.array([c * offset[0] - s * offset[1], s * offset[0] + c * offset[1]])
-                out.append((w.hinge_topic, heading))
+                ox, oy = cx - hx, cy - hy
+                cx, cy = hx + (c * ox - s * oy), hy + (s * ox + c * oy)  # the tyre centre, turned about the hinge
+                out.append((hinge_topic, heading))
             # velocity of the tyre's ground point, projected on the wheel's heading
-            vx, vy = speed - yaw_rate * centre[1], yaw_rate * centre[0]
-            out.append((w.topic, (vx * math.cos(heading) + vy * math.sin(heading)) / self.geometry.wheel_radius))
+            vx, vy = speed - yaw_rate * cy, yaw_rate * cx
+            out.append((topic, (vx * c + vy * s) / radius))
         return out

@@ -14,6 +14,23 @@ from racecar_sim.drivers.odom import planar_pose
 from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header, LaserScan, Odometry
 
 
+# the side sector (beam indices, and their unit vectors: rows cos, sin) and the front cone (beam indices)
+Layout = tuple[slice | np.ndarray, np.ndarray, slice | np.ndarray]
+
+
+def _clip(value: float, low: float, high: float) -> float:
+    """np.clip of one float, without numpy's per-call cost."""
+    return float(min(max(value, low), high))
+
+
+def _span(indices: np.ndarray) -> slice | np.ndarray:
+    """Increasing beam indices as a slice when they are consecutive (they are: angles grow along a scan)."""
+    if len(indices) == 0:
+        return slice(0, 0)
+    if indices[-1] - indices[0] + 1 == len(indices):
+        return slice(int(indices[0]), int(indices[-1]) + 1)
+    return indices
+
 
 class WallFollower:
     """A navigation node: from /scan and /vesc/odom only, it steers to keep `distance` to one wall.
@@ -39,6 +56,9 @@ class WallFollower:
         self._last_ns: int | None = None
         self._range_max = 10.0
         self._reverse_until = -1
+        self._scan_layout: tuple[tuple[float, float, int], np.ndarray] | None = None  # (angle_min, increment, count)
+        self._angles = np.empty(0)  # the beam angles _layout is for
+        self._layout: Layout = (slice(0, 0), np.empty((2, 0)), slice(0, 0))
         bus.subscribe(odom_topic, self._on_odom)
         bus.subscribe(scan_topic, self._on_scan)
 
@@ -51,31 +71,54 @@ class WallFollower:
         The wall is a line fitted to the beam ends within `patch` of the nearest one in the side sector:
         along a straight wall that is the wall; at a wall's end it is the corner, which the car then rounds
         at `distance`, because the fitted line turns with the bearing of the nearest point.
+        `ranges` has no NaN or -inf (nan_to_num has read them).
         """
-        cfg = self.config
-        bearing = self.side * angles
-        sector = (bearing >= math.radians(cfg.sector[0])) & (bearing <= math.radians(cfg.sector[1]))
-        points = np.stack([ranges[sector] * np.cos(angles[sector]), ranges[sector] * np.sin(angles[sector])], axis=1)
-        points = points[ranges[sector] < self._range_max]
-        if len(points) < 2:
+        sector, beams, _ = self._beams(angles)
+        return self._fit(ranges[sector], beams)
+
+    def _fit(self, ranges: np.ndarray, beams: np.ndarray) -> tuple[float, float]:
+        """`_wall` on the side sector's ranges (none NaN or -inf) and their beams' unit vectors (2, n: cos, sin).
+
+        The line is the patch's total-least-squares fit: through its centroid c, along the principal axis of its
+        scatter matrix, at half the argument of sum((p - c)^2) (the closed form of that 2x2 eigenvector; an SVD of
+        the patch gives the same axis at ten times the cost). The patch: the beam ends within `patch` (by hypot) of
+        the nearest one (the shortest range, or by x^2 + y^2 where another is within rounding of it). Compiled
+        (wall_fit.py) once two beams echo: a scan with less is decided here, without loading numba.
+        """
+        if np.count_nonzero(ranges < self._range_max) < 2:
             return 0.0, self._range_max
-        nearest = points[np.argmin(np.einsum("ij,ij->i", points, points))]
-        patch = points[np.hypot(*(points - nearest).T) <= cfg.patch]
-        if len(patch) < 2:
-            return 0.0, float(np.hypot(*nearest))
-        centre = patch.mean(axis=0)
-        along = np.linalg.svd(patch - centre, full_matrices=False)[2][0]
-        if along[0] < 0:
-            along = -along
-        # turning into the wall rotates it, seen from the car, against the wall's side
-        approach = -self.side * math.atan2(along[1], along[0])
-        return approach, abs(float(centre[0] * along[1] - centre[1] * along[0]))
+        from racecar_sim.drivers.wall_fit import fit_wall
+
+        return fit_wall(ranges, beams[0], beams[1], self._range_max, self.config.patch, self.side)
+
+    def _beams(self, angles: np.ndarray) -> Layout:
+        """The side sector (its beams, and their unit vectors: rows cos, sin) and the front cone (its beams) of
+        scans with these beam angles; worked out once per scan layout."""
+        if angles is not self._angles and not np.array_equal(angles, self._angles):
+            cfg = self.config
+            bearing = self.side * angles
+            sector = np.flatnonzero((bearing >= math.radians(cfg.sector[0])) & (bearing <= math.radians(cfg.sector[1])))
+            front = np.flatnonzero(np.abs(angles) <= math.radians(cfg.front_cone))
+            self._angles = angles
+            beams = np.array([np.cos(angles[sector]), np.sin(angles[sector])])
+            self._layout = (_span(sector), beams, _span(front))
+        return self._layout
+
+    def _scan_angles(self, scan: LaserScan, count: int) -> np.ndarray:
+        """The beam angles of a scan: the same array object for every scan of the same layout."""
+        key = (scan.angle_min, scan.angle_increment, count)
+        if self._scan_layout is None or self._scan_layout[0] != key:
+            self._scan_layout = key, scan.angle_min + scan.angle_increment * np.arange(count)
+        return self._scan_layout[1]
 
     def _on_scan(self, scan: LaserScan) -> None:
         cfg = self.config
         self._range_max = scan.range_max
-        ranges = np.nan_to_num(np.asarray(scan.ranges, np.float64), posinf=scan.range_max, neginf=scan.range_max)
-        angles = scan.angle_min + scan.angle_increment * np.arange(len(ranges))
+        ranges = np.asarray(scan.ranges)
+        lowest = float(ranges.min()) if len(ranges) else 0.0
+        if math.isnan(lowest) or lowest == -math.inf:  # as nan_to_num reads them: 0 and range_max
+            ranges = np.nan_to_num(np.asarray(ranges, np.float64), posinf=scan.range_max, neginf=scan.range_max)
+        angles = self._scan_angles(scan, len(ranges))
         approach, wall = self._wall(ranges, angles)
         ahead = cfg.lookahead + cfg.lookahead_time * max(self.speed, 0.0)
         distance = wall - ahead * math.sin(approach)
@@ -86,11 +129,12 @@ class WallFollower:
         self._last_ns, self.error = now, error
         if cfg.ki:
             limit = cfg.max_approach / cfg.ki
-            self._integral = float(np.clip(self._integral + error * dt, -limit, limit))
-        wanted = float(np.clip(cfg.kp * error + cfg.ki * self._integral, -cfg.max_approach, cfg.max_approach))
+            self._integral = _clip(self._integral + error * dt, -limit, limit)
+        wanted = _clip(cfg.kp * error + cfg.ki * self._integral, -cfg.max_approach, cfg.max_approach)
         steer_away = cfg.kd * (approach - wanted)
 
-        front = float(np.min(ranges[np.abs(angles) <= math.radians(cfg.front_cone)], initial=scan.range_max))
+        front = ranges[self._layout[2]]  # +inf (no echo) reads as range_max
+        front = min(float(front.min()), scan.range_max) if len(front) else scan.range_max
         if front < cfg.stuck or now < self._reverse_until:
             # boxed in (an acute pocket, a dead end too tight to turn in): back out, swinging the nose away
             if now >= self._reverse_until:
@@ -99,10 +143,10 @@ class WallFollower:
             return
         if front < cfg.front_turn:
             steer_away += cfg.max_steering * 2.0 * (cfg.front_turn - front) / cfg.front_turn
-        steering = float(np.clip(-self.side * steer_away, -cfg.max_steering, cfg.max_steering))
+        steering = _clip(-self.side * steer_away, -cfg.max_steering, cfg.max_steering)
 
         turn = abs(steering) / cfg.max_steering
-        clear = float(np.clip((front - cfg.front_min) / (cfg.front_slow - cfg.front_min), 0.0, 1.0))
+        clear = _clip((front - cfg.front_min) / (cfg.front_slow - cfg.front_min), 0.0, 1.0)
         self._command(now, steering, cfg.min_speed + (cfg.speed - cfg.min_speed) * min(1.0 - turn, clear))
 
     def _command(self, now: int, steering: float, speed: float) -> None:

@@ -36,7 +36,7 @@ from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.rng import check_seed
 from racecar_sim.core.time import ceil_to_step, to_ns
 from racecar_sim.envs.batch_command import BatchCommands
-from racecar_sim.envs.batch_lidar import BatchLidar, quat_to_matrices
+from racecar_sim.envs.batch_lidar import BatchLidar
 from racecar_sim.envs.batch_reward import BatchProgress, CrashTable
 from racecar_sim.envs.crash import CHECK_RATE, SUPPORT_NORMAL_Z
 from racecar_sim.envs.drive import CONTROL_RATE, CRASH_PENALTY, NAVIGATION_TIMEOUT
@@ -253,16 +253,15 @@ class DriveBatch:
     def _run(self) -> None:
         """Every world one control period on from its own episode time."""
         plans = {start: self._substeps(start, start + self.period_ns) for start in np.unique(self.time_ns).tolist()}
-        noise = self.lidar.noise_states(self.seeds, self.time_ns + self.period_ns) if self.lidar else None
         if self.warp is not None:
-            self._run_warp(plans, noise)
+            self._run_warp(plans)
         elif self._pool is None:
             for chunk in self._chunks:
-                self._run_chunk(chunk, plans, noise)
+                self._run_chunk(chunk, plans)
         else:
-            list(self._pool.map(lambda c: self._run_chunk(c, plans, noise), self._chunks))
+            list(self._pool.map(lambda c: self._run_chunk(c, plans), self._chunks))
 
-    def _run_chunk(self, chunk: np.ndarray, plans: dict[int, list[int]], noise: list[tuple[int, int]] | None) -> None:
+    def _run_chunk(self, chunk: np.ndarray, plans: dict[int, list[int]]) -> None:
         m, table, crashed, extra = self.model, self.crash_table, self.crashed, self._extra
         scratch = self._scratch
         if not hasattr(scratch, "data"):
@@ -283,10 +282,9 @@ class DriveBatch:
             self.speed[i] = self._velocity[i][3]
         self.time_ns[chunk] += self.period_ns
         if self.lidar is not None:
-            states = noise[chunk[0]:chunk[-1] + 1] if noise is not None else None  # chunks are contiguous
-            self.scan[chunk] = self.lidar.scans(self.qpos[chunk], self.seeds[chunk], self.time_ns[chunk], states)
+            self.scan[chunk] = self.lidar.scans(self.qpos[chunk], self.seeds[chunk], self.time_ns[chunk])
 
-    def _run_warp(self, plans: dict[int, list[int]], noise: list[tuple[int, int]] | None) -> None:
+    def _run_warp(self, plans: dict[int, list[int]]) -> None:
         """Every world one control period on MuJoCo Warp. Worlds at different episode times check for crashes at
         different offsets into the period: the period is stepped in segments between the union of those offsets,
         and after each segment only the worlds whose own plan checks there are looked at."""
@@ -306,7 +304,7 @@ class DriveBatch:
         self.speed[:] = warp.body_velocity(self.root_body)[:, 3]
         self.time_ns += self.period_ns
         if self.lidar is not None:
-            self.scan[:] = self.lidar.scans(self.qpos, self.seeds, self.time_ns, noise)
+            self.scan[:] = self.lidar.scans(self.qpos, self.seeds, self.time_ns)
 
     def _load(self, d: mujoco.MjData, i: int) -> None:
         """World i's state (and its ctrl) into d."""
@@ -326,4 +324,4 @@ class DriveBatch:
         return root[:, :2].copy(), np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
-__all__ = ["DriveBatch", "quat_to_matrices"]
+__all__ = ["DriveBatch"]

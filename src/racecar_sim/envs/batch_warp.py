@@ -43,10 +43,14 @@ def _import_warp(device: str) -> Any:
 
 
 def warp_model(model: mujoco.MjModel) -> mujoco.MjModel:
-    """A copy of `model` that mujoco-warp can load: pid actuators become the equivalent fixed-gain ones."""
+    """A copy of `model` that mujoco-warp can load: pid actuators become the equivalent fixed-gain ones, sleeping off."""
     model = copy.copy(model)
     # MuJoCo Warp never resets a diverged world (a NaN state stays NaN), so it refuses a model that asks not to
     model.opt.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)
+    # the CPU model sleeps only to place static geoms once (physics.builder; no tree ever sleeps): Warp supports no
+    # never-sleep policy, and places geoms on the GPU anyway, so sleeping is off there (the same dynamics)
+    model.opt.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_SLEEP)
+    model.tree_sleep_policy[:] = mujoco.mjtSleepPolicy.mjSLEEP_AUTO
     pid = np.flatnonzero(model.actuator_gaintype == mujoco.mjtGain.mjGAIN_PID)
     for i in pid.tolist():
         spec = int(model.actuator_ctrlspec[i])

@@ -1,4 +1,4 @@
-"""ROS 2 ``sensor_msgs`` messages: JointState, LaserScan, Image, CameraInfo, RegionOfInterest."""
+"""ROS 2 ``sensor_msgs`` messages: JointState, LaserScan, Image, CompressedImage, CameraInfo, RegionOfInterest."""
 
 from __future__ import annotations
 
@@ -63,6 +63,18 @@ class Image(Message):
     encoding: str = ""
     is_bigendian: int = 0
     step: int = 0
+    data: bytes = b""
+
+
+@dataclass(eq=False, repr=False, slots=True)
+class CompressedImage(Message):
+    """An image in a compressed file format (``data``: a JPEG or PNG file's bytes); ``format`` names it as
+    image_transport's compressed plugin does, e.g. ``bgr8; jpeg compressed bgr8``."""
+
+    __msgtype__: ClassVar[str] = "sensor_msgs/msg/CompressedImage"
+
+    header: Header = field(default_factory=Header)
+    format: str = ""
     data: bytes = b""
 
 

@@ -21,7 +21,8 @@ from racecar_sim.core.transforms import quat_from_axis_angle, quat_from_rpy
 from racecar_sim.description.urdf import Link, Robot, Shape
 from racecar_sim.physics.contact import solref_solimp
 from racecar_sim.physics.presets import CONES, INTEGRATORS, SOLVERS, PhysicsPreset
-from racecar_sim.physics.world_geoms import COLLISION_GROUP, GEOM_TYPES, VISUAL_GROUP, add_world, mj_size
+from racecar_sim.physics.world_geoms import (COLLISION_GROUP, GEOM_TYPES, SLEEP_POLICY, VISUAL_GROUP, add_world,
+                                             mj_size)
 from racecar_sim.worlds.materials import gazebo_material_rgba
 from racecar_sim.worlds.meshes import MeshPart, convex_pieces, load_mesh
 from racecar_sim.worlds.world import Mesh, Spawn, World
@@ -64,6 +65,10 @@ def _options(spec: mujoco.MjSpec, world: World, preset: PhysicsPreset) -> None:
     opt.cone = CONES[preset.cone]
     # A diverging state is an error the run reports and stops on (runtime), not one MuJoCo silently resets.
     opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
+    # With sleeping enabled MuJoCo places static geoms once (mj_makeData, mj_resetData) instead of on every step:
+    # a map of thousands of walls otherwise costs more than the car. Every moving tree is kept awake
+    # (SLEEP_POLICY), so the dynamics are bit-identical to a run without it.
+    opt.enableflags |= mujoco.mjtEnableBit.mjENBL_SLEEP
     spec.compiler.fusestatic = True
     spec.compiler.discardvisual = False
     spec.compiler.autolimits = True
@@ -208,6 +213,7 @@ def _add_robot(spec: mujoco.MjSpec, robot: Robot, spawn: Spawn, preset: PhysicsP
     base.pos = [spawn.x, spawn.y, spawn.z]
     base.quat = list(quat_from_axis_angle((0.0, 0.0, 1.0), spawn.yaw))
     base.add_freejoint(name=names.mj(ROOT_JOINT))
+    base.sleep = SLEEP_POLICY
     # MuJoCo only filters parent/child contacts; the car's own parts never touch each other in Gazebo either.
     moving = [root] + [j.child for j in robot.joints.values() if j.moves]
     for a, b in itertools.combinations(moving, 2):

@@ -10,6 +10,9 @@ from racecar_sim.core.transforms import quat_from_axis_angle
 from racecar_sim.physics.builder import ROOT_JOINT
 
 
+_XBODY = int(mujoco.mjtObj.mjOBJ_XBODY)  # as a plain int: MuJoCo's functions take it, and convert it faster
+
+
 class CarState:
     """Named access to joints, actuators and the base_link body of the car in a compiled model."""
 
@@ -27,7 +30,7 @@ class CarState:
         self.model, self.data = model, data
         self._base = model.body(self.names.mj(self.root_link)).id
         root = model.joint(self.names.mj(ROOT_JOINT)).id
-        self._root_qpos, self._root_dof = model.jnt_qposadr[root], model.jnt_dofadr[root]
+        self._root_qpos, self._root_dof = int(model.jnt_qposadr[root]), int(model.jnt_dofadr[root])
         self._actuators: dict[str, list[int]] = {}
         self._actuator_ids: dict[str, list[int]] = {}
         for joints, qpos_adr, dof_adr in self._handed_out:
@@ -38,8 +41,9 @@ class CarState:
 
     def set_command(self, actuator: str, value: float) -> None:
         """Set the setpoint of an actuator (and of its companion I-term actuator, if any)."""
-        for adr in self.actuator_ctrl(actuator):
-            self.data.ctrl[adr] = value
+        ctrl = self.data.ctrl
+        for adr in self._actuators.get(actuator) or self.actuator_ctrl(actuator):
+            ctrl[adr] = value
 
     def actuator_ctrl(self, actuator: str) -> list[int]:
         """ctrl addresses of a controller's actuator and its I-term companion (looked up once)."""
@@ -80,12 +84,14 @@ class CarState:
 
     def _joint_addresses(self, joints: list[str]) -> tuple[np.ndarray, np.ndarray]:
         ids = [self.model.joint(self.names.mj(j)).id for j in joints]
-        return self.model.jnt_qposadr[ids].copy(), self.model.jnt_dofadr[ids].copy()
+        # as numpy's own index type: indexing with MuJoCo's int32 addresses costs several times more
+        return self.model.jnt_qposadr[ids].astype(np.intp), self.model.jnt_dofadr[ids].astype(np.intp)
 
     def joint_state(self, qpos_adr: np.ndarray, dof_adr: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Positions, velocities and actuator efforts of the joints at those addresses."""
+        """Positions, velocities and actuator efforts of the joints at those addresses (new arrays: indexing with an
+        address array copies)."""
         d = self.data
-        return d.qpos[qpos_adr].copy(), d.qvel[dof_adr].copy(), d.qfrc_actuator[dof_adr].copy()
+        return d.qpos[qpos_adr], d.qvel[dof_adr], d.qfrc_actuator[dof_adr]
 
     def base_pose(self) -> tuple[np.ndarray, np.ndarray]:
         """World position and (w, x, y, z) orientation of the base_link frame."""
@@ -94,8 +100,16 @@ class CarState:
 
     def base_velocity(self, local: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """Linear and angular velocity of the base_link origin, in the world frame (or the body frame)."""
-        mujoco.mj_objectVelocity(self.model, self.data, mujoco.mjtObj.mjOBJ_XBODY, self._base, self._vel, int(local))
+        mujoco.mj_objectVelocity(self.model, self.data, _XBODY, self._base, self._vel, int(local))
         return self._vel[3:].copy(), self._vel[:3].copy()
+
+    def base_odometry(self, local: bool = False) -> list[float]:
+        """base_pose() and base_velocity() in one list of Python floats: x, y, z, qw, qx, qy, qz, vx, vy, vz, wx, wy,
+        wz (the same numbers, for a node that builds messages of them)."""
+        mujoco.mj_objectVelocity(self.model, self.data, _XBODY, self._base, self._vel, int(local))
+        adr = self._root_qpos
+        angular_linear = self._vel.tolist()
+        return self.data.qpos[adr:adr + 7].tolist() + angular_linear[3:] + angular_linear[:3]
 
     @property
     def body_id(self) -> int:

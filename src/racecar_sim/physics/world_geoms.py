@@ -2,6 +2,8 @@
 
 Collision geoms go to group 3 (contacts and ray casts see them, the camera does not); visual geoms to
 group 1 (the camera and viewer draw them, contacts ignore them) - the same split as Gazebo's.
+Static geometry is laid out so that its per-step cost stays small in a map of thousands of walls: see
+_add_static (bench/bench_maps.py measures it).
 """
 
 from __future__ import annotations
@@ -9,11 +11,12 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from racecar_sim.core.transforms import compose
-from racecar_sim.worlds.world import Light, Mesh, Scene, World, WorldGeom
+from racecar_sim.core.transforms import compose, quat_to_matrix
+from racecar_sim.worlds.world import Light, Mesh, Scene, World, WorldBody, WorldGeom
 
 VISUAL_GROUP = 1  # rendered by the camera and viewer
 COLLISION_GROUP = 3  # hidden, but seen by contacts and ray casts
+SLEEP_POLICY = mujoco.mjtSleepPolicy.mjSLEEP_NEVER  # of every moving tree: sleeping only spares the static geoms
 GEOM_TYPES = {"box": mujoco.mjtGeom.mjGEOM_BOX, "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
               "sphere": mujoco.mjtGeom.mjGEOM_SPHERE, "plane": mujoco.mjtGeom.mjGEOM_PLANE,
               "capsule": mujoco.mjtGeom.mjGEOM_CAPSULE, "ellipsoid": mujoco.mjtGeom.mjGEOM_ELLIPSOID,
@@ -135,17 +138,67 @@ def _scene(spec: mujoco.MjSpec, scene: Scene) -> None:
                      width=8, height=8, rgb1=list(scene.background), rgb2=list(scene.background))
 
 
+def box_mesh(boxes: list[tuple[WorldGeom, np.ndarray, np.ndarray]]) -> Mesh:
+    """One triangle mesh of boxes given as (geom, pos, quat) in a common frame. Each face has 4 corners of its own,
+    counter-clockwise seen from outside, so that it keeps its own normal (flat shading, as a box geom is drawn)."""
+    quads = []
+    for k in range(3):
+        u, v = (k + 1) % 3, (k + 2) % 3  # u x v = +k
+        for side in (-0.5, 0.5):
+            quad = np.zeros((4, 3))
+            quad[:, k], quad[:, u], quad[:, v] = side, (-0.5, 0.5, 0.5, -0.5), (-0.5, -0.5, 0.5, 0.5)
+            quads.append(quad if side > 0 else quad[::-1])
+    unit = np.concatenate(quads)  # (24, 3)
+    sizes = np.array([geom.size[:3] for geom, _, _ in boxes], dtype=float)
+    rotations = np.array([quat_to_matrix(quat) for _, _, quat in boxes])
+    centers = np.array([pos for _, pos, _ in boxes], dtype=float)
+    vertices = np.einsum("nij,nkj->nki", rotations, unit[None] * sizes[:, None, :]) + centers[:, None, :]
+    per_box = (np.arange(6)[:, None, None] * 4 + np.array([[0, 1, 2], [0, 2, 3]])[None]).reshape(-1, 3)
+    faces = (np.arange(len(boxes))[:, None, None] * 24 + per_box[None]).reshape(-1, 3)
+    return Mesh(vertices.reshape(-1, 3), faces.astype(np.int32))
+
+
+def _add_static(spec: mujoco.MjSpec, wb: WorldBody, assets: _Assets) -> None:
+    """A static body's geoms, on the world body: MuJoCo then places them once, never per step (builder: sleep).
+
+    A collision plane gets a static body of its own: on the world body its unbounded box would sit in every node
+    of the bounding-volume tree above it, and each wheel's midphase would walk a map's walls to its leaves. The
+    untextured visual boxes of one colour are drawn as one mesh, as MuJoCo's broad phase visits every geom on
+    every step; it carries the first box's name, so that deleting the model (Gazebo API) by its geoms' names
+    deletes it.
+    """
+    boxes: dict[tuple[float, ...], list[tuple[WorldGeom, np.ndarray, np.ndarray]]] = {}
+    for geom in wb.geoms:
+        pos, quat = compose(wb.pos, wb.quat, geom.pos, geom.quat)
+        if geom.kind == "plane" and geom.collides:
+            body = spec.worldbody.add_body(pos=list(pos), quat=list(quat))  # unnamed: a respawned model reuses none
+            body.fuse = False
+            _add_geom(body, geom, np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]), assets)
+        elif geom.kind == "box" and not geom.collides and geom.texture is None:
+            boxes.setdefault(tuple(geom.rgba), []).append((geom, pos, quat))
+        else:
+            _add_geom(spec.worldbody, geom, pos, quat, assets)
+    for group in boxes.values():
+        if len(group) == 1:
+            _add_geom(spec.worldbody, *group[0], assets)
+            continue
+        first = group[0][0]
+        merged = WorldGeom(first.name, "mesh", (), np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]), collides=False,
+                           rgba=first.rgba, mesh=box_mesh(group))
+        _add_geom(spec.worldbody, merged, merged.pos, merged.quat, assets)
+
+
 def add_world(spec: mujoco.MjSpec, world: World) -> None:
     """Add every body, geom and light of `world` to `spec`."""
     assets = _Assets(spec)
     for wb in world.bodies:
         if wb.static:
-            for geom in wb.geoms:
-                _add_geom(spec.worldbody, geom, *compose(wb.pos, wb.quat, geom.pos, geom.quat), assets)
+            _add_static(spec, wb, assets)
             continue
         body = spec.worldbody.add_body(name=wb.name, pos=list(wb.pos), quat=list(wb.quat), mass=wb.mass,
                                        ipos=list(wb.com), fullinertia=list(wb.inertia), explicitinertial=True)
         body.add_freejoint(name=f"{wb.name}::free")
+        body.sleep = SLEEP_POLICY
         for geom in wb.geoms:
             _add_geom(body, geom, geom.pos, geom.quat, assets)
     for light in world.lights:

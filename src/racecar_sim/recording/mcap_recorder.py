@@ -241,8 +241,16 @@ class McapRecorder:
                 was already recorded with another message type.
             TypeError: ``msg`` is not a message or has a badly typed field.
         """
-        msgtype = msgtype_of(msg)
-        data = serialize(msg)
+        self.write_serialized(topic, msgtype_of(msg), serialize(msg), log_time_ns, publish_time_ns)
+
+    def write_serialized(
+        self, topic: str, msgtype: str, data: bytes, log_time_ns: int, publish_time_ns: int | None = None
+    ) -> None:
+        """:meth:`write` for a message already serialized to CDR (``msgtype``: ``pkg/msg/Name``).
+
+        A caller that writes on another thread serializes first, so a message changed after
+        it was published is recorded as it was.
+        """
         log_time = _timestamp(log_time_ns, "log_time_ns")
         publish_time = (
             log_time if publish_time_ns is None else _timestamp(publish_time_ns, "publish_time_ns")

@@ -1,11 +1,13 @@
 """camera.mp4 of a run: BGR camera frames streamed to an H.264 MP4, or to an animated GIF preview without FFmpeg.
 
-Frames go to the file as they come (nothing is buffered beyond the encoder's lookahead), so a run that fails
-half-way still leaves a playable file once close() runs, e.g. from a `finally` block.
+Frames go to the file as they come (nothing is buffered beyond the encoder's lookahead, and the writer thread's
+queue when encoding in the background), so a run that fails half-way still leaves a playable file once close()
+runs, e.g. from a `finally` block.
 """
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 from fractions import Fraction
@@ -14,6 +16,8 @@ from types import TracebackType
 from typing import Any, BinaryIO
 
 import numpy as np
+
+from racecar_sim.recording.writer_thread import WriterThread
 
 log = logging.getLogger("racecar_sim")
 
@@ -35,9 +39,12 @@ class VideoWriter:
     written: its suffix becomes .gif when it fell back. `frames` counts the frames given to write(); the GIF keeps
     every step-th of them (at most GIF_MAX_FPS). No frame written, no file. Usable as a context manager;
     close() is idempotent.
+
+    `background`: encode on a WriterThread, in order, while the caller goes on; write() then keeps a reference
+    to the frame, which must not change afterwards, and an encoder error is raised by a later write() or close().
     """
 
-    def __init__(self, path: str | Path, fps: float, width: int, height: int) -> None:
+    def __init__(self, path: str | Path, fps: float, width: int, height: int, background: bool = False) -> None:
         if not (fps > 0 and math.isfinite(fps)):
             raise ValueError(f"fps must be a positive number, got {fps}")
         if width <= 0 or height <= 0:
@@ -54,6 +61,7 @@ class VideoWriter:
             self.path = Path(path).with_suffix(".gif")
             log.warning("no H.264 encoder (%s): writing an animated GIF preview, %s", reason, self.path)
             self._encoder = _GifEncoder(self.path, self.fps, self.width, self.height)
+        self._thread = WriterThread(f"video {self.path}") if background else None
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -67,14 +75,21 @@ class VideoWriter:
         frame = np.asarray(frame_bgr)
         if frame.shape != self.shape or frame.dtype != np.uint8:
             raise ValueError(f"expected a {self.shape} uint8 BGR frame, got {frame.shape} {frame.dtype}")
-        self._encoder.write(frame, self.frames)
+        if self._thread is None:
+            self._encoder.write(frame, self.frames)
+        else:
+            self._thread.submit(functools.partial(self._encoder.write, frame, self.frames))
         self.frames += 1
 
     def close(self) -> Path:
         """Flush the encoder and finish the file (the MP4 index, the GIF trailer); returns the path written."""
         if not self._closed:
             self._closed = True
-            self._encoder.close()
+            try:
+                if self._thread is not None:
+                    self._thread.close()
+            finally:
+                self._encoder.close()
         return self.path
 
     def __enter__(self) -> VideoWriter:

@@ -33,7 +33,7 @@ from racecar_sim.control.profiles import Profile, load_profile
 from racecar_sim.control.servo import ServoCommands
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import ODOM_RELAY, CarNames
-from racecar_sim.core.scheduler import Scheduler, Task
+from racecar_sim.core.scheduler import Scheduler, Task, Timeout
 from racecar_sim.description import (
     DEFAULT_XACRO,
     Robot,
@@ -273,11 +273,13 @@ class _CarBus:
         self._bus = bus
         self.publish = bus.publish  # the hot paths, without a __getattr__ per call
         self.has_listeners = bus.has_listeners
+        self.tally = bus.tally
         self._subscriptions: list[Any] = []
         self._services: list[str] = []
 
-    def subscribe(self, topic: str, callback: Callable[[Any], None], msgtype: type | None = None) -> Any:
-        sub = self._bus.subscribe(topic, callback, msgtype)
+    def subscribe(self, topic: str, callback: Callable[[Any], None], msgtype: type | None = None,
+                  feeds: Mapping[str, type] | None = None) -> Any:
+        sub = self._bus.subscribe(topic, callback, msgtype, feeds)
         self._subscriptions.append(sub)
         return sub
 
@@ -304,13 +306,19 @@ class _CarScheduler:
         self._scheduler, self._start_ns = scheduler, start_ns
         self._tasks: weakref.WeakSet[Task] = weakref.WeakSet()
 
-    def every(self, rate_hz: float, callback: Callable[[int], None], name: str, start_ns: int = 0) -> Task:
-        task = self._scheduler.every(rate_hz, callback, name, max(start_ns, self._start_ns))
+    def every(self, rate_hz: float, callback: Callable[[int], None], name: str, start_ns: int = 0,
+              unheard: Callable[[int], bool] | None = None) -> Task:
+        task = self._scheduler.every(rate_hz, callback, name, max(start_ns, self._start_ns), unheard)
         self._tasks.add(task)
         return task
 
     def at(self, time_ns: int, callback: Callable[[int], None], name: str) -> Task:
         task = self._scheduler.at(time_ns, callback, name)
+        self._tasks.add(task)
+        return task
+
+    def timeout(self, callback: Callable[[int], None], name: str) -> Timeout:
+        task = self._scheduler.timeout(callback, name)
         self._tasks.add(task)
         return task
 

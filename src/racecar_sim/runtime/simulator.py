@@ -36,6 +36,7 @@ if TYPE_CHECKING:
 log = logging.getLogger("racecar_sim")
 _DIVERGENCE_WARNINGS = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,
                         mujoco.mjtWarning.mjWARN_BADQACC)
+_BADQPOS, _BADQVEL, _BADQACC = (int(kind) for kind in _DIVERGENCE_WARNINGS)  # plain ints index numpy fastest
 CLOCK_RATE = 100.0  # gazebo_ros publishes /clock at pub_clock_frequency, 100 Hz by default
 COLLISIONS = "/racecar_sim/collisions"  # std_msgs/String "carA carB" when two cars start touching
 
@@ -122,7 +123,7 @@ class Simulator:
         self.bus = Bus()
         self.scheduler = Scheduler(self.step_ns)
         self.static_tf = StaticTransforms(self.bus)
-        self.scheduler.every(CLOCK_RATE, lambda t: self.bus.publish(CLOCK, Clock(Time.from_ns(t))), "clock")
+        self.scheduler.every(CLOCK_RATE, self._publish_clock, "clock", unheard=self._unheard_clock)
         now = lambda: self.time_ns  # noqa: E731
         for car in self.cars:
             car.start(self.model, self.data, self.bus, self.scheduler, now, self.static_tf, self.seed, sensor_noise)
@@ -222,18 +223,24 @@ class Simulator:
                             "/gazebo/unpause_physics", self.time)
                 self._pause_told = True
             return
+        scheduler, step, counted, warnings = self.scheduler, mujoco.mj_step, None, None
         while self.time_ns < end and not self._paused:
-            due = self.scheduler.next_time()
+            # tasks whose messages nobody would receive run without a stop; a fleet stops at each for its contacts
+            due = scheduler.next_time(end if self._contacts is None else None)
             target = end if due is None else max(min(due, end), self.time_ns)
             if target > self.time_ns:
-                mujoco.mj_step(self.model, self.data, nstep=(target - self.time_ns) // self.step_ns)
+                data = self.data  # a model spawned or deleted in an event replaces it
+                step(self.model, data, nstep=(target - self.time_ns) // self.step_ns)
                 self.time_ns = target
-                self._check_physics()
+                if data is not counted:
+                    counted, warnings = data, data.warning.number  # a live view of MuJoCo's warning counters
+                if warnings[_BADQPOS] or warnings[_BADQVEL] or warnings[_BADQACC]:  # _check_physics's cheap look
+                    self._check_physics()
                 if self._contacts is not None:
                     self._check_collisions()
             self._in_event = True
             try:
-                self.scheduler.run_due(self.time_ns)
+                scheduler.run_due(self.time_ns)
             finally:
                 self._in_event = False
             while self._deferred:
@@ -327,6 +334,17 @@ class Simulator:
             hook(model, data)
 
     # --- internals --------------------------------------------------------------------------------
+    def _publish_clock(self, now_ns: int) -> None:
+        if not self._unheard_clock(now_ns):
+            self.bus.publish(CLOCK, Clock(Time.from_ns(now_ns)))
+
+    def _unheard_clock(self, _now_ns: int) -> bool:
+        """A /clock message nobody would receive is counted, not built."""
+        if self.bus.has_listeners(CLOCK):
+            return False
+        self.bus.tally(CLOCK, Clock)
+        return True
+
     def _check_collisions(self) -> None:
         touching = self._contacts.pairs(self.data)
         for a, b in sorted(touching - self._touching):
@@ -342,10 +360,11 @@ class Simulator:
         MuJoCo flags NaN or huge positions, velocities and accelerations in its warning counters; with its
         auto-reset off (physics.builder) the state stays as it diverged instead of silently jumping back.
         """
+        counts = self.data.warning.number  # a view of the live counters: a cheap look, every event
+        if not (counts[_DIVERGENCE_WARNINGS[0]] or counts[_DIVERGENCE_WARNINGS[1]] or counts[_DIVERGENCE_WARNINGS[2]]):
+            return
         fired = [(kind, self.data.warning[kind].lastinfo) for kind in _DIVERGENCE_WARNINGS
                  if self.data.warning[kind].number]
-        if not fired:
-            return
         kind, index = fired[0]
         if kind == mujoco.mjtWarning.mjWARN_BADQPOS:  # a qpos index: the joint whose coordinates start at or before it
             jid = int((self.model.jnt_qposadr <= index).nonzero()[0][-1])

@@ -8,6 +8,10 @@ PyOpenGL binds itself to one platform, read from PYOPENGL_PLATFORM, the first ti
 already bound to the backend MUJOCO_GL names, or it is not imported yet and setting PYOPENGL_PLATFORM just before
 we import a backend is early enough. A failed attempt drops the PyOpenGL modules it imported, so that the next
 backend binds PyOpenGL afresh. If other code imported PyOpenGL first, its platform is the only one that can work.
+
+Nothing here runs on import: `guard_mujoco_import` is called where racecar-sim is about to import MuJoCo for the
+first time (`racecar_sim.Simulator` / `Car` on first use, the CLI after its subcommand's import, a camera's context),
+and the CLI imports its subcommand inside `mujoco_gl_disabled`.
 """
 
 from __future__ import annotations
@@ -17,6 +21,8 @@ import ctypes
 import importlib
 import os
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -29,7 +35,7 @@ PACKAGES = {"egl": "libegl1 libgl1-mesa-dri", "osmesa": "libosmesa6"}
 _SONAMES = {"egl": ("libEGL.so.1", "libEGL.so"), "osmesa": ("libOSMesa.so.8", "libOSMesa.so.6", "libOSMesa.so")}
 
 __all__ = ["BACKENDS", "HeadlessGL", "RenderingError", "create_context", "guard_mujoco_import", "library_present",
-           "shared_context"]
+           "mujoco_gl_disabled", "shared_context"]
 
 
 @dataclass
@@ -68,11 +74,30 @@ def guard_mujoco_import() -> None:
     if requested not in BACKENDS or "mujoco" in sys.modules or library_present(requested):
         return
     _requested_before_import = requested
+    with mujoco_gl_disabled():
+        importlib.import_module("mujoco")
+
+
+@contextmanager
+def mujoco_gl_disabled() -> Iterator[None]:
+    """Inside, importing mujoco leaves out mujoco's own GL backend (MUJOCO_GL=disable, put back on the way out).
+
+    For a process whose only OpenGL is this module's context and the viewer's own glfw (the CLI): mujoco's
+    GLContext / Renderer go unused, and leaving them out saves the GLFW or PyOpenGL load (~60 ms of start-up)
+    and the failure of a MUJOCO_GL backend without its library. A no-op once mujoco is imported.
+    """
+    if "mujoco" in sys.modules:
+        yield
+        return
+    previous = os.environ.get("MUJOCO_GL")
     os.environ["MUJOCO_GL"] = "disable"
     try:
-        importlib.import_module("mujoco")
+        yield
     finally:
-        os.environ["MUJOCO_GL"] = requested
+        if previous is None:
+            os.environ.pop("MUJOCO_GL", None)
+        else:
+            os.environ["MUJOCO_GL"] = previous
 
 
 def shared_context(width: int = 640, height: int = 480) -> HeadlessGL:
@@ -106,6 +131,7 @@ def create_context(width: int = 640, height: int = 480) -> HeadlessGL:
 
     width, height: size of OSMesa's default framebuffer (MuJoCo renders into its own offscreen buffer).
     """
+    guard_mujoco_import()  # the backend's import below imports mujoco itself when nothing has yet
     requested = _requested_before_import or os.environ.get("MUJOCO_GL", "").strip().lower()
     if requested in _OFF:
         raise RenderingError(f"MUJOCO_GL={requested} switches OpenGL off: unset it (or set egl or osmesa), "

@@ -16,8 +16,18 @@ class JointStatePublisher:
         self.bus, self.state, self.topic = bus, state, topic
         self.names = list(joints)
         self._adr = state.joint_indices(self.names)
-        scheduler.every(rate, self.publish, "joint_state_controller")
+        scheduler.every(rate, self.publish, "joint_state_controller", unheard=self._unheard)
 
     def publish(self, now_ns: int) -> None:
+        if self._unheard(now_ns):
+            return
         position, velocity, effort = self.state.joint_state(*self._adr)
         self.bus.publish(self.topic, JointState(Header.at(now_ns), list(self.names), position, velocity, effort))
+
+    def _unheard(self, _now_ns: int) -> bool:
+        """Nobody would receive the message (robot_state_publisher listens only for /tf's listeners): counted, not
+        built, and the physics need not stop for it."""
+        if self.bus.has_listeners(self.topic):
+            return False
+        self.bus.tally(self.topic, JointState)
+        return True

@@ -16,12 +16,13 @@ import numpy as np
 from racecar_sim.bus import Bus
 from racecar_sim.core.errors import DescriptionError
 from racecar_sim.core.names import CarNames
-from racecar_sim.core.rng import sample_stream
+from racecar_sim.core.rng import NoiseTable
 from racecar_sim.core.scheduler import Scheduler
 from racecar_sim.core.transforms import quat_from_rpy, quat_to_matrix
 from racecar_sim.description.urdf import Robot
 from racecar_sim.msgs import Header, LaserScan
 from racecar_sim.physics import COLLISION_GROUP
+from racecar_sim.sensors.laser_mount import LaserMount
 from racecar_sim.sensors.laser_spec import LaserSpec
 from racecar_sim.sensors.raycast import Fan, RayCaster
 
@@ -54,6 +55,9 @@ class LidarPublisher:
         self.bus, self.model, self.data, self.seed, self.mode = bus, model, data, seed, mode
         self.topic = topic or spec.topic  # gazebo_ros_laser's <topicName>: /scan
         self.noise = noise and spec.noisy
+        self.noise_table = NoiseTable.shared(self.noise_stream, spec.samples)
+        self._no_intensities = np.zeros(spec.samples, np.float32)
+        self._no_intensities.flags.writeable = False  # one array shared by every scan message
         self._root = names.mj(robot.root)
         self._site = self._site_id(model)
         self._offset = np.array(spec.pose.xyz, dtype=float)
@@ -61,8 +65,10 @@ class LidarPublisher:
         # Scans are cast in a private MjData posed from the live qpos: after mj_step the live positions
         # describe the start of the last step, and the simulation's own data stays untouched.
         self._pose = mujoco.MjData(model)
+        self.mount = LaserMount.of(model, self._site, self._offset, self._turn)
         self.fan = Fan(spec.min_angle, spec.angle_increment, spec.samples, spec.range_min, spec.range_max)
-        self.caster = RayCaster(model, self._pose, self.fan, model.body(self._root).id, COLLISION_GROUP)
+        self.caster = RayCaster(model, self._pose, self.fan, model.body(self._root).id, COLLISION_GROUP,
+                                pose_bodies=self._pose_bodies)
         self.scans_cast = 0
         self._task = scheduler.every(spec.update_rate, self._tick, "hokuyo")
 
@@ -78,6 +84,7 @@ class LidarPublisher:
         self.model, self.data = model, data
         self._site = self._site_id(model)
         self._pose = mujoco.MjData(model)
+        self.mount = LaserMount.of(model, self._site, self._offset, self._turn)
         self.caster.rebind(model, self._pose, model.body(self._root).id)
 
     def _tick(self, now_ns: int) -> None:
@@ -86,18 +93,25 @@ class LidarPublisher:
         spec = self.spec
         self.bus.publish(self.topic, LaserScan(Header.at(now_ns, spec.frame_id), spec.min_angle, spec.max_angle,
                                                spec.angle_increment, 0.0, 0.0, spec.range_min, spec.range_max,
-                                               self.scan(now_ns), np.zeros(spec.samples, np.float32)))
+                                               self.scan(now_ns), self._no_intensities))
 
     def ray_origin(self) -> tuple[np.ndarray, np.ndarray]:
         """World position of the ray origin and the sensor's axes (world from sensor, 3x3) at the current
-        qpos; also poses every body the next cast sees."""
+        qpos (from the chassis' pose in qpos when the laser is welded to it; else by kinematics)."""
+        if self.mount is not None:
+            return self.mount.pose(self.data.qpos)
+        self._pose_bodies()
+        site_rotation = self._pose.site_xmat[self._site].reshape(3, 3)
+        return self._pose.site_xpos[self._site] + site_rotation @ self._offset, site_rotation @ self._turn
+
+    def _pose_bodies(self) -> None:
+        """Pose every body of the private MjData the caster reads at the live qpos (only when a cast needs body
+        poses: free bodies, 3-D casts)."""
         pose = self._pose
         pose.qpos[:] = self.data.qpos
         pose.mocap_pos[:] = self.data.mocap_pos
         pose.mocap_quat[:] = self.data.mocap_quat
         mujoco.mj_kinematics(self.model, pose)
-        site_rotation = pose.site_xmat[self._site].reshape(3, 3)
-        return pose.site_xpos[self._site] + site_rotation @ self._offset, site_rotation @ self._turn
 
     def true_ranges(self) -> np.ndarray:
         """Noise-free distances (float64, m) from the ray origin: inf where nothing is within range."""
@@ -107,12 +121,38 @@ class LidarPublisher:
     def scan(self, stamp_ns: int) -> np.ndarray:
         """The ranges (float32) of a scan taken now and stamped `stamp_ns`, with that stamp's noise."""
         ranges = self.true_ranges()
+        spec = self.spec
+        if self.caster.compiled:  # numba is loaded for this world's walls: the rule in one compiled pass
+            from racecar_sim.sensors.laser_kernel import published_scan
+
+            first, second = self.noise_table.offsets(self.seed, stamp_ns)
+            out = np.empty(len(ranges), np.float32)
+            published_scan(ranges, self.noise_table.values, first, second, spec.noise_stddev, spec.noise_mean,
+                           self.noise, spec.range_min, spec.range_max, out)
+            return out
         hit = np.isfinite(ranges)
         if self.noise:
-            rng = sample_stream(self.seed, self.noise_stream, stamp_ns)
-            ranges = ranges + rng.normal(self.spec.noise_mean, self.spec.noise_stddev, len(ranges))
-        ranges = np.where(hit, np.clip(ranges, self.spec.range_min, self.spec.range_max), np.inf)
+            ranges += self.scan_noise(self.noise_table.sample(self.seed, stamp_ns))
+        ranges = np.where(hit, np.clip(ranges, spec.range_min, spec.range_max), np.inf)
         return ranges.astype(np.float32)
+
+    def publish(self, ranges: np.ndarray, seeds: np.ndarray, stamps_ns: np.ndarray) -> np.ndarray:
+        """The published ranges (float32, N x beams) of true ranges (float64, N x beams, inf: no hit) of scans
+        stamped `stamps_ns` in runs seeded `seeds`: scan()'s rule, compiled (laser_kernel.py), for many at once."""
+        from racecar_sim.sensors.laser_kernel import published_scans
+
+        first, second = self.noise_table.offsets(seeds.astype(np.uint64), stamps_ns.astype(np.uint64))
+        out = np.empty(ranges.shape, np.float32)
+        spec = self.spec
+        published_scans(ranges, self.noise_table.values, first.astype(np.intp), second.astype(np.intp),
+                        spec.noise_stddev, spec.noise_mean, self.noise, spec.range_min, spec.range_max, out)
+        return out
+
+    def scan_noise(self, unit: np.ndarray) -> np.ndarray:
+        """The sensor's N(mean, stddev) noise from unit normals (in place; any shape)."""
+        unit *= self.spec.noise_stddev
+        unit += self.spec.noise_mean
+        return unit
 
     def beam_ends(self, ranges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The ray origin (3,) and the world end points (N, 3) of a scan's finite beams, at the current pose."""

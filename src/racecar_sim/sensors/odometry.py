@@ -16,11 +16,10 @@ import numpy as np
 from racecar_sim.bus import Bus
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import ODOM, ODOM_RELAY, TF, CarNames
-from racecar_sim.msgs import (Header, Odometry, Point, Pose, PoseWithCovariance, Quaternion, TFMessage, Twist,
-                              TwistWithCovariance, Vector3)
+from racecar_sim.msgs import (Header, Odometry, Point, Pose, PoseWithCovariance, Quaternion, TFMessage, Transform,
+                              TransformStamped, Twist, TwistWithCovariance, Vector3)
 from racecar_sim.physics.state import CarState
 from racecar_sim.core.scheduler import Scheduler
-from racecar_sim.sensors.robot_state import transform_msg
 
 FRAMES = {"original": ("map", "odom"), "ros": ("odom", "base_link")}
 
@@ -34,20 +33,24 @@ class OdometryPublisher:
             raise ConfigError(f"odometry mode {mode!r} is not one of {', '.join(FRAMES)}")
         self.bus, self.state, self.mode, self.topic = bus, state, mode, names.topic(topic)
         self.frame, self.child = (names.frame(f) for f in FRAMES[mode])
+        self._local = mode == "ros"  # twist in the body frame
         if relay_topic:
             relay = names.topic(relay_topic)
             bus.subscribe(self.topic, lambda msg: bus.publish(relay, msg))
         scheduler.every(rate, self.publish, "gazebo_odometry_node")
 
     def publish(self, now_ns: int) -> None:
-        pos, quat = self.state.base_pose()
-        linear, angular = self.state.base_velocity(local=self.mode == "ros")
-        w, x, y, z = (float(v) for v in quat)
+        # Python floats, as the messages hold them
+        px, py, pz, w, x, y, z, vx, vy, vz, wx, wy, wz = self.state.base_odometry(local=self._local)
         msg = Odometry(
             Header.at(now_ns, self.frame), self.child,
-            PoseWithCovariance(Pose(Point(*(float(v) for v in pos)), Quaternion(x, y, z, w)), np.zeros(36)),
-            TwistWithCovariance(Twist(Vector3(*(float(v) for v in linear)), Vector3(*(float(v) for v in angular))),
-                                np.zeros(36)),
+            PoseWithCovariance(Pose(Point(px, py, pz), Quaternion(x, y, z, w)), np.zeros(36)),
+            TwistWithCovariance(Twist(Vector3(vx, vy, vz), Vector3(wx, wy, wz)), np.zeros(36)),
         )
-        self.bus.publish(self.topic, msg)
-        self.bus.publish(TF, TFMessage([transform_msg(now_ns, self.frame, self.child, pos, quat)]))
+        bus = self.bus
+        bus.publish(self.topic, msg)
+        if not bus.has_listeners(TF):  # nobody would receive it: counted, not built
+            bus.tally(TF, TFMessage)
+            return
+        bus.publish(TF, TFMessage([TransformStamped(Header.at(now_ns, self.frame), self.child,
+                                                    Transform(Vector3(px, py, pz), Quaternion(x, y, z, w)))]))

@@ -2,14 +2,17 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from racecar_sim.bus import Bus
 from racecar_sim.core.names import TF, TF_STATIC, CarNames
-from racecar_sim.core.transforms import quat_from_axis_angle, quat_from_rpy, quat_mul
+from racecar_sim.core.time import NS_PER_S
+from racecar_sim.core.transforms import quat_from_rpy
 from racecar_sim.description.kinematics import joint_transform
 from racecar_sim.description.urdf import Robot
-from racecar_sim.msgs import Header, JointState, Quaternion, TFMessage, Transform, TransformStamped, Vector3
+from racecar_sim.msgs import Header, JointState, Quaternion, TFMessage, Time, Transform, TransformStamped, Vector3
 
 
 def transform_msg(stamp_ns: int, parent: str, child: str, pos: np.ndarray, quat_wxyz: np.ndarray) -> TransformStamped:
@@ -46,22 +49,41 @@ class RobotStatePublisher:
                                 np.array(j.axis) / np.linalg.norm(j.axis))
                        for j in robot.joints.values() if j.type in ("revolute", "continuous")}
         self.sliding = {j.name: j for j in robot.joints.values() if j.type == "prismatic"}
+        self._moving = {name: (parent, child, tuple(pos.tolist()), tuple(quat.tolist()), tuple(axis.tolist()))
+                        for name, (parent, child, pos, quat, axis) in self.moving.items()}
         self.frame = frame
         fixed = [transform_msg(0, frame(j.parent), frame(j.child), *joint_transform(j))
                  for j in robot.joints.values() if not j.moves]
         (static or StaticTransforms(bus)).add(fixed)
-        bus.subscribe(joint_states_topic, self._on_joint_states)
+        bus.subscribe(joint_states_topic, self._on_joint_states, feeds={TF: TFMessage})
 
     def _on_joint_states(self, msg: JointState) -> None:
-        stamp = msg.header.stamp.to_ns()
+        if not self.bus.has_listeners(TF):  # as a ROS publisher with no subscriber, nothing goes out: no need to build
+            self.bus.tally(TF, TFMessage)
+            return
+        sec, nanosec = divmod(msg.header.stamp.to_ns(), NS_PER_S)
         transforms = []
-        for name, position in zip(msg.name, msg.position):
-            if name in self.moving:
-                parent, child, pos, quat, axis = self.moving[name]
-                rotation = quat_mul(quat, quat_from_axis_angle(axis, float(position)))
-                transforms.append(transform_msg(stamp, parent, child, pos, rotation))
+        moving = self._moving
+        for name, position in zip(msg.name, _floats(msg.position)):
+            joint = moving.get(name)
+            if joint is not None:
+                # origin * axis-angle, in plain floats: the same IEEE operations quat_mul(quat_from_axis_angle)
+                # does on numpy scalars, at a fraction of the cost (this runs for every joint at 50 Hz)
+                parent, child, (px, py, pz), (aw, ax, ay, az), (ux, uy, uz) = joint
+                half = 0.5 * position
+                s = math.sin(half)
+                bw, bx, by, bz = math.cos(half), ux * s, uy * s, uz * s
+                transforms.append(TransformStamped(Header(Time(sec, nanosec), parent), child, Transform(
+                    Vector3(px, py, pz),
+                    Quaternion(aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
+                               aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz))))
             elif name in self.sliding:
                 joint = self.sliding[name]
-                transforms.append(transform_msg(stamp, self.frame(joint.parent), self.frame(joint.child),
-                                                *joint_transform(joint, float(position))))
+                transforms.append(transform_msg(msg.header.stamp.to_ns(), self.frame(joint.parent),
+                                                self.frame(joint.child), *joint_transform(joint, float(position))))
         self.bus.publish(TF, TFMessage(transforms))
+
+
+def _floats(values: object) -> list[float]:
+    """Joint positions as Python floats (a message's numpy array, or a list from elsewhere)."""
+    return values.tolist() if isinstance(values, np.ndarray) else [float(v) for v in values]

@@ -13,11 +13,15 @@ exact vertical prism, which the lidar's 2-D caster slices without falling back t
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import trimesh
 
 from racecar_sim.core.geometry import convex_hull
 from racecar_sim.worlds.world import Mesh
+
+if TYPE_CHECKING:
+    import trimesh
 
 SLAB_THICKNESS = 1e-3  # m, behind each flat piece: thin enough to stay inside any wall, thick enough for qhull
 PLANE_TOL = 1e-4  # m, largest distance of a region's vertex from the region's plane
@@ -29,6 +33,8 @@ _AREA_TOL = 1e-6  # relative: a region is convex when its area is its 2-D convex
 def surface_pieces(mesh: Mesh) -> tuple[list[Mesh], int]:
     """The pieces a static mesh collides as, and how many flat pieces stand for its non-convex parts (0: it is
     convex piece by piece; a flat convex piece, such as one quad, counts as convex)."""
+    import trimesh  # scipy and networkx with it: 0.4 s, paid only by a world with meshes
+
     tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=True)
     pieces = tm.split(only_watertight=False) if tm.body_count > 1 else [tm]
     meshes: list[Mesh] = []
@@ -66,6 +72,8 @@ class _Surface:
         off = self.vertices[self.unshared[:, 1]] - self.vertices[self.faces[first, 0]]
         on_plane = np.abs(np.einsum("ij,ij->i", off, self.normals[first])) <= PLANE_TOL
         joined = self.pairs[same_way & on_plane & keep[self.pairs].all(axis=1)]
+        import trimesh
+
         groups = trimesh.graph.connected_components(joined, nodes=np.flatnonzero(keep), min_len=1)
         return [np.sort(g) for g in groups]
 

@@ -8,12 +8,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import trimesh
 
 from racecar_sim.core.errors import WorldError
 from racecar_sim.worlds.world import Mesh
+
+if TYPE_CHECKING:
+    import trimesh
 
 
 @dataclass
@@ -35,6 +38,8 @@ def load_mesh(path: Path, scale: tuple[float, float, float] = (1.0, 1.0, 1.0)) -
 
 @lru_cache(maxsize=64)
 def _load(path: Path, mtime_ns: int, scale: tuple[float, float, float]) -> tuple[MeshPart, ...]:
+    import trimesh  # scipy and networkx with it: 0.4 s, paid only by a world or car with meshes
+
     try:
         scene = trimesh.load(path, force="scene")
     except Exception as exc:  # trimesh raises many kinds for a bad file; all mean the same to a user
@@ -55,6 +60,8 @@ def _load(path: Path, mtime_ns: int, scale: tuple[float, float, float]) -> tuple
 
 
 def _appearance(geometry: trimesh.Trimesh, mesh: Mesh) -> tuple[tuple | None, np.ndarray | None]:
+    import trimesh
+
     visual = geometry.visual
     if isinstance(visual, trimesh.visual.TextureVisuals):
         material = visual.material
@@ -73,6 +80,8 @@ def _appearance(geometry: trimesh.Trimesh, mesh: Mesh) -> tuple[tuple | None, np
 
 def convex_pieces(mesh: Mesh) -> tuple[list[Mesh], bool]:
     """The mesh's connected pieces (MuJoCo collides with each piece's convex hull), and whether all are convex."""
+    import trimesh
+
     tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=True)
     pieces = tm.split(only_watertight=False) if tm.body_count > 1 else [tm]
     meshes = [Mesh(np.asarray(p.vertices), np.asarray(p.faces, dtype=np.int32), source=mesh.source) for p in pieces]

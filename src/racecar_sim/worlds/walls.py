@@ -23,26 +23,34 @@ Z_AXIS = (0.0, 0.0, 1.0)
 def cell_rectangles(occupied: np.ndarray) -> list[tuple[int, int, int, int]]:
     """Rectangles (row0, col0, row1, col1), half-open, covering exactly the True cells without overlap.
 
-    Each row's maximal runs are found at once with numpy, then runs spanning the same columns on consecutive
-    rows are merged: a solid block is one rectangle, a room's outline four.
+    Greedy: the first cell not yet covered (row-major) is the top-left corner of the next rectangle, the larger of
+    the widest-then-tallest and the tallest-then-widest one of uncovered cells from there. A solid block is one
+    rectangle, a room's outline four; a scanned map's walls, one cell thick and drawn in steps where they run
+    askew, come out at about a fifth of their cells (the MIT basement's 11,182 cells: 2,225 boxes).
     """
     grid = np.asarray(occupied, dtype=bool)
     if grid.ndim != 2:
         raise ValueError(f"occupied must be a 2-D array, got shape {grid.shape}")
-    padded = np.zeros((grid.shape[0], grid.shape[1] + 2), dtype=np.int8)
-    padded[:, 1:-1] = grid
-    edges = np.diff(padded, axis=1)
-    start_rows, start_cols = np.nonzero(edges == 1)
-    _, end_cols = np.nonzero(edges == -1)  # row-major order: the n-th end closes the n-th start
-    if len(start_rows) == 0:
-        return []
-    order = np.lexsort((start_rows, end_cols, start_cols))  # by column span, then row
-    rows, c0, c1 = start_rows[order], start_cols[order], end_cols[order]
-    new = np.ones(len(rows), dtype=bool)
-    new[1:] = (c0[1:] != c0[:-1]) | (c1[1:] != c1[:-1]) | (rows[1:] != rows[:-1] + 1)
-    first = np.flatnonzero(new)
-    last = np.r_[first[1:], len(rows)] - 1
-    return list(zip(rows[first].tolist(), c0[first].tolist(), (rows[last] + 1).tolist(), c1[first].tolist()))
+    todo = grid.copy()
+    rects = []
+    for r in np.flatnonzero(grid.any(axis=1)).tolist():
+        row = todo[r]
+        while row.any():
+            c = int(row.argmax())
+            width = _run(row[c:])
+            wide = (width, _run(todo[r:, c:c + width].all(axis=1)))
+            height = _run(todo[r:, c])
+            tall = (_run(todo[r:r + height, c:].all(axis=0)), height)
+            w, h = wide if wide[0] * wide[1] >= tall[0] * tall[1] else tall
+            todo[r:r + h, c:c + w] = False
+            rects.append((r, c, r + h, c + w))
+    return rects
+
+
+def _run(cells: np.ndarray) -> int:
+    """How many leading entries of a 1-D boolean array are True."""
+    first_false = int(cells.argmin())
+    return len(cells) if cells[first_false] else first_false
 
 
 def box_geoms(name: str, centers: np.ndarray, sizes: np.ndarray, yaws: np.ndarray,

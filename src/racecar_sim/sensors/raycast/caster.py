@@ -10,10 +10,12 @@ costs tens of microseconds; the answer is the same as the 3-D cast's either way.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import mujoco
 import numpy as np
 
-from racecar_sim.sensors.raycast.fan import Fan, ScanFrame
+from racecar_sim.sensors.raycast.fan import MAX_TILT_COS, Fan, ScanFrame
 from racecar_sim.sensors.raycast.grid import Grid, split_by_band
 from racecar_sim.sensors.raycast.mujoco3d import MujocoRays
 from racecar_sim.sensors.raycast.planar import (
@@ -42,11 +44,14 @@ class RayCaster:
 
     Static geoms are cut into footprints once, here; free bodies (pushable cones, boxes) are looked at
     from their current pose on every scan. `last_3d_beams` tells how many beams the last scan cast in 3-D.
+    `pose_bodies`, if given, is called before a cast first reads body poses from `data` (free bodies, 3-D
+    casts), so that a scan that needs none leaves `data` unposed.
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, fan: Fan, own_body: int, group: int,
-                 cell_size: float | None = None) -> None:
+                 cell_size: float | None = None, pose_bodies: Callable[[], None] | None = None) -> None:
         self.fan, self.group, self.cell_size = fan, group, cell_size
+        self._pose_bodies = pose_bodies or (lambda: None)
         self.rebind(model, data, own_body)
 
     def rebind(self, model: mujoco.MjModel, data: mujoco.MjData, own_body: int) -> None:
@@ -58,6 +63,7 @@ class RayCaster:
         static = np.array([is_static(model, g) for g in geoms], bool)
         self.static = static_footprints(model, geoms[static & ~own])
         self.grid = Grid(self.static, fan, cell_size)
+        self.compiled = bool(self.grid.cells)  # walls to cast: the compiled kernels (numba) are in use
         moving = geoms[~static & ~own]
         bounded = np.isin(model.geom_type[moving], _ALWAYS_BOUNDED)
         self.moving_bounded, self.moving_other = moving[bounded], moving[~bounded]
@@ -73,32 +79,49 @@ class RayCaster:
         """
         if mode not in MODES:
             raise ValueError(f"ray cast mode '{mode}' is not one of {', '.join(MODES)}")
+        if mode == "auto" and not self._has_moving and not self.static.not_prism_like:
+            table = self.grid.cell(origin[0], origin[1]).walls_only()
+            if table is not None:  # walls only near the sensor: one compiled call, unless it needs the general path
+                from racecar_sim.sensors.raycast import kernels
+
+                fan = self.fan
+                ranges = np.full(fan.count, np.inf)
+                if kernels.cast_level(table, self.static.floors, origin, rotation, MAX_TILT_COS, fan.angle_min,
+                              fan.inverse_step, fan.count, fan.turn, fan.range_min, fan.range_max, fan.directions,
+                              ranges):
+                    self.last_3d_beams = 0
+                    return ranges
         frame = ScanFrame(origin, rotation, self.fan)
         if mode == "3d" or _needs_3d(frame, self.static):
             return self._cast_3d(frame)
-        moving = self._moving(frame) if self._has_moving else None
-        if moving is not None and _needs_3d(frame, moving):
-            return self._cast_3d(frame)
+        moving = None
+        if self._has_moving:
+            self._pose_bodies()
+            moving = self._moving(frame)
+            if _needs_3d(frame, moving):
+                return self._cast_3d(frame)
         ranges = np.full(self.fan.count, np.inf)
         unsure: list[tuple[int, int]] = []  # beam intervals to recast in 3-D
         lo, hi = frame.band
         cell = self.grid.cell(frame.origin[0], frame.origin[1])
-        with np.errstate(divide="ignore", invalid="ignore"):  # beams exactly parallel to a wall
-            _cast_prisms(frame, *cell.split(lo, hi), ranges, unsure)
-            mark_bounds(frame, cell.bounds, unsure)
-            if moving is not None:
-                segments, circles, partly = split_by_band(moving.segments, moving.circles, lo, hi)
-                _cast_prisms(frame, Walls(segments, self.fan), circles, partly, ranges, unsure)
-                mark_bounds(frame, moving.bounds, unsure)
+        _cast_prisms(frame, *cell.split(lo, hi), ranges, unsure)
+        mark_bounds(frame, cell.bounds, unsure)
+        if moving is not None:
+            segments, circles, partly = split_by_band(moving.segments, moving.circles, lo, hi)
+            _cast_prisms(frame, Walls(segments, self.fan), circles, partly, ranges, unsure)
+            mark_bounds(frame, moving.bounds, unsure)
         ranges[ranges > self.fan.range_max] = np.inf
         self.last_3d_beams = 0
         if unsure:
             beams = np.flatnonzero(_mask(unsure, self.fan.count))
             self.last_3d_beams = len(beams)
+            if moving is None:
+                self._pose_bodies()
             ranges[beams] = self.rays3d.cast(frame, beams)
         return ranges
 
     def _cast_3d(self, frame: ScanFrame) -> np.ndarray:
+        self._pose_bodies()
         self.last_3d_beams = self.fan.count
         return self.rays3d.cast(frame)
 

@@ -1,4 +1,5 @@
-"""The 2-D caster: beams against exact footprints of vertical prisms, vectorised with numpy.
+"""The 2-D caster: beams against exact footprints of vertical prisms (walls compiled in kernels.py, upright
+circles vectorised with numpy).
 
 Each footprint is tested only by the beams inside its angular interval as seen from the sensor (polar
 culling), so the work is proportional to the beam-footprint pairs that can hit, not beams x footprints.
@@ -6,8 +7,8 @@ Distances are 3-D distances along the (possibly tilted) beams, measured from the
 the first surface at or beyond range_min, as a ray starting at range_min does (from inside a solid, that
 is its far side, as MuJoCo's ray casts give it).
 
-numpy's cost here is mostly per call, not per element, so the code keeps the number of array operations
-per scan small (about forty for the segments) rather than the arithmetic.
+numpy's cost here is mostly per call, not per element, so the circle code keeps the number of array
+operations per scan small rather than the arithmetic.
 """
 
 from __future__ import annotations
@@ -43,55 +44,24 @@ def _pairs(first: np.ndarray, last: np.ndarray, per_item: np.ndarray, doubled: b
 
 
 class Walls:
-    """Segments (a scene.py segment table) prepared for casting: per scan, a wall out of reach or facing
-    away is dropped with a few array operations before any beam is tested against it."""
+    """Segments (a scene.py segment table) prepared for casting with the compiled kernel (kernels.py): per scan,
+    a wall out of reach or facing away is dropped before any beam is tested against it."""
 
     def __init__(self, segments: np.ndarray, fan: Fan) -> None:
-        x0, y0, x1, y1 = segments[:4]
-        # rows: ends | mid x, mid y, reach | footprint circle x, y, radius + range_min | constant and linear
-        # parts of the ends' cross product about the origin | two-sided
-        self.data = np.array([x0, y0, x1, y1, segments[6], segments[7], segments[8] + fan.range_max,
-                              segments[9], segments[10], segments[11] + fan.range_min, x0 * y1 - y0 * x1,
-                              x1 - x0, y1 - y0, 1.0 - segments[12]])
-        self.count = segments.shape[1]
-        self.two_sided = bool(np.any(segments[12] == 0))
+        self.fan, self.count = fan, segments.shape[1]
+        self.table, self._kernel = None, None
+        if self.count:
+            from racecar_sim.sensors.raycast import kernels  # numba: loaded by the first world with walls
+
+            self.table, self._kernel = kernels.wall_table(segments, fan.range_min, fan.range_max), kernels.cast_walls
 
     def cast(self, frame: ScanFrame, ranges: np.ndarray) -> None:
-        """Lower `ranges` to the distance of each beam's first hit on these walls."""
+        """Lower `ranges` to the distance of each beam's first hit on these walls (all covering frame's band)."""
         if self.count == 0:
             return
-        x, y = frame.origin[0], frame.origin[1]
-        d = np.compress(np.hypot(self.data[4] - x, self.data[5] - y) <= self.data[6], self.data, axis=1)
-        # a ray from outside a convex solid enters through an edge facing it (the origin on its outer side,
-        # cross < 0); one starting inside (within range_min of the origin) leaves through the far side
-        facing = (d[10] - x * d[12] + y * d[11] < 0) | (np.hypot(d[7] - x, d[8] - y) <= d[9])
-        if self.two_sided:
-            facing |= d[13] > 0
-        ends = np.compress(facing, d[:4], axis=1)
-        if ends.shape[1]:
-            cast_segments(frame, ends, ranges)
-
-
-def cast_segments(frame: ScanFrame, ends: np.ndarray, ranges: np.ndarray) -> None:
-    """Lower `ranges` to each beam's first hit on the segments (columns of rows x0, y0, x1, y1)."""
-    fan = frame.fan
-    n = ends.shape[1]
-    q = frame.to_plane @ (ends.reshape(2, 2, n) - frame.origin[:2, None])  # [end][x|y][segment]
-    pos = (np.arctan2(q[:, 1], q[:, 0]) - fan.angle_min) * fan.inverse_step  # in (-gap/2, count + gap/2)
-    lo, hi = np.minimum(pos[0], pos[1]), np.maximum(pos[0], pos[1])
-    behind = hi - lo > 0.5 * fan.turn  # the short way round goes through the gap behind the fan
-    wraps = bool(behind.any())
-    if wraps:
-        lo, hi = np.where(behind, hi, lo), np.where(behind, lo + fan.turn, hi)
-    first, last, doubled = _intervals(frame, lo, hi, wraps)
-    edge = q[1] - q[0]
-    per_item = np.array([q[0, 0] * q[1, 1] - q[0, 1] * q[1, 0], edge[0], edge[1]])
-    beam, per_pair = _pairs(first, last, per_item, doubled)
-    if len(beam) == 0:
-        return
-    u = np.take(fan.directions, beam, axis=1)  # np.take: 4x faster than fancy indexing along axis 1
-    t = per_pair[0] / (u[0] * per_pair[2] - u[1] * per_pair[1])
-    np.minimum.at(ranges, beam, np.where(t >= fan.range_min, t, np.inf))  # not behind the ray start, not nan
+        fan = self.fan
+        self._kernel(self.table, frame.origin, frame.to_plane, frame.rotation, frame.band[0], frame.band[1], False,
+                   fan.angle_min, fan.inverse_step, fan.count, fan.turn, fan.range_min, fan.directions, ranges)
 
 
 def circle_intervals(frame: ScanFrame, circles: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:

@@ -1,0 +1,69 @@
+"""The speed figures in one run: `python bench/bench_speed.py [--quick] [--compare SRC]` (or `racecar-sim bench --speed`).
+
+Runs, one after the other, the benches behind each figure and prints their tables, each a ratio measured within
+its own run (interleaved rounds, medians):
+  1. the main job (camera, recording, video)     bench_mainjob.py   real-time factor, and against the bare job
+  2. the lidar pipeline (camera off)             bench_pipeline.py  against bare MuJoCo stepping, tunnel and walker
+  3. start-up                                    bench_startup.py   process start to the first physics step
+  4. real maps                                   bench_maps.py      a basement-like map against the empty world
+  5. scaling                                     bench_scaling.py   against beams, static geoms and cars
+--compare SRC measures the code in SRC too (PYTHONPATH=SRC: an older checkout's src), for before/after figures
+from the same run. --quick: shorter runs (a check that everything runs, not figures to quote).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+
+
+def sections(quick: bool) -> list[tuple[str, str, list[str], bool]]:
+    """(title, script, arguments, whether the script compares trees itself via --compare)."""
+    d, r = ("2", "1") if quick else ("20", "3")
+    short, rounds = ("2", "1") if quick else ("5", "3")
+    return [("1. main job: camera, recording, video", "bench_mainjob.py", ["--duration", d, "--rounds", r], True),
+            ("2. lidar pipeline against bare MuJoCo", "bench_pipeline.py", ["--duration", d, "--rounds", r], False),
+            ("3. start-up", "bench_startup.py", ["--repeats", "2" if quick else "5"], True),
+            ("4. real maps against the empty world", "bench_maps.py", ["--duration", short, "--rounds", rounds], False),
+            ("5. scaling: beams, static geoms, cars", "bench_scaling.py", ["--duration", short, "--rounds", rounds],
+             False)]
+
+
+def run(script: str, args: list[str], pythonpath: str | None = None) -> int:
+    env = dict(os.environ)
+    if pythonpath is not None:
+        env["PYTHONPATH"] = pythonpath
+    sys.stdout.flush()
+    return subprocess.run([sys.executable, str(HERE / script), *args], env=env, check=False).returncode
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="short runs: checks that every bench runs")
+    parser.add_argument("--compare", metavar="SRC", help="also measure the code in SRC (e.g. an older checkout's src)")
+    args = parser.parse_args(argv)
+    failed = []
+    src = str(HERE.parent / "src")
+    for title, script, extra, compares in sections(args.quick):
+        print(f"\n=== {title} ({script}) ===", flush=True)
+        if args.compare and compares:
+            extra = extra + (["--compare", args.compare] if script != "bench_startup.py" else
+                             ["--compare", src, args.compare])
+        code = run(script, extra)
+        if args.compare and not compares and code == 0:
+            print(f"--- the same, PYTHONPATH={args.compare} ---", flush=True)
+            code = run(script, extra, args.compare)
+        if code:
+            failed.append(script)
+    if failed:
+        print(f"\nfailed: {', '.join(failed)}", file=sys.stderr)
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

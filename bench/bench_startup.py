@@ -1,0 +1,147 @@
+"""Start-up: seconds from process start to the first physics step of `racecar-sim run --no-camera`, and import costs.
+
+Prints, each the median of --repeats fresh processes (interleaved):
+  (a) process start -> first mj_step of `racecar-sim run --no-camera --world empty --duration 1`;
+  (b) `import racecar_sim.msgs` alone, and whether it imported mujoco, trimesh or scipy;
+  (c) the whole command's wall time (to exit: the run, run.mcap and summary.png).
+
+The first step is seen from outside the product: the child process puts a finder on sys.meta_path that wraps
+`mujoco.mj_step` as soon as mujoco is imported and writes the monotonic clock at its first call to a file. Only
+the CLI is used, so the same script measures the pristine base:
+
+    PYTHONPATH=/work/base/src python bench/bench_startup.py
+
+or both in one run, interleaved, each figure also as a ratio to the first tree's (load from other processes then
+falls on all trees alike):
+
+    python bench/bench_startup.py --compare /work/base/src src
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+RUN_ARGS = ["run", "--no-camera", "--world", "empty", "--duration", "1"]
+HEAVY = ("mujoco", "trimesh", "scipy", "matplotlib")
+
+# the child: mark the first mj_step, then run the CLI exactly as the console script does
+_CHILD = r"""
+import importlib.abc, importlib.machinery, sys, time
+MARK = sys.argv[1]
+
+class _Wrap(importlib.abc.MetaPathFinder):
+    def find_spec(self, name, path, target=None):
+        if name != "mujoco":
+            return None
+        sys.meta_path.remove(self)
+        spec = importlib.machinery.PathFinder.find_spec(name, path)
+        run = spec.loader.exec_module
+        def exec_module(module):
+            run(module)
+            step = module.mj_step
+            def first(*args, **kwargs):
+                module.mj_step = step
+                with open(MARK, "w") as f:
+                    f.write(repr(time.monotonic()))
+                return step(*args, **kwargs)
+            module.mj_step = first
+        spec.loader.exec_module = exec_module
+        return spec
+
+sys.meta_path.insert(0, _Wrap())
+from racecar_sim.cli.main import main
+sys.argv = ["racecar-sim", *sys.argv[2:]]
+sys.exit(main())
+"""
+
+_IMPORT = r"""
+import json, sys, time
+t = time.perf_counter()
+import racecar_sim.msgs
+dt = time.perf_counter() - t
+print(json.dumps({"seconds": dt, "loaded": [m for m in HEAVY if m in sys.modules],
+                  "file": racecar_sim.__file__}))
+""".replace("HEAVY", repr(HEAVY))
+
+
+def _env(src: str | None) -> dict[str, str] | None:
+    """The environment of a child importing racecar_sim from `src` (None: as this process would)."""
+    if src is None:
+        return None
+    paths = [str(Path(src).resolve()), *filter(None, os.environ.get("PYTHONPATH", "").split(os.pathsep))]
+    return {**os.environ, "PYTHONPATH": os.pathsep.join(paths)}
+
+
+def first_step(workdir: Path, src: str | None = None) -> tuple[float, float]:
+    """(seconds to the first mj_step, seconds to exit) of one `racecar-sim run` in a fresh process."""
+    mark = workdir / "first_step"
+    mark.unlink(missing_ok=True)
+    out = workdir / "run"
+    start = time.monotonic()
+    result = subprocess.run([sys.executable, "-c", _CHILD, str(mark), *RUN_ARGS, "--out", str(out)],
+                            capture_output=True, text=True, cwd=workdir, env=_env(src), check=False)
+    end = time.monotonic()
+    if result.returncode != 0 or not mark.exists():
+        raise SystemExit(f"the run failed ({result.returncode}): {result.stderr.strip()[-2000:]}")
+    return float(mark.read_text()) - start, end - start
+
+
+def msgs_import(src: str | None = None) -> dict:
+    """`import racecar_sim.msgs` in a fresh process: its seconds, which heavy modules it loaded, the package file."""
+    result = subprocess.run([sys.executable, "-c", _IMPORT], capture_output=True, text=True, check=True,
+                            env=_env(src))
+    return json.loads(result.stdout)
+
+
+def python_start() -> float:
+    """Seconds for a bare `python -c pass`: the floor under every figure above."""
+    start = time.monotonic()
+    subprocess.run([sys.executable, "-c", "pass"], check=True)
+    return time.monotonic() - start
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=5, help="fresh processes per figure (median)")
+    parser.add_argument("--compare", nargs="+", metavar="SRC", default=[None],
+                        help="source trees (each put first on PYTHONPATH), measured interleaved")
+    args = parser.parse_args()
+    figures = {src: {"first": [], "wall": [], "import": [], "loaded": set(), "file": ""} for src in args.compare}
+    bare = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for _ in range(args.repeats):  # interleaved, so load from other processes falls on all figures alike
+            for src, fig in figures.items():
+                first, wall = first_step(Path(tmp), src)
+                fig["first"].append(first)
+                fig["wall"].append(wall)
+                info = msgs_import(src)
+                fig["import"].append(info["seconds"])
+                fig["loaded"] |= set(info["loaded"])
+                fig["file"] = os.path.dirname(os.path.dirname(info["file"]))
+            bare.append(python_start())
+    median = statistics.median
+    reference = figures[args.compare[0]]
+    print(f"{args.repeats} runs each, medians; python -c pass {median(bare):.3f} s")
+
+    def show(fig: dict, key: str) -> str:
+        ratio = "" if fig is reference else f"  x{median(fig[key]) / median(reference[key]):.2f}"
+        return f"{median(fig[key]):6.3f} s (min {min(fig[key]):.3f}){ratio}"
+
+    for fig in figures.values():
+        print(f"racecar_sim from {fig['file']}")
+        print(f"  (a) start -> first physics step   {show(fig, 'first')}   `racecar-sim {' '.join(RUN_ARGS)}`")
+        print(f"  (b) import racecar_sim.msgs       {show(fig, 'import')}   loaded: "
+              f"{', '.join(sorted(fig['loaded'])) or 'none'} of {', '.join(HEAVY)}")
+        print(f"  (c) whole command, start -> exit  {show(fig, 'wall')}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,36 @@
+"""The camera's frame finishing compiled (numba): GL readback to a top-row-first image, noise added, one pass.
+
+camera.add_noise's numpy is ~10 passes over the frame (cast, scale, round, clamp, widen, add per channel, clamp,
+narrow) plus the copies of the flip, each dropping and retaking the GIL; here each pixel is read once and
+written once, with the GIL released. The result is add_noise's, value for value (the same float32 operations).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def finish_frame(gl_rgb, table, first, second, stddev, mean, bgr, out):
+    """`out` (h, w, 3) uint8 = the GL buffer `gl_rgb` (h, w, 3, bottom row first) flipped to top row first, in BGR
+    order if `bgr`, plus per pixel p = row * w + column the noise round(stddev * (table[first + p] +
+    table[second + p]) + mean) (a NoiseTable's windows: unit normals) on every channel, clamped to 0-255.
+    stddev = 0 and mean = 0: no noise."""
+    height, width = out.shape[0], out.shape[1]
+    noisy = stddev != 0 or mean != 0
+    first_ch, last_ch = (2, 0) if bgr else (0, 2)
+    noise = np.zeros(width, dtype=np.int32)
+    for row in range(height):
+        src = gl_rgb[height - 1 - row]
+        dst = out[row]
+        if noisy:
+            base = row * width
+            for col in range(width):  # apart from the rest, so that both loops vectorise
+                x = stddev * (table[first + base + col] + table[second + base + col]) + mean
+                noise[col] = np.int32(np.rint(min(max(x, np.float32(-255.0)), np.float32(255.0))))
+        for col in range(width):
+            k = noise[col]
+            dst[col, 0] = min(max(np.int32(src[col, first_ch]) + k, 0), 255)
+            dst[col, 1] = min(max(np.int32(src[col, 1]) + k, 0), 255)
+            dst[col, 2] = min(max(np.int32(src[col, last_ch]) + k, 0), 255)

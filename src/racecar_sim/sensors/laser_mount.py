@@ -1,0 +1,69 @@
+"""Where a laser's rays start and point, read straight from the pose of the free body it is welded to.
+
+A scan needs the ray origin and the sensor axes at the current qpos. Running MuJoCo's kinematics on a posed copy
+of the data gives them for any mount; for the usual one - the laser on the car's chassis, which is the free
+body itself - they are a fixed offset from the body's pose in qpos, computed here in a few float operations.
+`pose` (one car, Python floats) and `poses` (a batch, numpy) do the same operations in the same order, so they
+agree bit for bit.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+
+class LaserMount:
+    """The ray origin and axes in the frame of the free body the laser is welded to (see the module doc)."""
+
+    def __init__(self, local_origin: np.ndarray, local_axes: np.ndarray, qpos_adr: int) -> None:
+        self.local_origin = np.asarray(local_origin, float)
+        self.local_axes = np.asarray(local_axes, float)
+        self.qpos_adr = qpos_adr
+        self._origin = self.local_origin.tolist()
+        self._axes = self.local_axes.tolist()
+
+    @classmethod
+    def of(cls, model: mujoco.MjModel, site: int, offset: np.ndarray, turn: np.ndarray) -> LaserMount | None:
+        """The mount of the ray origin `offset` (in the site's frame) with axes `turn` (site from sensor) on
+        `site`, if the site is welded to a body with a free joint; else None (use kinematics)."""
+        body = int(model.body_weldid[model.site_bodyid[site]])
+        if body == 0 or model.body_jntnum[body] != 1:
+            return None
+        joint = int(model.body_jntadr[body])
+        if model.jnt_type[joint] != mujoco.mjtJoint.mjJNT_FREE:
+            return None
+        data = mujoco.MjData(model)
+        mujoco.mj_kinematics(model, data)
+        body_rot = data.xmat[body].reshape(3, 3)
+        site_rot = data.site_xmat[site].reshape(3, 3)
+        local_origin = body_rot.T @ (data.site_xpos[site] + site_rot @ offset - data.xpos[body])
+        return cls(local_origin, body_rot.T @ (site_rot @ turn), int(model.jnt_qposadr[joint]))
+
+    def pose(self, qpos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Ray origin (3,) and sensor axes (3, 3; world from sensor) at `qpos`."""
+        a = self.qpos_adr
+        px, py, pz, w, x, y, z = qpos[a:a + 7].tolist()
+        r = _rotation(w, x, y, z)
+        lo = self._origin
+        origin = [r[i][0] * lo[0] + r[i][1] * lo[1] + r[i][2] * lo[2] for i in range(3)]
+        axes = [[r[i][0] * c[0] + r[i][1] * c[1] + r[i][2] * c[2] for c in zip(*self._axes)] for i in range(3)]
+        return np.array([px + origin[0], py + origin[1], pz + origin[2]]), np.array(axes)
+
+    def poses(self, qpos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """pose() for every row of `qpos` (N, nq): origins (N, 3) and axes (N, 3, 3)."""
+        a = self.qpos_adr
+        root = qpos[:, a:a + 7]
+        r = _rotation(*root[:, 3:].T)
+        lo, la = self.local_origin, self.local_axes
+        origin = np.stack([root[:, i] + (r[i][0] * lo[0] + r[i][1] * lo[1] + r[i][2] * lo[2]) for i in range(3)], -1)
+        axes = np.stack([np.stack([r[i][0] * la[0, j] + r[i][1] * la[1, j] + r[i][2] * la[2, j] for j in range(3)], -1)
+                         for i in range(3)], 1)
+        return origin, axes
+
+
+def _rotation(w, x, y, z):  # type: ignore[no-untyped-def]
+    """The rotation matrix (rows of entries) of a unit quaternion: floats, or arrays for many."""
+    return [[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]]

@@ -1,0 +1,224 @@
+"""The 2-D wall cast compiled (numba): planar.cast_segments' formulas as loops, one scan or a batch of scans.
+
+numpy's cost in the wall cast is per call, not per element (~40 array operations and their temporaries per
+scan: tens of microseconds for a scan that is a few thousand multiply-adds). Here a scan is one call: each
+wall is culled (out of reach, facing away, outside the height band), its beam interval found from the angles
+of its ends, and those beams intersected with it, in place on the ranges. The kernels release the GIL, so a
+batch's worlds are cast on the physics threads.
+
+A wall table has one column per wall (segment), rows WALL_ROWS (see wall_table). The results are those of
+the numpy code beam for beam, to the last bit of t: the same operations in the same order (no fast-math).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from racecar_sim.sensors.raycast.fan import INDEX_SLACK
+
+# rows of a wall table
+X0, Y0, X1, Y1, ZLO, ZHI, MIDX, MIDY, REACH2, CX, CY, CREACH2, CROSS, EX, EY, TWO_SIDED = range(16)
+WALL_ROWS = 16
+_CULL_SLACK = 1.0 + 1e-9  # the reach tests only cull: a wall kept too many changes no range
+
+
+def wall_table(segments: np.ndarray, range_min: float, range_max: float) -> np.ndarray:
+    """The kernels' table (WALL_ROWS, n) of a scene.py segment table (13, n)."""
+    x0, y0, x1, y1 = segments[:4]
+    return np.ascontiguousarray(np.array([
+        x0, y0, x1, y1, segments[4], segments[5], segments[6], segments[7],
+        ((segments[8] + range_max) * _CULL_SLACK) ** 2,  # a wall's points lie within half its length of its middle
+        segments[9], segments[10], ((segments[11] + range_min) * _CULL_SLACK) ** 2,
+        x0 * y1 - y0 * x1, x1 - x0, y1 - y0, (segments[12] == 0).astype(float)]).reshape(WALL_ROWS, -1))
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _wall_is_seen(table, w, ox, oy, lo, hi, tilted):  # noqa: ANN001, ANN202
+    """0: culled; 1: cast, the wall covers the band; 2: cast, a hit counts only at the heights it spans."""
+    dx, dy = table[MIDX, w] - ox, table[MIDY, w] - oy
+    if dx * dx + dy * dy > table[REACH2, w]:
+        return 0
+    zlo, zhi = table[ZLO, w], table[ZHI, w]
+    covers = zlo <= lo and zhi >= hi
+    if not covers and not (tilted and zlo < hi and zhi > lo):
+        return 0
+    # a ray from outside a convex solid enters through an edge facing it (the origin on its outer side);
+    # one starting inside (within range_min of it) leaves through the far side
+    cx, cy = table[CX, w] - ox, table[CY, w] - oy
+    facing = (table[CROSS, w] - ox * table[EY, w] + oy * table[EX, w] < 0.0
+              or cx * cx + cy * cy <= table[CREACH2, w] or table[TWO_SIDED, w] > 0.0)
+    if not facing:
+        return 0
+    return 1 if covers else 2
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _hit_wall(table, w, spans, ox, oy, oz, p00, p01, p10, p11, rz0, rz1, angle_min, inverse_step, count, turn,
+              range_min, dirs, ranges):  # noqa: ANN001, ANN202
+    """Lower `ranges` to the beams' hits on wall w (spans: only where the hit lies within its heights)."""
+    rx0, ry0 = table[X0, w] - ox, table[Y0, w] - oy
+    rx1, ry1 = table[X1, w] - ox, table[Y1, w] - oy
+    q0x, q0y = p00 * rx0 + p01 * ry0, p10 * rx0 + p11 * ry0
+    q1x, q1y = p00 * rx1 + p01 * ry1, p10 * rx1 + p11 * ry1
+    a0 = (math.atan2(q0y, q0x) - angle_min) * inverse_step
+    a1 = (math.atan2(q1y, q1x) - angle_min) * inverse_step
+    lo, hi = min(a0, a1), max(a0, a1)
+    if hi - lo > 0.5 * turn:  # the short way round goes through the gap behind the fan
+        lo, hi = hi, lo + turn
+    cross = q0x * q1y - q0y * q1x
+    ex, ey = q1x - q0x, q1y - q0y
+    # no hit on the wall is nearer than its nearest point: a beam already that near needs no division (walls
+    # come roughly near to far, see grid.Cell, so in a map most beams of most walls are settled by this)
+    along = -(q0x * ex + q0y * ey) / (ex * ex + ey * ey)
+    along = min(max(along, 0.0), 1.0)
+    nearest = math.hypot(q0x + along * ex, q0y + along * ey) * (1.0 - 1e-9)
+    zlo, zhi = table[ZLO, w], table[ZHI, w]
+    first = max(math.ceil(lo - INDEX_SLACK), 0)
+    last = min(math.floor(hi + INDEX_SLACK), count - 1)
+    for part in range(2):
+        if part == 1:  # the part of the interval running past a full turn, onto the first beams
+            if hi + INDEX_SLACK < turn:
+                break
+            first, last = 0, min(math.floor(hi - turn + INDEX_SLACK), count - 1)
+        for b in range(first, last + 1):
+            if ranges[b] <= nearest:
+                continue
+            t = cross / (dirs[0, b] * ey - dirs[1, b] * ex)
+            if t >= range_min and t < ranges[b]:
+                if spans:
+                    z = oz + t * (rz0 * dirs[0, b] + rz1 * dirs[1, b])
+                    if z < zlo or z > zhi:
+                        continue
+                ranges[b] = t
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def cast_walls(table, origin, to_plane, rotation, lo, hi, tilted, angle_min, inverse_step, count, turn, range_min,
+               dirs, ranges):  # noqa: ANN001, ANN201
+    """Lower `ranges` (count,) to one scan's first hits on the walls of `table` seen from `origin` (3,), in the
+    band [lo, hi]. Walls covering only part of the band are cast (with their heights) only if `tilted`."""
+    ox, oy, oz = origin[0], origin[1], origin[2]
+    p00, p01, p10, p11 = to_plane[0, 0], to_plane[0, 1], to_plane[1, 0], to_plane[1, 1]
+    rz0, rz1 = rotation[2, 0], rotation[2, 1]
+    for w in range(table.shape[1]):
+        seen = _wall_is_seen(table, w, ox, oy, lo, hi, tilted)
+        if seen:
+            _hit_wall(table, w, seen == 2, ox, oy, oz, p00, p01, p10, p11, rz0, rz1, angle_min, inverse_step, count,
+                      turn, range_min, dirs, ranges)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _cast_faces(table, polygon, poly_start, poly_edges, marked, origin, rotation, lo, hi, range_min, dirs, ranges):  # noqa: ANN001, ANN202
+    """Lower `ranges` to the hits on the top and bottom faces of the marked polygons (box footprints, edges
+    counter-clockwise): only a face inside the band and facing the origin can be the first hit."""
+    ox, oy, oz = origin[0], origin[1], origin[2]
+    for k in range(len(marked)):
+        if not marked[k]:
+            continue
+        e0 = poly_edges[poly_start[k]]
+        for face in range(2):
+            height = table[ZLO, e0] if face == 0 else table[ZHI, e0]
+            if face == 0 and not (oz <= height <= hi):
+                continue
+            if face == 1 and not (lo <= height <= oz):
+                continue
+            for b in range(dirs.shape[1]):
+                u0, u1 = dirs[0, b], dirs[1, b]
+                t = (height - oz) / (rotation[2, 0] * u0 + rotation[2, 1] * u1)
+                if not (t >= range_min and t < ranges[b]):
+                    continue
+                px = ox + t * (rotation[0, 0] * u0 + rotation[0, 1] * u1)
+                py = oy + t * (rotation[1, 0] * u0 + rotation[1, 1] * u1)
+                inside = True
+                for i in range(poly_start[k], poly_start[k + 1]):
+                    e = poly_edges[i]
+                    if table[EX, e] * (py - table[Y0, e]) - table[EY, e] * (px - table[X0, e]) < 0.0:
+                        inside = False
+                        break
+                if inside:
+                    ranges[b] = t
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def cast_batch(table, polygon, poly_start, poly_edges, floors, others, origins, to_plane, rotations, bands, steep,
+               angle_min, inverse_step, count, turn, range_min, range_max, dirs, ranges, fallback):  # noqa: ANN001, ANN201
+    """batch.BatchWallCaster's cast for worlds i (rows of origins, ...): ranges[i] lowered to its scan's hits
+    on the walls and box faces, or fallback[i] set where the 2-D cast cannot answer (see batch.py)."""
+    marked = np.zeros(len(poly_start) - 1, np.bool_)
+    for i in range(origins.shape[0]):
+        ox, oy = origins[i, 0], origins[i, 1]
+        lo, hi = bands[i, 0], bands[i, 1]
+        fall = steep[i]
+        for z in floors:
+            if lo <= z <= hi:
+                fall = True
+        for j in range(others.shape[1]):
+            reach = others[2, j] + range_max
+            dx, dy = others[0, j] - ox, others[1, j] - oy
+            if math.sqrt(dx * dx + dy * dy) <= reach and others[3, j] < hi and others[4, j] > lo:
+                fall = True
+        # walls covering part of the band: exact when they are edges of boxes (a side counts at the heights the
+        # box spans; the beams may also meet its top or bottom face); a partly covering two-sided wall falls back
+        tilted = False
+        marked[:] = False
+        if not fall:
+            for w in range(table.shape[1]):
+                zlo, zhi = table[ZLO, w], table[ZHI, w]
+                if (zlo <= lo and zhi >= hi) or not (zlo < hi and zhi > lo):
+                    continue
+                dx, dy = table[MIDX, w] - ox, table[MIDY, w] - oy
+                if dx * dx + dy * dy > table[REACH2, w]:
+                    continue
+                if table[TWO_SIDED, w] > 0.0:
+                    fall = True
+                    break
+                tilted = True
+                marked[polygon[w]] = True
+        fallback[i] = fall
+        if fall:
+            continue
+        cast_walls(table, origins[i], to_plane[i], rotations[i], lo, hi, tilted, angle_min, inverse_step, count,
+                   turn, range_min, dirs, ranges[i])
+        if tilted:
+            _cast_faces(table, polygon, poly_start, poly_edges, marked, origins[i], rotations[i], lo, hi, range_min,
+                        dirs, ranges[i])
+        for b in range(count):
+            if ranges[i, b] > range_max:
+                ranges[i, b] = np.inf
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def cast_level(table, floors, origin, rotation, max_tilt_cos, angle_min, inverse_step, count, turn, range_min,
+               range_max, dirs, ranges):  # noqa: ANN001, ANN201
+    """RayCaster.cast's common case in one call: a scan of prisms that all cover its height band. Lowers
+    `ranges` (count,) to the first hits on the walls of `table`, range_max applied, and returns True; or returns
+    False, `ranges` untouched, when the scan needs the general path (a steep scan plane, a floor in the band, a
+    wall within reach covering only part of the band). The frame is ScanFrame's, computed here."""
+    e1x, e2x, e1y, e2y = rotation[0, 0], rotation[0, 1], rotation[1, 0], rotation[1, 1]
+    det = e1x * e2y - e2x * e1y
+    if det < max_tilt_cos:
+        return False
+    half = range_max * math.hypot(rotation[2, 0], rotation[2, 1]) * (1.0 + 1e-12) + 1e-12
+    ox, oy, oz = origin[0], origin[1], origin[2]
+    lo, hi = oz - half, oz + half
+    for z in floors:
+        if lo <= z <= hi:
+            return False
+    for w in range(table.shape[1]):
+        zlo, zhi = table[ZLO, w], table[ZHI, w]
+        if not (zlo <= lo and zhi >= hi) and zlo < hi and zhi > lo:
+            dx, dy = table[MIDX, w] - ox, table[MIDY, w] - oy
+            if dx * dx + dy * dy <= table[REACH2, w]:
+                return False
+    p00, p01, p10, p11 = e2y / det, -e2x / det, -e1y / det, e1x / det
+    for w in range(table.shape[1]):
+        if _wall_is_seen(table, w, ox, oy, lo, hi, False):
+            _hit_wall(table, w, False, ox, oy, oz, p00, p01, p10, p11, 0.0, 0.0, angle_min, inverse_step, count,
+                      turn, range_min, dirs, ranges)
+    for b in range(count):
+        if ranges[b] > range_max:
+            ranges[b] = np.inf
+    return True
