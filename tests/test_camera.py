@@ -425,3 +425,27 @@ def test_compiled_frame_noise_is_gazebos_noise_from_the_noise_table():
     assert np.array_equal(noisy, add_noise(clean, unit, 0.0, 0.007 * 255))  # numpy's reference, value for value
     assert not np.array_equal(noisy, camera.capture(2_033_333_333 - 1)), "another stamp, other noise"
     sim.close()
+
+
+def test_render_ahead_publishes_the_same_frames_one_period_later():
+    """render_ahead() (the main job's camera): each frame is drawn on the GL thread while the sim goes on and is
+    published at the next frame's tick, stamped with its own time; the frames and their stamps are those of the
+    synchronous camera, and flush() publishes the last one."""
+    runs = {}
+    for ahead in (False, True):
+        sim = camera_sim("walker", seed=3)
+        got: list[tuple[int, int, np.ndarray]] = []
+        sim.subscribe(sim.camera.spec.image_topic, lambda msg, sim=sim: got.append((sim.time_ns, stamp_ns(msg),
+                                                                                    pixels(msg))))
+        sim.camera.render_ahead(ahead)
+        sim.run_until(0.2)
+        sim.camera.flush()
+        runs[ahead] = got
+        sim.close()
+    sync, ahead = runs[False], runs[True]
+    assert [s for _, s, _ in ahead] == [s for _, s, _ in sync] and len(sync) == 6  # 30 Hz for 0.2 s
+    next_ticks = [s for _, s, _ in sync[1:]] + [200_000_000]  # the last goes out by flush(), at the end
+    for (t_sync, stamp, frame), (t_ahead, _, frame_ahead), later in zip(sync, ahead, next_ticks):
+        assert t_sync == stamp  # published at the time it shows
+        assert t_ahead == later  # at the next frame's tick
+        np.testing.assert_array_equal(frame_ahead, frame)

@@ -324,6 +324,9 @@ def _drive(args: argparse.Namespace, sim: Simulator, live: LiveViews) -> tuple[f
                bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]", file=sys.stderr)
     bridge = start_ros_bridge(args, sim)
     pacer = RealTimePacer()
+    cameras = [car.camera for car in sim.cars if car.camera is not None]
+    for camera in cameras:  # frames drawn on the GL thread while the physics goes on, published a period later
+        camera.render_ahead()
     start = time.perf_counter()
     interrupted = False
     try:
@@ -339,6 +342,8 @@ def _drive(args: argparse.Namespace, sim: Simulator, live: LiveViews) -> tuple[f
     except KeyboardInterrupt:
         interrupted = True
     finally:
+        for camera in cameras:
+            camera.flush()  # the last frame, at the time the run stops
         bar.close()
         if bridge is not None:
             bridge.close()

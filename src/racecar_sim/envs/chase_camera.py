@@ -31,9 +31,9 @@ class ChaseCamera:
         self.scene = mujoco.MjvScene(model, maxgeom=max(1000, 2 * model.ngeom))
         self.rect = mujoco.MjrRect(0, 0, self.width, self.height)
         self.rgb = np.empty((self.height, self.width, 3), np.uint8)
-        self.gl.make_current()
         try:
-            self.context: mujoco.MjrContext | None = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_50)
+            self.context: mujoco.MjrContext | None = self.gl.call(mujoco.MjrContext, model,
+                                                                  mujoco.mjtFontScale.mjFONTSCALE_50)
         except mujoco.FatalError as exc:
             raise RenderingError(f"render_mode='rgb_array': MuJoCo cannot render in the {self.gl.backend} context "
                                  f"({exc}): use render_mode=None") from None
@@ -48,16 +48,17 @@ class ChaseCamera:
         self.camera.azimuth = math.degrees(math.atan2(rot[1, 0], rot[0, 0]))
         mujoco.mjv_updateScene(self.model, self.data, self.option, None, self.camera,
                                mujoco.mjtCatBit.mjCAT_ALL, self.scene)
-        self.gl.make_current()
+        return self.gl.call(self._draw)[::-1].copy()
+
+    def _draw(self) -> np.ndarray:
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self.context)
         mujoco.mjr_render(self.rect, self.scene, self.context)
         mujoco.mjr_readPixels(self.rgb, None, self.rect, self.context)
-        return self.rgb[::-1].copy()
+        return self.rgb
 
     def close(self) -> None:
         """Free the GL objects (the shared context stays)."""
         if self.context is not None:
-            self.gl.make_current()
-            self.context.free()
+            self.gl.call(self.context.free)
             self.context = None
 

@@ -220,6 +220,8 @@ class Car:
         for sensor in (self.lidar, self.camera):
             if sensor is not None:
                 sensor.seed = seed
+        if self.camera is not None:
+            self.camera.drop_pending()  # a frame drawn ahead of the reset shows the old episode
 
     def close(self) -> None:
         """Free the camera's GL context."""

@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 
 import math
+from concurrent.futures import Future
 import zlib
 
 import mujoco
@@ -114,6 +115,8 @@ class CameraPublisher:
         set_clip(model, self.spec.near, self.spec.far)
         self.renderer = OffscreenCamera(model, data, self.spec.name, self.spec.width, self.spec.height)
         self.frames_rendered = 0
+        self._ahead = False
+        self._pending: tuple[int, Future[np.ndarray]] | None = None  # (stamp, frame) drawn ahead, not yet published
         self._prepare()
         self._task = scheduler.every(self.spec.rate_hz, self._tick, "gazebo_ros_camera")
 
@@ -129,26 +132,64 @@ class CameraPublisher:
 
     def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         """Render a recompiled model (a model was spawned or deleted): same node, schedule and noise."""
+        self.flush()
         set_clip(model, self.spec.near, self.spec.far)
         self.renderer.rebind(model, data)
 
     def _tick(self, now_ns: int) -> None:
         spec = self.spec
+        if self._pending is not None:  # render-ahead: the frame drawn since the last tick goes out now
+            self.flush()
         if not (self.bus.has_listeners(spec.image_topic) or self.bus.has_listeners(spec.info_topic)):
             return
-        pixels = self.capture(now_ns)
-        self.bus.publish(spec.image_topic, Image(Header.at(now_ns, spec.frame_id), spec.height, spec.width,
+        if self._ahead:
+            self._pending = (now_ns, self._capture_later(now_ns))
+        else:
+            self._publish(now_ns, self.capture(now_ns))
+
+    def render_ahead(self, on: bool = True) -> None:
+        """Draw each frame on the GL thread while the simulation goes on, and publish it at the next frame's tick
+        (33 ms of sim time later at 30 Hz), stamped with the time it shows, as Gazebo's camera, rendering on its own
+        thread, publishes after the fact. The same frames, a period later; flush() publishes the last one."""
+        if not on:
+            self.flush()
+        self._ahead = on
+
+    def flush(self) -> None:
+        """Publish the frame being drawn ahead, if any (stamped with its own time), now."""
+        if self._pending is not None:
+            stamp_ns, frame = self._pending
+            self._pending = None
+            self._publish(stamp_ns, frame.result())
+
+    def drop_pending(self) -> None:
+        """Forget the frame being drawn ahead, unpublished (sim time went back: a reset)."""
+        if self._pending is not None:
+            self._pending[1].result()  # let the GL thread finish with this camera's buffers
+            self._pending = None
+
+    def _publish(self, stamp_ns: int, pixels: np.ndarray) -> None:
+        spec = self.spec
+        self.bus.publish(spec.image_topic, Image(Header.at(stamp_ns, spec.frame_id), spec.height, spec.width,
                                                  spec.encoding, 0, spec.step, pixels.reshape(-1)))
-        self.bus.publish(spec.info_topic, spec.camera_info(now_ns))
+        self.bus.publish(spec.info_topic, spec.camera_info(stamp_ns))
 
     def capture(self, stamp_ns: int) -> np.ndarray:
         """Render the current state: a new (height, width, 3) uint8 array in the spec's encoding, top row first,
         with the noise of the frame stamped `stamp_ns`."""
+        return self._capture_later(stamp_ns).result()
+
+    def _capture_later(self, stamp_ns: int) -> Future[np.ndarray]:
+        """capture(), with the scene posed now and the drawing and noise done on the GL thread."""
+        self.frames_rendered += 1
+        drawn = self.renderer.render_later()
+        return self.renderer.gl.submit(self._finish, drawn, stamp_ns)
+
+    def _finish(self, drawn: Future[np.ndarray], stamp_ns: int) -> np.ndarray:
         from racecar_sim.sensors.camera_noise import finish_frame  # numba loads with the first frame
 
-        self.frames_rendered += 1
+        gl_rgb = drawn.result()  # GL rows run bottom-up; the buffer is reused by the next drawing (after this job)
         spec = self.spec
-        gl_rgb = self.renderer.render()  # GL rows run bottom-up; the buffer is reused
         pixels = np.empty((spec.height, spec.width, 3), dtype=np.uint8)  # the message keeps its own pixels
         if self.noise:
             table = self._noise_table
@@ -170,6 +211,7 @@ class CameraPublisher:
         return f"{self.renderer.gl.backend}: {self.renderer.gl.renderer}"
 
     def close(self) -> None:
-        """Stop publishing and free this camera's GL objects."""
+        """Stop publishing and free this camera's GL objects (a frame drawn ahead is dropped)."""
         self._task.cancel()
+        self.drop_pending()
         self.renderer.close()

@@ -20,15 +20,19 @@ import atexit
 import ctypes
 import importlib
 import os
+import queue
 import sys
-from collections.abc import Iterator
+import threading
+from collections.abc import Callable, Iterator
+from concurrent.futures import Future
 from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 from racecar_sim.core.errors import RenderingError
 from racecar_sim.sensors.egl_probe import egl_problem
 
+T = TypeVar("T")
 BACKENDS = ("egl", "osmesa")
 LABELS = {"egl": "EGL", "osmesa": "OSMesa"}
 PACKAGES = {"egl": "libegl1 libgl1-mesa-dri", "osmesa": "libosmesa6"}
@@ -40,19 +44,57 @@ __all__ = ["BACKENDS", "HeadlessGL", "RenderingError", "create_context", "guard_
 
 @dataclass
 class HeadlessGL:
-    """An OpenGL context with no window: make it current before any mjr_* call."""
+    """An OpenGL context with no window, current on a thread of its own: every mjr_* call goes through call() or
+    submit(), so the GL work of a frame may overlap the physics on the main thread (MuJoCo's calls release the
+    GIL), and any thread may ask for a frame."""
 
     backend: str  # egl | osmesa
     context: Any  # mujoco.egl.GLContext or mujoco.osmesa.GLContext
     renderer: str  # GL_RENDERER, e.g. "llvmpipe (LLVM 15.0.6, 256 bits)" for Mesa's software rasteriser
+    thread: GLThread  # the context is current on it
 
-    def make_current(self) -> None:
-        """Make this the calling thread's current context."""
-        self.context.make_current()
+    def submit(self, fn: Callable[..., T], *args: Any) -> Future[T]:
+        """Run fn(*args) on the context's thread; its result (or error) comes with the future."""
+        return self.thread.submit(fn, *args)
+
+    def call(self, fn: Callable[..., T], *args: Any) -> T:
+        """Run fn(*args) on the context's thread and return its result."""
+        return self.thread.submit(fn, *args).result()
 
     def free(self) -> None:
-        """Destroy the context."""
-        self.context.free()
+        """Destroy the context and stop its thread."""
+        try:
+            self.call(self.context.free)
+        finally:
+            self.thread.stop()
+
+
+class GLThread:
+    """One daemon thread running submitted calls in order (a GL context stays current on the thread that made it).
+
+    Not a ThreadPoolExecutor: that refuses work once the interpreter starts exiting, and the context is freed by an
+    atexit hook, through this thread."""
+
+    def __init__(self) -> None:
+        self._jobs: queue.SimpleQueue[tuple[Callable[..., Any], tuple[Any, ...], Future[Any]] | None] = (
+            queue.SimpleQueue())
+        threading.Thread(target=self._run, name="racecar-sim GL", daemon=True).start()
+
+    def submit(self, fn: Callable[..., T], *args: Any) -> Future[T]:
+        future: Future[T] = Future()
+        self._jobs.put((fn, args, future))
+        return future
+
+    def stop(self) -> None:
+        self._jobs.put(None)
+
+    def _run(self) -> None:
+        while (job := self._jobs.get()) is not None:
+            fn, args, future = job
+            try:
+                future.set_result(fn(*args))
+            except BaseException as exc:  # noqa: BLE001 - handed to the caller with the future
+                future.set_exception(exc)
 
 
 _OFF = ("disable", "disabled", "off", "false", "0")
@@ -145,16 +187,20 @@ def create_context(width: int = 640, height: int = 480) -> HeadlessGL:
                                  "set PYOPENGL_PLATFORM=egl (or osmesa), or run with --no-camera")
         candidates = [bound] if bound else list(BACKENDS)
         requested = ""
+    thread = GLThread()
     reasons: dict[str, str] = {}
     for backend in candidates:
         try:
-            return _open(backend, width, height)
+            context, renderer = thread.submit(_open, backend, width, height).result()
+            return HeadlessGL(backend, context, renderer, thread)
         except Exception as exc:  # noqa: BLE001 - backends fail their own ways: ImportError, OSError, ...
             reasons[backend] = _reason(backend, exc)
+    thread.stop()
     raise RenderingError(_message(reasons, requested))
 
 
-def _open(backend: str, width: int, height: int) -> HeadlessGL:
+def _open(backend: str, width: int, height: int) -> tuple[Any, str]:
+    """A context of `backend`, current on the calling thread, and its GL_RENDERER."""
     bound = _pyopengl_platform()
     if bound is not None and bound != backend:
         raise RuntimeError(f"PyOpenGL was already imported for the {bound} platform")
@@ -169,7 +215,7 @@ def _open(backend: str, width: int, height: int) -> HeadlessGL:
         module = importlib.import_module(f"mujoco.{backend}")
         context = module.GLContext(width, height)
         context.make_current()
-        return HeadlessGL(backend, context, _renderer_string())
+        return context, _renderer_string()
     except Exception:
         if fresh:
             _forget_pyopengl()

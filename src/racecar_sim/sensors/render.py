@@ -7,6 +7,8 @@ the flat sky colour, drawn last and only where nothing else is, so it costs litt
 
 from __future__ import annotations
 
+from concurrent.futures import Future
+
 import mujoco
 import numpy as np
 
@@ -63,16 +65,19 @@ class OffscreenCamera:
         self._pose = mujoco.MjData(model)
         self.camera.fixedcamid = model.camera(self.camera_name).id
         self.scene = mujoco.MjvScene(model, maxgeom=max(1000, 2 * model.ngeom))
-        self.gl.make_current()
         try:
-            self.context = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_50)
+            self.context = self.gl.call(mujoco.MjrContext, model, mujoco.mjtFontScale.mjFONTSCALE_50)
         except mujoco.FatalError as exc:  # e.g. MuJoCo's GL loader bound to another backend earlier in the process
             raise RenderingError(f"MuJoCo cannot render in the {self.gl.backend} context ({exc}): "
                                  "run with --no-camera") from None
-        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self.context)
 
     def render(self) -> np.ndarray:
         """Render the current state; the returned buffer is reused by the next call."""
+        return self.render_later().result()
+
+    def render_later(self) -> Future[np.ndarray]:
+        """Pose the scene at the current state now, and draw it on the GL context's thread: the future's result is
+        render()'s. Nothing may render or pose this camera again before that result is taken."""
         if self.context is None:
             raise RuntimeError("render() after close()")
         pose = self._pose
@@ -85,7 +90,9 @@ class OffscreenCamera:
                                mujoco.mjtCatBit.mjCAT_STATIC | mujoco.mjtCatBit.mjCAT_DYNAMIC, self.scene)
         for flag in _OFF:
             self.scene.flags[flag] = 0
-        self.gl.make_current()
+        return self.gl.submit(self._draw)
+
+    def _draw(self) -> np.ndarray:
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self.context)
         mujoco.mjr_render(self.rect, self.scene, self.context)
         mujoco.mjr_readPixels(self.rgb, None, self.rect, self.context)
@@ -94,6 +101,5 @@ class OffscreenCamera:
     def close(self) -> None:
         """Free the GL objects of this camera (the shared GL context stays for the next camera)."""
         if self.context is not None:
-            self.gl.make_current()
-            self.context.free()
+            self.gl.call(self.context.free)
             self.context = None
