@@ -21,7 +21,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
+from map_files import write_map
 
 from racecar_sim.core.transforms import quat_from_rpy
 from racecar_sim.physics import COLLISION_GROUP, ROOT_JOINT
@@ -32,7 +32,7 @@ MAP_SIZE, MAP_RESOLUTION = (60.0, 40.0), 0.05  # m, m per cell
 SPAWN_INSET = 2.6  # m from the map's lower left corner to the spawn pose, between the walls
 
 
-def write_map(folder: Path, seed: int) -> Path:
+def clutter_map(folder: Path, seed: int) -> Path:
     """A ROS map: an outer wall, corridor walls with doorways and scattered blocks (a few hundred boxes)."""
     rng = np.random.default_rng(seed)
     cols, rows = (round(s / MAP_RESOLUTION) for s in MAP_SIZE)
@@ -48,11 +48,7 @@ def write_map(folder: Path, seed: int) -> Path:
         occupied[r:r + h, c:c + w] = True
     spawn = round(SPAWN_INSET / MAP_RESOLUTION)  # the world's spawn pose (0, 0) lies SPAWN_INSET m in, kept clear
     occupied[-spawn - 20:-spawn + 20, spawn - 20:spawn + 20] = False
-    Image.fromarray(np.where(occupied, 0, 254).astype(np.uint8)).save(folder / "clutter.pgm")
-    path = folder / "clutter.yaml"
-    path.write_text(f"image: clutter.pgm\nresolution: {MAP_RESOLUTION}\norigin: [{-SPAWN_INSET}, {-SPAWN_INSET}, 0.0]\nnegate: 0\n"
-                    "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
-    return path
+    return write_map(folder, "clutter", occupied, MAP_RESOLUTION, (-SPAWN_INSET, -SPAWN_INSET))
 
 
 def lidar_for(sim: Simulator) -> LidarPublisher:
@@ -126,7 +122,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as folder:
-        worlds = {"tunnel": "tunnel", "walker": "walker", "map": str(write_map(Path(folder), args.seed)),
+        worlds = {"tunnel": "tunnel", "walker": "walker", "map": str(clutter_map(Path(folder), args.seed)),
                   "cones": "cones"}
         rows = {name: measure(world, args.poses, args.seed) for name, world in worlds.items()}
     print(f"{'world':<8}{'geoms':>6}{'build ms':>9}{'fast us':>9}{'fast Mray/s':>12}{'3-D us':>9}{'3-D Mray/s':>11}"

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 from bench_scaling import CLOCKS, pipeline_rate, step_us
-from PIL import Image
+from map_files import write_map
 
 import racecar_sim
 from racecar_sim import Simulator
@@ -90,11 +90,7 @@ def basement_like(folder: Path, seed: int) -> Path:
     centre = cells // 2
     clear = round(3.0 / RESOLUTION)
     grid[centre - clear:centre + clear, centre - clear:centre + clear] = False  # nothing on the car's circle
-    Image.fromarray(np.where(grid, 0, 254).astype(np.uint8)).save(folder / "basement_like.pgm")
-    path = folder / "basement_like.yaml"
-    path.write_text(f"image: basement_like.pgm\nresolution: {RESOLUTION}\norigin: [{-SIDE / 2}, {-SIDE / 2}, 0.0]\n"
-                    "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n")
-    return path
+    return write_map(folder, "basement_like", grid, RESOLUTION, (-SIDE / 2, -SIDE / 2))
 
 
 def occupied_count(path: Path) -> int:
