@@ -405,3 +405,39 @@ def test_compiled_laser_rule_is_the_numpy_rule_bit_for_bit():
                 ranges += lidar.scan_noise(lidar.noise_table.sample(int(seeds[i]), int(stamps[i])))
             expected = np.where(hit, np.clip(ranges, lidar.spec.range_min, lidar.spec.range_max), np.inf)
             np.testing.assert_array_equal(compiled[i], expected.astype(np.float32))
+
+
+@pytest.mark.parametrize("world", ["walker", "tunnel"])
+def test_one_call_scan_is_the_step_by_step_scan_bit_for_bit(world):
+    """LidarPublisher.scan's compiled whole-scan path (laser_kernel.level_scan: pose from qpos, grid cell, wall cast,
+    noise) publishes what the step-by-step path (LaserMount, RayCaster.cast, the laser rule) publishes, at random
+    poses of the car, level and pitched or rolled a little (which may send a scan to the general path)."""
+    from racecar_sim.core.transforms import quat_from_rpy
+    from racecar_sim.runtime import Simulator
+
+    sim = Simulator(world=world, camera=False)
+    lidar = sim.car.lidar
+    assert lidar.caster.level_walls() is not None
+    adr = lidar.mount.qpos_adr
+    rng = np.random.default_rng(1)
+    base = sim.data.qpos.copy()
+    step_by_step = type(lidar.caster).level_walls
+    calls = []
+    true_ranges = lidar.true_ranges
+    lidar.true_ranges = lambda: calls.append(1) or true_ranges()  # only the step-by-step path calls it
+    one_call = 0
+    for k in range(60):
+        sim.data.qpos[:] = base
+        sim.data.qpos[adr:adr + 2] += rng.uniform(-3, 3, 2)
+        tilt = rng.normal(0, 0.02, 2) if k % 2 else (0.0, 0.0)
+        sim.data.qpos[adr + 3:adr + 7] = quat_from_rpy((*tilt, rng.uniform(-np.pi, np.pi)))
+        calls.clear()
+        fused = lidar.scan(k * 25_000_000)
+        one_call += not calls
+        lidar.caster.level_walls = lambda: None
+        try:
+            expected = lidar.scan(k * 25_000_000)
+        finally:
+            lidar.caster.level_walls = step_by_step.__get__(lidar.caster)
+        np.testing.assert_array_equal(fused, expected)
+    assert one_call >= 30  # the level scans at least took the one-call path

@@ -6,8 +6,12 @@ mean), clamped to [range_min, range_max], +inf where nothing was hit), so either
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
+
+from racecar_sim.sensors.raycast.kernels import cast_level
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -29,3 +33,36 @@ def published_scans(ranges, values, first, second, stddev, mean, noisy, range_mi
     """published_scan for every row i of `ranges` (N, beams), with the windows first[i], second[i]."""
     for i in range(ranges.shape[0]):
         published_scan(ranges[i], values, first[i], second[i], stddev, mean, noisy, range_min, range_max, out[i])
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def level_scan(qpos, adr, local_origin, local_axes, size, x0, y0, ids, starts, table, floors, max_tilt_cos,
+               angle_min, inverse_step, count, turn, range_min, range_max, dirs, values, first, second, stddev, mean,
+               noisy, ranges, out):  # noqa: ANN001, ANN201
+    """A whole published scan in one call, for a laser on a free body (LaserMount) in a world of walls: the ray
+    origin and axes from the body's pose in qpos (LaserMount.pose's operations, in its order), the origin's grid
+    cell (FlatWalls), kernels.cast_level into `ranges`, published_scan into `out`. Returns False, `out` untouched,
+    where that path cannot answer (a cell with more than walls, or cast_level's refusals)."""
+    px, py, pz = qpos[adr], qpos[adr + 1], qpos[adr + 2]
+    w, x, y, z = qpos[adr + 3], qpos[adr + 4], qpos[adr + 5], qpos[adr + 6]
+    r = np.empty((3, 3))
+    r[0, 0], r[0, 1], r[0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)
+    r[1, 0], r[1, 1], r[1, 2] = 2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)
+    r[2, 0], r[2, 1], r[2, 2] = 2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)
+    origin = np.empty(3)
+    axes = np.empty((3, 3))
+    p = (px, py, pz)
+    for i in range(3):
+        origin[i] = p[i] + (r[i, 0] * local_origin[0] + r[i, 1] * local_origin[1] + r[i, 2] * local_origin[2])
+        for j in range(3):
+            axes[i, j] = r[i, 0] * local_axes[0, j] + r[i, 1] * local_axes[1, j] + r[i, 2] * local_axes[2, j]
+    ix, iy = math.floor(origin[0] / size) - x0, math.floor(origin[1] / size) - y0
+    if ix < 0 or iy < 0 or ix >= ids.shape[0] or iy >= ids.shape[1] or ids[ix, iy] < 0:
+        return False
+    k = ids[ix, iy]
+    ranges[:] = np.inf
+    if not cast_level(table[:, starts[k]:starts[k + 1]], floors, origin, axes, max_tilt_cos, angle_min,
+                      inverse_step, count, turn, range_min, range_max, dirs, ranges):
+        return False
+    published_scan(ranges, values, first, second, stddev, mean, noisy, range_min, range_max, out)
+    return True

@@ -58,6 +58,7 @@ class LidarPublisher:
         self.noise_table = NoiseTable.shared(self.noise_stream, spec.samples)
         self._no_intensities = np.zeros(spec.samples, np.float32)
         self._no_intensities.flags.writeable = False  # one array shared by every scan message
+        self._ranges = np.empty(spec.samples)  # level_scan's true ranges (scratch)
         self._root = names.mj(robot.root)
         self._site = self._site_id(model)
         self._offset = np.array(spec.pose.xyz, dtype=float)
@@ -120,8 +121,24 @@ class LidarPublisher:
 
     def scan(self, stamp_ns: int) -> np.ndarray:
         """The ranges (float32) of a scan taken now and stamped `stamp_ns`, with that stamp's noise."""
-        ranges = self.true_ranges()
         spec = self.spec
+        walls = self.caster.level_walls() if self.mount is not None and self.mode == "auto" else None
+        if walls is not None:  # the common case in one compiled call (laser_kernel.level_scan), else the steps below
+            from racecar_sim.sensors.laser_kernel import level_scan
+            from racecar_sim.sensors.raycast.fan import MAX_TILT_COS
+
+            fan, mount = self.fan, self.mount
+            first, second = self.noise_table.offsets(self.seed, stamp_ns)
+            out = np.empty(fan.count, np.float32)
+            if level_scan(self.data.qpos, mount.qpos_adr, mount.local_origin, mount.local_axes, walls.size, walls.x0,
+                          walls.y0, walls.ids, walls.starts, walls.table, walls.floors, MAX_TILT_COS,
+                          fan.angle_min, fan.inverse_step, fan.count, fan.turn, fan.range_min, fan.range_max,
+                          fan.directions, self.noise_table.values, first, second, spec.noise_stddev, spec.noise_mean,
+                          self.noise, self._ranges, out):
+                self.scans_cast += 1
+                self.caster.last_3d_beams = 0
+                return out
+        ranges = self.true_ranges()
         if self.caster.compiled:  # numba is loaded for this world's walls: the rule in one compiled pass
             from racecar_sim.sensors.laser_kernel import published_scan
 

@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 
 from racecar_sim.sensors.raycast.fan import MAX_TILT_COS, Fan, ScanFrame
-from racecar_sim.sensors.raycast.grid import Grid, split_by_band
+from racecar_sim.sensors.raycast.grid import FlatWalls, Grid, split_by_band
 from racecar_sim.sensors.raycast.mujoco3d import MujocoRays
 from racecar_sim.sensors.raycast.planar import (
     Walls,
@@ -119,6 +119,14 @@ class RayCaster:
                 self._pose_bodies()
             ranges[beams] = self.rays3d.cast(frame, beams)
         return ranges
+
+    def level_walls(self) -> FlatWalls | None:
+        """What a compiled caller needs to cast cast()'s common case itself (kernels.cast_level on the walls of the
+        origin's cell; anything it refuses goes to cast()): the walls-only cells, or None when no scan of this world
+        can take that path (free bodies to see, a geom that is nowhere a prism, no walls)."""
+        if self._has_moving or self.static.not_prism_like or not self.compiled:
+            return None
+        return self.grid.flat_walls()
 
     def _cast_3d(self, frame: ScanFrame) -> np.ndarray:
         self._pose_bodies()

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import bisect
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -86,6 +87,8 @@ class Grid:
     def __init__(self, footprints: Footprints, fan: Fan, size: float | None = None) -> None:
         reach = fan.range_max
         self.size = size or max(reach / 2.0, 1.0)
+        self.floors = np.ascontiguousarray(footprints.floors, dtype=float)
+        self._flat: FlatWalls | None = None
         self.empty = Cell(empty_segments(), empty_circles(), empty_circles(), fan)
         tables = (footprints.segments, footprints.circles, footprints.bounds)
         boxes = (_segment_boxes(footprints.segments), _circle_boxes(footprints.circles),
@@ -113,6 +116,43 @@ class Grid:
         ends = np.r_[starts[1:], len(ix)]
         return {(int(ix[s]), int(iy[s])): item[s:e] for s, e in zip(starts, ends)}
 
+    def flat_walls(self) -> FlatWalls:
+        """The walls-only cells as arrays for a compiled caller (kernels' tables, concatenated), built once."""
+        if self._flat is None:
+            self._flat = FlatWalls.of(self)
+        return self._flat
+
     def cell(self, x: float, y: float) -> Cell:
         """The items near the point (x, y)."""
         return self.cells.get((math.floor(x / self.size), math.floor(y / self.size)), self.empty)
+
+
+@dataclass(frozen=True)
+class FlatWalls:
+    """A Grid's walls-only cells for compiled code: cell (ix, iy) (floor(x / size), floor(y / size)) has number
+    ids[ix - x0, iy - y0], -1 where it is missing or holds more than walls; its walls are table[:, starts[k]:starts[k
+    + 1]] (kernels.wall_table rows). `floors`: the heights of the world's horizontal planes."""
+
+    floors: np.ndarray
+    size: float
+    x0: int
+    y0: int
+    ids: np.ndarray
+    starts: np.ndarray
+    table: np.ndarray
+
+    @classmethod
+    def of(cls, grid: Grid) -> FlatWalls:
+        from racecar_sim.sensors.raycast.kernels import WALL_ROWS
+
+        keys = [key for key, cell in grid.cells.items() if cell.walls_only() is not None]
+        if not keys:
+            return cls(grid.floors, grid.size, 0, 0, np.full((1, 1), -1, np.int64), np.zeros(1, np.int64), np.zeros((WALL_ROWS, 0)))
+        x0, y0 = min(k[0] for k in keys), min(k[1] for k in keys)
+        ids = np.full((max(k[0] for k in keys) - x0 + 1, max(k[1] for k in keys) - y0 + 1), -1, np.int64)
+        tables = []
+        for number, key in enumerate(keys):
+            ids[key[0] - x0, key[1] - y0] = number
+            tables.append(grid.cells[key].walls_only())
+        starts = np.concatenate([[0], np.cumsum([t.shape[1] for t in tables])]).astype(np.int64)
+        return cls(grid.floors, grid.size, x0, y0, ids, starts, np.ascontiguousarray(np.concatenate(tables, axis=1)))
