@@ -29,6 +29,17 @@ class Log:
         return self.messages[topic]
 
 
+def laser_pose(sim: Simulator) -> tuple[np.ndarray, np.ndarray]:
+    """The laser's world position and orientation (quaternion) from the URDF's link chain and the sensor's <pose> at
+    the car's current base pose: the geometry the description gives, not the caster's."""
+    from racecar_sim.core.transforms import compose, quat_from_rpy
+    from racecar_sim.description.kinematics import link_pose
+
+    ray = sim.robot.sensor("ray")
+    pos, quat = compose(*link_pose(sim.robot, ray.link), np.array(ray.pose.xyz), quat_from_rpy(ray.pose.rpy))
+    return compose(*sim.state.base_pose(), pos, quat)
+
+
 def positions(odom: list, after: float = 0.0) -> np.ndarray:
     """(x, y) of /vesc/odom messages stamped after `after` seconds."""
     return np.array([[o.pose.pose.position.x, o.pose.pose.position.y] for o in odom

@@ -5,8 +5,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import numpy as np
 import pytest
+from conftest import laser_pose
 from ros_package_helpers import (
     SHIPPED_URDF,
     write_description_package,
@@ -23,9 +23,7 @@ from racecar_sim.core.ros_packages import (
     gazebo_model_dirs,
     resolve_uri,
 )
-from racecar_sim.core.transforms import compose, quat_from_rpy
 from racecar_sim.description import DEFAULT_XACRO, load_robot, package_path
-from racecar_sim.description.kinematics import link_pose
 
 WALL_X, WALL_THICKNESS = 2.0, 0.2  # the box_wall model's centre (as included) and thickness, m
 
@@ -150,10 +148,7 @@ def _range_ahead(sim: Simulator) -> tuple[float, float]:
     sim.subscribe("/scan", scans.append)
     sim.run_until(0.1)
     scan = scans[-1]
-    ray = sim.robot.sensor("ray")
-    pos, quat = compose(*link_pose(sim.robot, ray.link), np.array(ray.pose.xyz), quat_from_rpy(ray.pose.rpy))
-    base_pos, base_quat = sim.state.base_pose()
-    origin, _ = compose(base_pos, base_quat, pos, quat)
+    origin, _ = laser_pose(sim)
     beam = round(-scan.angle_min / scan.angle_increment)
     assert abs(scan.angle_min + beam * scan.angle_increment) < 1e-6
     return scan.ranges[beam], WALL_X - WALL_THICKNESS / 2 - origin[0]

@@ -13,11 +13,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import laser_pose
 
 from racecar_sim import Simulator
 from racecar_sim.core.errors import WorldError
-from racecar_sim.core.transforms import compose, quat_from_rpy, quat_rotate, yaw_of
-from racecar_sim.description.kinematics import link_pose
+from racecar_sim.core.transforms import compose, quat_rotate, yaw_of
 from racecar_sim.worlds import Spawn, load_world, world_names
 
 RUN = ["--duration", "0.5", "--no-camera", "--no-record", "--no-summary", "--no-video"]
@@ -144,10 +144,7 @@ def test_lidar_sees_a_world_with_no_materials(tmp_path):
     sim.run_until(0.05)
     scan = scans[-1]
     # the laser's ray origin from the URDF chain and the sensor <pose>, not from the caster
-    sensor = sim.robot.sensor("ray")
-    pos, quat = compose(*link_pose(sim.robot, sensor.link), np.array(sensor.pose.xyz), quat_from_rpy(sensor.pose.rpy))
-    base_pos, base_quat = sim.state.base_pose()
-    origin, laser_quat = compose(base_pos, base_quat, pos, quat)
+    origin, laser_quat = laser_pose(sim)
     heading = yaw_of(laser_quat)
     ahead = round((-heading - scan.angle_min) / scan.angle_increment)  # the beam pointing along +x
     beam = scan.angle_min + ahead * scan.angle_increment + heading

@@ -1,8 +1,10 @@
-"""One seeded random generator per run, split into independent streams per consumer."""
+"""A run's seed, and the sensors' noise: per stream name and (seed, stamp), the same however many samples came
+before (a sensor that skips work while nobody listens still reproduces the same data)."""
 
 from __future__ import annotations
 
 import zlib
+from typing import ClassVar
 
 import numpy as np
 
@@ -14,24 +16,6 @@ def check_seed(seed: object) -> int:
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ConfigError(f"seed must be a whole number >= 0, got {seed!r}")
     return int(seed)
-
-
-def stream(seed: int, name: str) -> np.random.Generator:
-    """An independent generator for the consumer called `name` (a sensor, a driver) in run `seed`.
-
-    Streams are keyed by name, not by creation order, so adding a sensor never changes the
-    noise another sensor sees.
-    """
-    return np.random.default_rng([seed, zlib.crc32(name.encode())])
-
-
-def sample_stream(seed: int, name: str, stamp_ns: int) -> np.random.Generator:
-    """A generator for one sample (a scan, an image) of `name` taken at sim time `stamp_ns`.
-
-    Keyed by the stamp, so a sample's noise is the same whether or not earlier samples were taken
-    (a sensor that skips work while nobody listens still reproduces the same data).
-    """
-    return np.random.default_rng([seed, zlib.crc32(name.encode()), stamp_ns])
 
 
 _MASK64 = (1 << 64) - 1
@@ -57,7 +41,7 @@ class NoiseTable:
     ~2 count / size per window pair), which no per-sample statistic sees.
     """
 
-    _shared: dict[tuple[str, int, str], NoiseTable] = {}
+    _shared: ClassVar[dict[tuple[str, int, str], NoiseTable]] = {}
 
     def __init__(self, name: str, count: int, dtype: type = np.float64) -> None:
         self.name, self.count = name, count

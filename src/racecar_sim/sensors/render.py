@@ -34,6 +34,41 @@ def visual_only_option() -> mujoco.MjvOption:
     return option
 
 
+class GLScene:
+    """A MuJoCo scene and its GL objects in the shared headless context, drawn offscreen on the context's thread into
+    an RGB buffer (rows bottom-up, GL order) that the next drawing reuses. `fix`: what the one-line RenderingError
+    tells the user to do when MuJoCo cannot render in the context."""
+
+    def __init__(self, model: mujoco.MjModel, width: int, height: int, gl: HeadlessGL, fix: str) -> None:
+        self.gl = gl
+        self.scene = mujoco.MjvScene(model, maxgeom=max(1000, 2 * model.ngeom))
+        self.rect = mujoco.MjrRect(0, 0, width, height)
+        self.rgb = np.empty((height, width, 3), dtype=np.uint8)
+        try:
+            self.context: mujoco.MjrContext | None = gl.call(mujoco.MjrContext, model,
+                                                             mujoco.mjtFontScale.mjFONTSCALE_50)
+        except mujoco.FatalError as exc:  # e.g. MuJoCo's GL loader bound to another backend earlier in the process
+            raise RenderingError(f"MuJoCo cannot render in the {gl.backend} context ({exc}): {fix}") from None
+
+    def draw_later(self) -> Future[np.ndarray]:
+        """Draw the scene as it is now posed; the future's result is the RGB buffer."""
+        if self.context is None:
+            raise RuntimeError("drawing after close()")
+        return self.gl.submit(self._draw)
+
+    def _draw(self) -> np.ndarray:
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self.context)
+        mujoco.mjr_render(self.rect, self.scene, self.context)
+        mujoco.mjr_readPixels(self.rgb, None, self.rect, self.context)
+        return self.rgb
+
+    def close(self) -> None:
+        """Free the GL objects (the shared context stays). Idempotent."""
+        if self.context is not None:
+            self.gl.call(self.context.free)
+            self.context = None
+
+
 class OffscreenCamera:
     """Renders the model's camera `camera` at width x height; render() returns bottom-up RGB rows (GL order).
 
@@ -52,9 +87,8 @@ class OffscreenCamera:
         self.camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
         self.camera_name = camera
         self.option = visual_only_option()
-        self.rect = mujoco.MjrRect(0, 0, width, height)
-        self.rgb = np.empty((height, width, 3), dtype=np.uint8)
-        self.context: mujoco.MjrContext | None = None
+        self.width, self.height = width, height
+        self.target: GLScene | None = None
         self.rebind(model, data)
 
     def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
@@ -64,12 +98,7 @@ class OffscreenCamera:
         self.model, self.data = model, data
         self._pose = mujoco.MjData(model)
         self.camera.fixedcamid = model.camera(self.camera_name).id
-        self.scene = mujoco.MjvScene(model, maxgeom=max(1000, 2 * model.ngeom))
-        try:
-            self.context = self.gl.call(mujoco.MjrContext, model, mujoco.mjtFontScale.mjFONTSCALE_50)
-        except mujoco.FatalError as exc:  # e.g. MuJoCo's GL loader bound to another backend earlier in the process
-            raise RenderingError(f"MuJoCo cannot render in the {self.gl.backend} context ({exc}): "
-                                 "run with --no-camera") from None
+        self.target = GLScene(model, self.width, self.height, self.gl, "run with --no-camera")
 
     def render(self) -> np.ndarray:
         """Render the current state; the returned buffer is reused by the next call."""
@@ -78,7 +107,7 @@ class OffscreenCamera:
     def render_later(self) -> Future[np.ndarray]:
         """Pose the scene at the current state now, and draw it on the GL context's thread: the future's result is
         render()'s. Nothing may render or pose this camera again before that result is taken."""
-        if self.context is None:
+        if self.target is None:
             raise RuntimeError("render() after close()")
         pose = self._pose
         pose.qpos[:] = self.data.qpos
@@ -86,20 +115,15 @@ class OffscreenCamera:
         pose.mocap_quat[:] = self.data.mocap_quat
         mujoco.mj_kinematics(self.model, pose)
         mujoco.mj_camlight(self.model, pose)
+        scene = self.target.scene
         mujoco.mjv_updateScene(self.model, pose, self.option, None, self.camera,
-                               mujoco.mjtCatBit.mjCAT_STATIC | mujoco.mjtCatBit.mjCAT_DYNAMIC, self.scene)
+                               mujoco.mjtCatBit.mjCAT_STATIC | mujoco.mjtCatBit.mjCAT_DYNAMIC, scene)
         for flag in _OFF:
-            self.scene.flags[flag] = 0
-        return self.gl.submit(self._draw)
-
-    def _draw(self) -> np.ndarray:
-        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self.context)
-        mujoco.mjr_render(self.rect, self.scene, self.context)
-        mujoco.mjr_readPixels(self.rgb, None, self.rect, self.context)
-        return self.rgb
+            scene.flags[flag] = 0
+        return self.target.draw_later()
 
     def close(self) -> None:
         """Free the GL objects of this camera (the shared GL context stays for the next camera)."""
-        if self.context is not None:
-            self.gl.call(self.context.free)
-            self.context = None
+        if self.target is not None:
+            self.target.close()
+            self.target = None
