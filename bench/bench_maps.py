@@ -7,8 +7,8 @@ ratios of real-time factors over --rounds interleaved rounds. The map is of the 
 60 m x 60 m at 5 cm per cell, generated into a temp folder (hallways with one-cell walls, several of them askew
 and so drawn in steps, doorways, a room the car circles in, scanner speckle: about 11,000 occupied cells, as
 racecar/maps/basement_hallways_5cm.png has), or any map_server YAML given with --map (the car starts at the
-map's (0, 0), which must have 2 m of free floor around it). Also printed: occupied cells, collision boxes in
-the model, and the bare mj_step time of each model.
+map's (0, 0), which must have 2 m of free floor around it). Also printed: occupied cells, colliding geoms in
+the model, wall boxes held out of it (physics/near_walls.py), and the bare mj_step time of each model.
 
 Rates are per second of this process's CPU time unless --clock wall (see bench_scaling.py).
 Only APIs that exist before issue 14 are used, so `PYTHONPATH=/work/base/src python bench/bench_maps.py`
@@ -30,7 +30,6 @@ from map_files import write_map
 
 import racecar_sim
 from racecar_sim import Simulator
-from racecar_sim.physics import COLLISION_GROUP
 from racecar_sim.worlds import load_world
 
 RESOLUTION, SIDE = 0.05, 60.0  # m per cell, m
@@ -100,11 +99,20 @@ def occupied_count(path: Path) -> int:
     return round(sum(g.size[0] * g.size[1] for g in walls.geoms if g.collides) / resolution**2)
 
 
-def collision_geoms(world: str) -> int:
+def collision_geoms(world: str) -> tuple[int, int]:
+    """Colliding geoms in the model (what MuJoCo's collision visits) and wall boxes held out of it as data (issue
+    14's near walls; 0 before)."""
     sim = Simulator(world=world, camera=False)
-    count = int((sim.model.geom_group == COLLISION_GROUP).sum())
+    model = sim.model
+    in_model = int(((model.geom_contype != 0) | (model.geom_conaffinity != 0)).sum())
+    try:
+        from racecar_sim.physics.near_walls import WallBoxes
+    except ImportError:  # the code before issue 14
+        held = None
+    else:
+        held = WallBoxes.of(model)
     sim.close()
-    return count
+    return in_model, 0 if held is None else len(held)
 
 
 def main() -> None:
@@ -128,14 +136,17 @@ def main() -> None:
             for name, world in worlds.items():
                 rates[name].append(pipeline_rate(lambda w=world: Simulator(world=w, camera=False), args.duration,
                                                  args.clock))
-        print(f"{'world':<28}{'cells':>8}{'boxes':>7}{'mj_step us':>11}{'real-time factor':>18}{'vs empty':>10}")
+        print(f"{'world':<28}{'cells':>8}{'geoms':>7}{'held':>6}{'mj_step us':>11}{'real-time factor':>18}"
+              f"{'vs empty':>10}")
         for name, world in worlds.items():
             cells = occupied_count(maps[name]) if name in maps else 0
             ratio = statistics.median(a / b for a, b in zip(rates[name], rates["empty"]))
             step = step_us(lambda w=world: Simulator(world=w, camera=False), clock=args.clock)
             rate = statistics.median(rates[name])
-            print(f"{name:<28}{cells:>8}{collision_geoms(world):>7}{step:>11.1f}{rate:>17.1f}x{ratio:>10.2f}")
-    print("boxes: collision geoms of the whole model (the car's 6 and the ground plane included)")
+            geoms, held = collision_geoms(world)
+            print(f"{name:<28}{cells:>8}{geoms:>7}{held:>6}{step:>11.1f}{rate:>17.1f}x{ratio:>10.2f}")
+    print("geoms: colliding geoms in the MuJoCo model (the car's 6, the ground plane and the near-wall slots in use at the start);"
+          " held: map wall boxes kept as data, placed in slots near the car (physics/near_walls.py)")
 
 
 if __name__ == "__main__":

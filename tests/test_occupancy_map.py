@@ -15,6 +15,7 @@ from racecar_sim import Simulator
 from racecar_sim.core.errors import WorldError
 from racecar_sim.drivers import ConstantCommand
 from racecar_sim.physics.builder import COLLISION_GROUP
+from racecar_sim.physics.near_walls import WallBoxes
 from racecar_sim.worlds import load_world
 from racecar_sim.worlds.occupancy_map import occupied_cells
 from racecar_sim.worlds.walls import cell_rectangles
@@ -126,23 +127,31 @@ def scanned_map() -> np.ndarray:
     return grid
 
 
-def test_scanned_map_merges_into_few_boxes_on_exactly_its_occupied_cells(tmp_path):
-    """The compiled model's wall boxes, read back from MuJoCo, cover each occupied cell once and nothing else."""
+@pytest.mark.parametrize("near_walls", [True, False])
+def test_scanned_map_merges_into_few_boxes_on_exactly_its_occupied_cells(tmp_path, near_walls):
+    """The compiled model's wall boxes, read back from MuJoCo, cover each occupied cell once and nothing else: as
+    geoms, or as the model's held-out walls (physics.near_walls) when they are that many."""
     occupied = scanned_map()
     image = np.where(occupied, OCCUPIED, FREE).astype(np.uint8)
     sim = Simulator(world=str(write_map(tmp_path, image, (-1.0, -1.0, 0.0), name="scan")), lidar=False,
-                    camera=False)
+                    camera=False, near_walls=near_walls)
     model, data = sim.model, sim.data
     walls = [g for g in range(model.ngeom) if model.geom(g).name.startswith("map_wall")
              and model.geom_group[g] == COLLISION_GROUP]
     assert all(model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX for g in walls)
-    assert len(walls) < occupied.sum() / 4
+    held = WallBoxes.of(model)
+    assert (held is not None) == near_walls and (len(walls) == 0) == near_walls
+    if held is None:
+        boxes = [(data.geom_xpos[g], data.geom_xmat[g], model.geom_size[g]) for g in walls]
+    else:
+        boxes = list(zip(held.pos, held.rotations().reshape(-1, 9), held.half))
+    assert len(boxes) < occupied.sum() / 4
     rows = occupied.shape[0]
     coverage = np.zeros(occupied.shape, dtype=int)
-    for g in walls:
-        np.testing.assert_allclose(data.geom_xmat[g], np.eye(3).ravel(), atol=1e-12)
-        lo = (data.geom_xpos[g][:2] - model.geom_size[g][:2] - (-1.0, -1.0)) / RES
-        hi = (data.geom_xpos[g][:2] + model.geom_size[g][:2] - (-1.0, -1.0)) / RES
+    for pos, rotation, half in boxes:
+        np.testing.assert_allclose(rotation, np.eye(3).ravel(), atol=1e-12)
+        lo = (pos[:2] - half[:2] - (-1.0, -1.0)) / RES
+        hi = (pos[:2] + half[:2] - (-1.0, -1.0)) / RES
         np.testing.assert_allclose(np.r_[lo, hi], np.round(np.r_[lo, hi]), atol=1e-6)  # on cell boundaries
         c0, y0, c1, y1 = np.round(np.r_[lo, hi]).astype(int)
         coverage[rows - y1:rows - y0, c0:c1] += 1

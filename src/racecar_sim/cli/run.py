@@ -260,17 +260,19 @@ def main(args: argparse.Namespace) -> int:
                               odom_topic=car.topic(ODOM))
                        for i, car in enumerate(sim.cars)]
             runlog = runlogs[0]
-            video = _video(args, sim, out)
+            video = _video(args, sim, out, recording)
             written: list[Path] = [record] if record is not None else []
             try:
                 with LiveViews(sim, args.viewer, args.foxglove) as live:
                     wall, interrupted = _drive(args, sim, live)
             finally:
-                if video is not None and video.frames:
-                    written.append(video.close())
+                if video is not None:
+                    video_path = video.close()
+                    if video.frames:
+                        written.append(video_path)
         finally:
             if recording is not None:
-                recording.close()  # writes what the writer thread still holds, then the summary and footer
+                recording.close()  # writes what the writer process still holds, then the summary and footer
         if sim.lidar is not None and runlog.last_scan is not None:
             origin, ends = sim.lidar.beam_ends(runlog.last_scan.ranges)
         else:
@@ -293,7 +295,7 @@ def main(args: argparse.Namespace) -> int:
 
 
 def _recording(args: argparse.Namespace, sim: Simulator, record: Path | None) -> object:
-    """The run's MCAP, written on a writer thread; camera images as JPEG CompressedImage unless --raw-images."""
+    """The run's MCAP, written by a writer process; camera images as JPEG CompressedImage unless --raw-images."""
     if record is None:
         return None
     from racecar_sim.recording.run_recording import RunRecording  # mcap and Pillow load only when a run records
@@ -304,14 +306,30 @@ def _recording(args: argparse.Namespace, sim: Simulator, record: Path | None) ->
                         raw_images=args.raw_images)
 
 
-def _video(args: argparse.Namespace, sim: Simulator, out: Path) -> object:
+def _video(args: argparse.Namespace, sim: Simulator, out: Path, recording: object) -> object:
+    """camera.mp4, encoded by the recording's writer process (each frame crosses to it once), by a process of its
+    own without a recording, or on a writer thread where no process can start."""
     if args.no_video or sim.camera is None:
         return None
-    from racecar_sim.recording.video import VideoWriter  # PyAV loads only when a video is written
+    from racecar_sim.recording.writer_process import ProcessVideo, WriterProcess
 
     spec = sim.camera.spec
-    video = VideoWriter(out / "camera.mp4", spec.rate_hz, spec.width, spec.height, background=True)
-    sim.subscribe(spec.image_topic, lambda msg: video.write(image_array(msg)))
+    path = out / "camera.mp4"
+    process = getattr(recording, "process", None)
+    owns = process is None
+    if owns:
+        try:
+            process = WriterProcess(f"video {path}")
+        except OSError:
+            process = None
+    if process is None:
+        from racecar_sim.recording.video import VideoWriter  # PyAV loads only when a video is written
+
+        writer = VideoWriter(path, spec.rate_hz, spec.width, spec.height, background=True)
+        sim.subscribe(spec.image_topic, lambda msg: writer.write(image_array(msg)))
+        return writer
+    video = ProcessVideo(process, path, spec.rate_hz, spec.width, spec.height, owns_process=owns)
+    sim.subscribe(spec.image_topic, video.write_image)
     return video
 
 

@@ -91,8 +91,9 @@ class DriveBatch:
         self.limits = DriveLimits(max_speed or DriveLimits.max_speed, max_steering or DriveLimits.max_steering)
         self.crash_penalty, self.max_episode_steps = float(crash_penalty), max_episode_steps
         loaded = load_world(world)
+        # near_walls off: every world steps the one model, so map walls cannot follow one world's car
         self.template = sim = Simulator(world=loaded, profile=profile, physics=physics, camera=False, lidar=lidar,
-                                        sensor_noise=sensor_noise)
+                                        sensor_noise=sensor_noise, near_walls=False)
         self.model, car = sim.model, sim.car
         self.period_ns, self.step_ns = to_ns(1.0 / control_rate), sim.step_ns
         self.commands = BatchCommands(car)

@@ -65,6 +65,12 @@ class Image(Message):
     step: int = 0
     data: bytes = b""
 
+    def bgr_pixels(self) -> np.ndarray:
+        """A bgr8 / rgb8 image's pixels as a (height, width, 3) uint8 array in BGR order (a view where it can be)."""
+        rows = np.frombuffer(self.data, np.uint8).reshape(self.height, self.step)[:, : self.width * 3]
+        pixels = rows.reshape(self.height, self.width, 3)
+        return pixels[:, :, ::-1] if self.encoding == "rgb8" else pixels
+
 
 @dataclass(eq=False, repr=False, slots=True)
 class CompressedImage(Message):

@@ -20,6 +20,7 @@ from racecar_sim.core.ros_packages import PackageNotFound, resolve_uri
 from racecar_sim.core.transforms import quat_from_axis_angle, quat_from_rpy
 from racecar_sim.description.urdf import Link, Robot, Shape
 from racecar_sim.physics.contact import solref_solimp
+from racecar_sim.physics.near_walls import add_slots
 from racecar_sim.physics.presets import CONES, INTEGRATORS, SOLVERS, PhysicsPreset
 from racecar_sim.physics.world_geoms import (COLLISION_GROUP, GEOM_TYPES, SLEEP_POLICY, VISUAL_GROUP, add_world,
                                              mj_size)
@@ -39,13 +40,21 @@ def build_spec(robot: Robot, world: World, preset: PhysicsPreset, names: CarName
     return spec
 
 
-def world_spec(world: World, preset: PhysicsPreset) -> mujoco.MjSpec:
-    """The world alone (options, geoms, lights): cars are added with add_car, then finish_spec before compiling."""
+def world_spec(world: World, preset: PhysicsPreset, near_walls: bool = False) -> mujoco.MjSpec:
+    """The world alone (options, geoms, lights): cars are added with add_car, then finish_spec before compiling.
+    `near_walls`: a map's thousands of wall boxes are held out of the collision model (near_walls.py); the model
+    compiled from the spec then needs fit_near_walls."""
     spec = mujoco.MjSpec()
     spec.modelname = world.name or "world"
     _options(spec, world, preset)
-    add_world(spec, world)
+    add_world(spec, world, near_walls)
     return spec
+
+
+def fit_near_walls(spec: mujoco.MjSpec, model: mujoco.MjModel) -> bool:
+    """Give `spec` the near-wall slots its compiled `model` needs (one more car, one more free body needs more);
+    True if the spec changed and must be compiled again."""
+    return add_slots(spec, model, friction_min_rule)
 
 
 def add_car(spec: mujoco.MjSpec, robot: Robot, spawn: Spawn, preset: PhysicsPreset,

@@ -12,6 +12,7 @@ import mujoco
 import numpy as np
 
 from racecar_sim.core.transforms import compose, quat_to_matrix
+from racecar_sim.physics.near_walls import MIN_BOXES, hold_out
 from racecar_sim.worlds.world import Light, Mesh, Scene, World, WorldBody, WorldGeom
 
 VISUAL_GROUP = 1  # rendered by the camera and viewer
@@ -158,18 +159,25 @@ def box_mesh(boxes: list[tuple[WorldGeom, np.ndarray, np.ndarray]]) -> Mesh:
     return Mesh(vertices.reshape(-1, 3), faces.astype(np.int32))
 
 
-def _add_static(spec: mujoco.MjSpec, wb: WorldBody, assets: _Assets) -> None:
+def _add_static(spec: mujoco.MjSpec, wb: WorldBody, assets: _Assets, near_walls: bool) -> None:
     """A static body's geoms, on the world body: MuJoCo then places them once, never per step (builder: sleep).
 
     A collision plane gets a static body of its own: on the world body its unbounded box would sit in every node
     of the bounding-volume tree above it, and each wheel's midphase would walk a map's walls to its leaves. The
     untextured visual boxes of one colour are drawn as one mesh, as MuJoCo's broad phase visits every geom on
     every step; it carries the first box's name, so that deleting the model (Gazebo API) by its geoms' names
-    deletes it.
+    deletes it. `near_walls`: a body of MIN_BOXES collision boxes or more (a map) keeps them as data, for
+    near_walls.NearWalls to place the ones within a car's reach.
     """
     boxes: dict[tuple[float, ...], list[tuple[WorldGeom, np.ndarray, np.ndarray]]] = {}
+    walls = [g for g in wb.geoms if g.kind == "box" and g.collides]
+    held = near_walls and len(walls) >= MIN_BOXES and len({g.mu for g in walls}) == 1
+    if held:
+        hold_out(spec, wb.name, walls[0].mu, [(*compose(wb.pos, wb.quat, g.pos, g.quat), g.size) for g in walls])
     for geom in wb.geoms:
         pos, quat = compose(wb.pos, wb.quat, geom.pos, geom.quat)
+        if held and geom.kind == "box" and geom.collides:
+            continue
         if geom.kind == "plane" and geom.collides:
             body = spec.worldbody.add_body(pos=list(pos), quat=list(quat))  # unnamed: a respawned model reuses none
             body.fuse = False
@@ -188,12 +196,13 @@ def _add_static(spec: mujoco.MjSpec, wb: WorldBody, assets: _Assets) -> None:
         _add_geom(spec.worldbody, merged, merged.pos, merged.quat, assets)
 
 
-def add_world(spec: mujoco.MjSpec, world: World) -> None:
-    """Add every body, geom and light of `world` to `spec`."""
+def add_world(spec: mujoco.MjSpec, world: World, near_walls: bool = False) -> None:
+    """Add every body, geom and light of `world` to `spec`; `near_walls`: a map's many wall boxes as data (see
+    near_walls.py)."""
     assets = _Assets(spec)
     for wb in world.bodies:
         if wb.static:
-            _add_static(spec, wb, assets)
+            _add_static(spec, wb, assets, near_walls)
             continue
         body = spec.worldbody.add_body(name=wb.name, pos=list(wb.pos), quat=list(wb.quat), mass=wb.mass,
                                        ipos=list(wb.com), fullinertia=list(wb.inertia), explicitinertial=True)

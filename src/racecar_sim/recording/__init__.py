@@ -1,5 +1,5 @@
-"""Recording of bus traffic to MCAP files (ROS 2 CDR, sim-time stamps; a run's on a writer thread, camera images
-as JPEG), and recovery of killed recordings."""
+"""Recording of bus traffic to MCAP files (ROS 2 CDR, sim-time stamps; a run's written by a writer process, camera
+images as JPEG), and recovery of killed recordings."""
 
 from racecar_sim.recording.mcap_recorder import McapRecorder, RecordingFileError
 from racecar_sim.recording.recover import Recovery, default_output, recover_mcap

@@ -9,7 +9,7 @@ import threading
 from collections.abc import Iterable
 from importlib.metadata import PackageNotFoundError, version
 from types import FrameType, TracebackType
-from typing import Any
+from typing import Any, BinaryIO
 
 from mcap.writer import CompressionType, Writer
 
@@ -46,6 +46,16 @@ def _file_error_type(os_error: type[OSError]) -> type[RecordingFileError]:
     return type(f"Recording{os_error.__name__}", (RecordingFileError, os_error), {})
 
 
+def open_recording_file(path: str | os.PathLike[str]) -> BinaryIO:
+    """``path`` created or truncated, open for binary writing;
+    :class:`RecordingFileError` naming the path when it cannot be."""
+    try:
+        return open(path, "wb")  # the recorder closes it
+    except OSError as exc:
+        reason = exc.strerror or str(exc)
+        raise _file_error_type(type(exc))(exc.errno, reason, os.fspath(path)) from None
+
+
 def _qos_profiles_v8(durability: int, depth: int) -> str:
     """``offered_qos_profiles`` YAML in rosbag2's metadata version 8 form, as rosbags writes it.
 
@@ -75,56 +85,60 @@ VOLATILE_QOS = _qos_profiles_v8(durability=2, depth=10)
 """Reliable, volatile, keep-last 10: rclcpp's default publisher QoS."""
 
 
-class _DeferredInterrupt:
-    """Holds SIGINT back while the MCAP writer's in-memory state is half-updated.
+class DeferredInterrupt:
+    """Holds SIGINT (and any other `signums`) back while a writer's state is half-updated.
 
     A KeyboardInterrupt raised inside ``mcap.writer.Writer`` (for example right after a
     chunk was compressed but before it was written) would leave indexes pointing at lost
-    data. Between ``hold()`` and the matching ``release()`` on the main thread (they
-    nest) the Python-level handler only notes the signal; the outermost ``release()``
+    data; one raised in the middle of a frame sent to a writer process would cut the
+    frame. Between ``hold()`` and the matching ``release()`` on the main thread (they
+    nest) the Python-level handlers only note the signal; the outermost ``release()``
     then delivers it to the previously installed handler. Installed only from the main
     thread and only over a callable handler; elsewhere every method is a no-op.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, signums: Iterable[int] = (signal.SIGINT,)) -> None:
         self._main = threading.main_thread().ident
         self._depth = 0
         self._pending: tuple[int, FrameType | None] | None = None
-        self._previous: Any = None
+        self._previous: dict[int, Any] = {}
         if threading.get_ident() == self._main:
-            previous = signal.getsignal(signal.SIGINT)
-            if callable(previous):
-                self._previous = previous
-                signal.signal(signal.SIGINT, self._handle)
+            for signum in signums:
+                previous = signal.getsignal(signum)
+                if callable(previous):
+                    self._previous[signum] = previous
+                    signal.signal(signum, self._handle)
 
     def _active(self) -> bool:
         # KeyboardInterrupt is only ever raised on the main thread.
-        return self._previous is not None and threading.get_ident() == self._main
+        return bool(self._previous) and threading.get_ident() == self._main
 
     def _handle(self, signum: int, frame: FrameType | None) -> None:
         if self._depth:
             self._pending = (signum, frame)
         else:
-            self._previous(signum, frame)
+            self._previous[signum](signum, frame)
 
     def hold(self) -> None:
-        """Start (or nest) deferring SIGINT."""
+        """Start (or nest) deferring the signals."""
         if self._active():
             self._depth += 1
 
     def release(self) -> None:
-        """End one ``hold()``; the outermost delivers a SIGINT that arrived meanwhile."""
+        """End one ``hold()``; the outermost delivers a signal that arrived meanwhile."""
         if not self._active():
             return
         self._depth -= 1
         if self._depth == 0 and self._pending is not None:
             pending, self._pending = self._pending, None
-            self._previous(*pending)
+            self._previous[pending[0]](*pending)
 
     def uninstall(self) -> None:
-        """Restore the previous handler if ours is still the installed one."""
-        if self._active() and signal.getsignal(signal.SIGINT) == self._handle:
-            signal.signal(signal.SIGINT, self._previous)
+        """Restore the previous handlers where ours are still the installed ones."""
+        if self._active():
+            for signum, previous in self._previous.items():
+                if signal.getsignal(signum) == self._handle:
+                    signal.signal(signum, previous)
 
 
 class McapRecorder:
@@ -162,6 +176,8 @@ class McapRecorder:
         compression: ``"zstd"``, ``"lz4"`` or ``"none"``.
         chunk_size: Uncompressed bytes per chunk before it is compressed and written.
         latched_topics: Topics recorded with TRANSIENT_LOCAL durability.
+        stream: The file already opened for writing (by :func:`open_recording_file`,
+            e.g. in another process); ``path`` then only names it. Closed by close().
 
     Raises:
         RecordingFileError: The file cannot be created (a directory, a missing or
@@ -177,6 +193,7 @@ class McapRecorder:
         compression: str = "zstd",
         chunk_size: int = 1024 * 1024,
         latched_topics: Iterable[str] = ("/tf_static",),
+        stream: BinaryIO | None = None,
     ) -> None:
         if compression not in _COMPRESSION:
             choices = ", ".join(_COMPRESSION)
@@ -190,12 +207,8 @@ class McapRecorder:
         self._counts: dict[str, int] = {}
         self._flushed = 0
         self._chunk_times: tuple[int, int] | None = None  # log-time span of the chunk in progress
-        try:
-            self._stream = open(self.path, "wb")  # noqa: SIM115  # closed in close()
-        except OSError as exc:
-            reason = exc.strerror or str(exc)
-            raise _file_error_type(type(exc))(exc.errno, reason, self.path) from None
-        self._interrupt = _DeferredInterrupt()
+        self._stream = open_recording_file(self.path) if stream is None else stream
+        self._interrupt = DeferredInterrupt()
         self._interrupt.hold()
         try:
             self._writer = Writer(

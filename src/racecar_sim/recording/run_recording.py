@@ -1,8 +1,9 @@
-"""What `racecar-sim run` records: every bus topic to an MCAP file, written on a writer thread, camera images as
-JPEG CompressedImage on `<image topic>/compressed` (or raw Image on request)."""
+"""What `racecar-sim run` records: every bus topic to an MCAP file, written by a writer process (or thread), camera
+images as JPEG CompressedImage on `<image topic>/compressed` (or raw Image on request)."""
 
 from __future__ import annotations
 
+import logging
 import os
 from collections.abc import Callable, Iterable
 from types import TracebackType
@@ -11,37 +12,56 @@ from typing import Any
 from racecar_sim.bus import Bus
 from racecar_sim.msgs import Image, msgtype_of, serialize
 from racecar_sim.recording.images import JPEG_QUALITY, compress_image, compressed_topic
-from racecar_sim.recording.mcap_recorder import McapRecorder
+from racecar_sim.recording.mcap_recorder import McapRecorder, open_recording_file
+from racecar_sim.recording.writer_process import BATCH, JPEG, OPEN_MCAP, WriterProcess
 from racecar_sim.recording.writer_thread import WriterThread
 
+log = logging.getLogger("racecar_sim")
+
 COMPRESSED_MSGTYPE = "sensor_msgs/msg/CompressedImage"
-BATCH = 32  # messages handed to the writer thread at once (a few ms of sim time)
 
 
 class RunRecording:
     """Records every message on `bus` to the MCAP file `path`, log time `clock()` (sim time, integer ns).
 
-    Messages are serialized where they are published (one changed later is recorded as it was) and written on a
-    WriterThread in publication order, so the file is byte for byte the one writing in place would give: same
-    seed, same bytes. Images on `image_topics` are recorded as ROS users record camera images, JPEG
-    `sensor_msgs/CompressedImage` on `<topic>/compressed`, encoded on the writer thread; `raw_images` keeps them
-    as the raw `sensor_msgs/Image` on the topic itself. Latched topics' last messages are written first.
+    Messages are serialized where they are published (one changed later is recorded as it was) and written in
+    publication order by a WriterProcess (`process=False`, or where no process can start: a WriterThread), so the
+    file is byte for byte the one writing in place would give: same seed, same bytes. Images on `image_topics` are
+    recorded as ROS users record camera images, JPEG `sensor_msgs/CompressedImage` on `<topic>/compressed`,
+    encoded by the writer; `raw_images` keeps them as the raw `sensor_msgs/Image` on the topic itself. Latched
+    topics' last messages are written first. A path that cannot be written raises RecordingFileError here.
 
     close() (or leaving the `with` block, whatever the reason) writes everything published before it and
     finishes the file; an error met while writing is raised by a later publish or by close(), after the file
-    is finished. `recorder`: the McapRecorder underneath.
+    is finished. `process`: the WriterProcess (None on a thread; a video may share it, see ProcessVideo);
+    `recorder`: the McapRecorder underneath when writing on a thread.
     """
 
     def __init__(self, bus: Bus, clock: Callable[[], int], path: str | os.PathLike[str], *,
                  image_topics: Iterable[str] = (), raw_images: bool = False, jpeg_quality: int = JPEG_QUALITY,
-                 compression: str = "zstd") -> None:
-        self.recorder = McapRecorder(path, compression=compression)
+                 compression: str = "zstd", process: bool = True) -> None:
+        self._path = os.fspath(path)
+        stream = open_recording_file(self._path)  # a bad path is the caller's error now, not the writer's later
         self.clock = clock
         self.jpeg_quality = jpeg_quality
         self.compressed = {} if raw_images else {topic: compressed_topic(topic) for topic in image_topics}
-        self.writer = WriterThread(f"record {self.recorder.path}")
+        self.process: WriterProcess | None = None
+        self.recorder: McapRecorder | None = None
+        self.writer: WriterThread | None = None
         self._closed = False
         self._batch: list[tuple[str, str | None, Any, int]] = []
+        if process:
+            fd = stream.fileno()  # the child's copy has the same number
+            try:
+                self.process = WriterProcess(f"record {self._path}", pass_fds=[fd])
+            except OSError as exc:
+                log.warning("no writer process (%s): recording on a writer thread", exc)
+            else:
+                stream.close()
+                self.process.send((OPEN_MCAP, fd, self._path, compression))
+        if self.process is None:
+            self.recorder = McapRecorder(self._path, compression=compression, stream=stream)
+            self.writer = WriterThread(f"record {self._path}")
         try:
             for topic, msg in bus.latched_messages().items():
                 self._record(topic, msg)
@@ -51,6 +71,13 @@ class RunRecording:
         self._untap = bus.tap(self._record)
 
     def _record(self, topic: str, msg: object) -> None:
+        if self.process is not None:
+            if topic in self.compressed and isinstance(msg, Image):
+                self.process.send((JPEG, self.compressed[topic], COMPRESSED_MSGTYPE, self.process.image(msg),
+                                   self.clock(), self.jpeg_quality))
+            else:
+                self.process.message(topic, msgtype_of(msg), serialize(msg), self.clock())
+            return
         # the writer thread gets batches: a queue hand-over per message would cost more than most messages' writing
         if topic in self.compressed and isinstance(msg, Image):
             self._batch.append((self.compressed[topic], None, msg, self.clock()))
@@ -61,10 +88,11 @@ class RunRecording:
 
     def _submit(self) -> None:
         batch, self._batch = self._batch, []
-        if batch:
+        if batch and self.writer is not None:
             self.writer.submit(lambda: self._write(batch))
 
     def _write(self, batch: list[tuple[str, str | None, Any, int]]) -> None:
+        assert self.recorder is not None
         for topic, msgtype, data, now in batch:
             if msgtype is None:  # an Image to record as JPEG
                 msgtype, data = COMPRESSED_MSGTYPE, serialize(compress_image(data, self.jpeg_quality))
@@ -73,7 +101,7 @@ class RunRecording:
     @property
     def path(self) -> str:
         """The MCAP file's path."""
-        return self.recorder.path
+        return self._path
 
     def close(self) -> None:
         """Stop recording, write what was published so far and finish the file (summary, footer). Idempotent."""
@@ -81,13 +109,18 @@ class RunRecording:
             return
         self._closed = True
         untap = getattr(self, "_untap", None)
+        if untap is not None:
+            untap()
+        if self.process is not None:
+            self.process.close()
+            return
         try:
-            if untap is not None:
-                untap()
             self._submit()
-            self.writer.close()
+            if self.writer is not None:
+                self.writer.close()
         finally:
-            self.recorder.close()
+            if self.recorder is not None:
+                self.recorder.close()
 
     def __enter__(self) -> RunRecording:
         return self

@@ -63,8 +63,8 @@ class WriterThread:
         """Run the jobs submitted so far, stop the thread, and raise the first job error not yet raised."""
         if not self._closed:
             self._closed = True
-            interrupted = _uninterrupted(lambda: self._queue.put(_STOP))
-            interrupted |= _uninterrupted(self._thread.join)
+            interrupted = uninterrupted(lambda: self._queue.put(_STOP))
+            interrupted |= uninterrupted(self._thread.join)
             if interrupted:
                 self._raise()
                 raise KeyboardInterrupt
@@ -75,7 +75,7 @@ class _Reported(Exception):
     """Stands in for an error already raised: later jobs are skipped without raising it again."""
 
 
-def _uninterrupted(wait: Callable[[], object]) -> bool:
+def uninterrupted(wait: Callable[[], object]) -> bool:
     """Call `wait()` to completion through any KeyboardInterrupt; whether one came."""
     interrupted = False
     while True:

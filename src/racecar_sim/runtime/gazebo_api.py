@@ -58,6 +58,7 @@ from racecar_sim.msgs.gazebo_msgs import (
 from racecar_sim.msgs.std_srvs import EmptyRequest, EmptyResponse
 from racecar_sim.physics import check_spawn
 from racecar_sim.physics.builder import friction_min_rule
+from racecar_sim.physics.near_walls import drop as drop_held_walls
 from racecar_sim.physics.world_geoms import add_world
 from racecar_sim.runtime.car import Car
 from racecar_sim.worlds import Spawn, World
@@ -337,6 +338,7 @@ class GazeboApi:
             data.qvel[link.dof:link.dof + 3] = lin
             data.qvel[link.dof + 3:link.dof + 6] = quat_to_matrix(quat).T @ ang  # a free joint's spin is local
         mujoco.mj_forward(model, data)
+        self.sim.poses_changed()
 
     def get_world_properties(self, req: GetWorldPropertiesRequest) -> GetWorldPropertiesResponse:
         """Sim time and the model names (gazebo_msgs/GetWorldProperties)."""
@@ -372,6 +374,7 @@ class GazeboApi:
         data.qpos[:] = model.qpos0
         data.time = time
         mujoco.mj_forward(model, data)
+        self.sim.poses_changed()
         return EmptyResponse()
 
     # --- services: spawn and delete -----------------------------------------------------------------------------
@@ -651,6 +654,9 @@ def _remove_bodies(spec: mujoco.MjSpec, bodies: list[WorldBody]) -> None:
     for body in bodies:
         if not body.static and spec.body(body.name) is not None:
             spec.delete(spec.body(body.name))
+    for body in bodies:
+        if body.static:
+            drop_held_walls(spec, body.name)  # a map's walls kept as data (physics.near_walls)
     names = {geom.name for body in bodies if body.static for geom in body.geoms}
     for geom in [g for g in spec.geoms if g.name in names]:
         spec.delete(geom)

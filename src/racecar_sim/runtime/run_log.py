@@ -75,6 +75,4 @@ class RunLog:
 
 def image_array(msg: Image) -> np.ndarray:
     """A bgr8 / rgb8 Image's pixels as an H x W x 3 uint8 array (BGR order)."""
-    pixels = np.frombuffer(msg.data, np.uint8).reshape(msg.height, msg.step)[:, : msg.width * 3]
-    pixels = pixels.reshape(msg.height, msg.width, 3)
-    return pixels[:, :, ::-1] if msg.encoding == "rgb8" else pixels
+    return msg.bgr_pixels()

@@ -23,7 +23,8 @@ from racecar_sim.core.scheduler import Scheduler
 from racecar_sim.core.time import NS_PER_S, ceil_to_step, to_ns
 from racecar_sim.description import DEFAULT_XACRO
 from racecar_sim.msgs import Clock, String, Time
-from racecar_sim.physics import check_spawn, load_preset, route_mujoco_warnings, world_spec
+from racecar_sim.physics import (NearWalls, check_spawn, fit_near_walls, load_preset, route_mujoco_warnings,
+                                 world_spec)
 from racecar_sim.physics.car_contacts import CarContacts
 from racecar_sim.runtime.car import Car
 from racecar_sim.runtime.gazebo_api import GazeboApi
@@ -62,6 +63,10 @@ class Simulator:
     own (/gazebo/model_states, /gazebo/link_states and the /gazebo/* services: get/set_model_state, spawn_urdf_model,
     spawn_sdf_model, delete_model, pause/unpause_physics, reset_simulation/reset_world) come from `sim.gazebo`.
     Same world, cars, seed and inputs give bit-identical messages.
+
+    `near_walls` (default on): a world body of many wall boxes (a map) is held out of MuJoCo's collision model and
+    only the boxes within reach of each car or free body are placed in it (physics.near_walls; the same contacts
+    at a fraction of the cost); off, every box is a geom.
     """
 
     def __init__(self, world: str | World = "empty", profile: str = "seed", seed: int = 0, physics: str = "default",
@@ -69,7 +74,7 @@ class Simulator:
                  xacro_args: Mapping[str, str] | None = None, controllers: str | Path | None = None,
                  model_path: list[str | Path] | None = None, wall_height: float = DEFAULT_WALL_HEIGHT,
                  lidar: bool = True, camera: bool = True, sensor_noise: bool = True,
-                 cars: Sequence[Car] | None = None) -> None:
+                 cars: Sequence[Car] | None = None, near_walls: bool = True) -> None:
         self.seed = check_seed(seed)
         self.sensor_noise = sensor_noise
         if cars is None:
@@ -94,12 +99,14 @@ class Simulator:
         self.spawns = [car.spawn or self.world.spawn for car in self.cars]
         self.preset = load_preset(physics)
         route_mujoco_warnings()
-        spec = world_spec(self.world, self.preset)
+        spec = world_spec(self.world, self.preset, near_walls)
         spec.modelname = first.robot.name if len(self.cars) == 1 else self.world.name or "fleet"
         for car, car_spawn in zip(self.cars, self.spawns):
             car.add_to(spec, self.preset, car_spawn)
         try:
             self.model = spec.compile()
+            if fit_near_walls(spec, self.model):
+                self.model = spec.compile()
         except ValueError as exc:
             raise ConfigError(f"MuJoCo rejected the model built from {first.xacro}: {exc}") from None
         self.spec = spec  # kept: models spawned or deleted at run time change it, and it is recompiled
@@ -108,6 +115,8 @@ class Simulator:
         if abs(self.step_ns / NS_PER_S - self.model.opt.timestep) > 1e-15:
             raise ConfigError(f"physics step {self.model.opt.timestep} s is not a whole number of nanoseconds")
         mujoco.mj_forward(self.model, self.data)
+        # a map's walls near the cars (physics.near_walls): placed before the spawn check, which looks at them
+        self.near_walls = NearWalls.of(self.model, self.data)
         for car, car_spawn in zip(self.cars, self.spawns):  # WorldError: inside an obstacle or a car, no ground
             check_spawn(self.model, self.data, self.world, car.robot, car.names, car_spawn)
         self._qpos0 = self.data.qpos.copy()
@@ -122,6 +131,8 @@ class Simulator:
         self.time_ns = 0
         self.bus = Bus()
         self.scheduler = Scheduler(self.step_ns)
+        self._near_walls_look = self.scheduler.timeout(lambda _now: self.poses_changed(), "near_walls")
+        self.poses_changed()
         self.static_tf = StaticTransforms(self.bus)
         self.scheduler.every(CLOCK_RATE, self._publish_clock, "clock", unheard=self._unheard_clock)
         now = lambda: self.time_ns  # noqa: E731
@@ -192,6 +203,12 @@ class Simulator:
     @paused.setter
     def paused(self, value: bool) -> None:
         self._paused, self._pause_told = bool(value), False
+
+    def poses_changed(self) -> None:
+        """Models were moved by hand (a reset, a teleport; mj_forward done): bring up to date what depends on where
+        they are: the map walls within reach of each car (physics.near_walls, which also says when to look again)."""
+        if self.near_walls is not None:
+            self._near_walls_look.restart(self.time_ns + to_ns(self.near_walls.refresh()))
 
     def on_rebuild(self, hook: Callable[[mujoco.MjModel, mujoco.MjData], None]) -> None:
         """Call `hook(model, data)` when a model spawned or deleted at run time replaced `sim.model` and `sim.data`
@@ -273,6 +290,7 @@ class Simulator:
         self._divergence = None
         self._touching = set()
         self.scheduler.reset()
+        self.poses_changed()
         for car in self.cars:
             car.reset(self.seed)
         for hook in self._reset_hooks:
@@ -311,6 +329,11 @@ class Simulator:
             model, data = self.spec.recompile(self.model, self.data)
         except ValueError as exc:
             raise ConfigError(f"MuJoCo rejected the changed model: {exc}") from None
+        try:
+            if fit_near_walls(self.spec, model):  # a car or free body more: more near-wall slots
+                model, data = self.spec.recompile(model, data)
+        except ValueError as exc:
+            raise ConfigError(f"MuJoCo rejected the changed model: {exc}") from None
         mujoco.mj_forward(model, data)
         return model, data
 
@@ -319,6 +342,9 @@ class Simulator:
         is in it back at its initial pose."""
         self.model, self.data = model, data
         self._qpos0 = model.qpos0.copy()
+        if self.near_walls is not None:
+            self.near_walls.rebind(model, data)
+            self.poses_changed()
         for car in self.cars:
             if car.state.model is not model:  # a car just spawned starts in the new model already
                 car.rebind(model, data)

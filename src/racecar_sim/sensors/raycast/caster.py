@@ -15,6 +15,7 @@ from collections.abc import Callable
 import mujoco
 import numpy as np
 
+from racecar_sim.physics.near_walls import WallBoxes
 from racecar_sim.sensors.raycast.fan import MAX_TILT_COS, Fan, ScanFrame
 from racecar_sim.sensors.raycast.grid import FlatWalls, Grid, split_by_band
 from racecar_sim.sensors.raycast.mujoco3d import MujocoRays
@@ -26,6 +27,7 @@ from racecar_sim.sensors.raycast.planar import (
 )
 from racecar_sim.sensors.raycast.scene import (
     Footprints,
+    boxes_footprints,
     geom_footprint,
     is_static,
     seen_geoms,
@@ -61,14 +63,17 @@ class RayCaster:
         geoms = seen_geoms(model, group)
         own = np.isin(model.geom_bodyid[geoms], subtree_bodies(model, own_body))
         static = np.array([is_static(model, g) for g in geoms], bool)
+        walls = WallBoxes.of(model)  # a map's walls, held out of the model's geoms (physics.near_walls)
         self.static = static_footprints(model, geoms[static & ~own])
+        if walls is not None:
+            self.static = Footprints.join([self.static, boxes_footprints(walls.pos, walls.rotations(), walls.half)])
         self.grid = Grid(self.static, fan, cell_size)
         self.compiled = bool(self.grid.cells)  # walls to cast: the compiled kernels (numba) are in use
         moving = geoms[~static & ~own]
         bounded = np.isin(model.geom_type[moving], _ALWAYS_BOUNDED)
         self.moving_bounded, self.moving_other = moving[bounded], moving[~bounded]
         self._has_moving = len(moving) > 0
-        self.rays3d = MujocoRays(model, data, group, geoms[own])
+        self.rays3d = MujocoRays(model, data, group, geoms[own], walls)
         self.last_3d_beams = 0
 
     def cast(self, origin: np.ndarray, rotation: np.ndarray, mode: str = "auto") -> np.ndarray:

@@ -125,6 +125,12 @@ def box_footprint(pos: np.ndarray, rotation: np.ndarray, half: np.ndarray) -> Fo
     return Footprints(segments=_polygon_segments(corners, pos[2] - half[k], pos[2] + half[k]))
 
 
+def boxes_footprints(pos: np.ndarray, rotations: np.ndarray, half: np.ndarray) -> Footprints:
+    """Footprints of boxes given as arrays (n, 3), (n, 3, 3), (n, 3): exact for upright ones, a bound otherwise."""
+    return Footprints.join([box_footprint(p, r, h) or _bound(p, float(np.linalg.norm(h)))
+                            for p, r, h in zip(pos, rotations, half)])
+
+
 def cylinder_footprint(pos: np.ndarray, rotation: np.ndarray, size: np.ndarray) -> Footprints | None:
     """An upright cylinder as its footprint circle; None if it is tilted."""
     if _vertical_axis(rotation) != 2:

@@ -1,0 +1,451 @@
+"""A writer process: a run's files (MCAP chunks, JPEG images, the x264 video) are written by a child process.
+
+The recording's Python (the mcap writer, chunking) and the encoders would otherwise compete with the simulation for
+its GIL. The parent only hands over what it publishes, in batches through a pipe: messages already serialized, and
+camera images as their raw pixels, sent once even when the child both records them as JPEG and puts them in the
+video. The child does the work in the order it was handed over, so the files are byte for byte those writing in
+place gives. The child is a fresh interpreter (like multiprocessing's spawn, never a fork of a process with GL
+contexts and threads) started without waiting for it: its imports overlap the parent's start-up.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import logging
+import os
+import pickle
+import queue
+import select
+import signal
+import struct
+import subprocess
+import sys
+import threading
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from racecar_sim.core.errors import RecordingError
+from racecar_sim.msgs import Image
+from racecar_sim.recording.mcap_recorder import DeferredInterrupt
+from racecar_sim.recording.writer_thread import uninterrupted
+
+BATCH = 32
+"""Messages per hand-over: one pipe write per message would cost more than most messages' writing."""
+DEPTH = 64
+"""Hand-overs the child may hold unwritten (with a frame each, two seconds of 30 Hz video); beyond that the parent's
+send waits, so the simulation never runs far ahead of its files and memory stays bounded."""
+PIPE_SIZE = 1 << 20  # bytes: a camera frame fits in the pipe at once (Linux's default limit for a user)
+
+_HEAD = struct.Struct("<QI")  # pickle bytes, out-of-band buffers
+_SIZE = struct.Struct("<Q")
+_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+_PR_SET_PDEATHSIG = 1  # linux/prctl.h
+
+# operations, the first item of each tuple handed over
+MESSAGE, JPEG, FRAME, OPEN_MCAP, OPEN_VIDEO, CLOSE_VIDEO = range(6)
+_SAME = None  # an image op's pixels: those of the image before
+
+
+class WriterProcess:
+    """The parent's end of a child process that writes a run's files; see the module docstring.
+
+    Operations are queued with `message()`, `image()` and `send()` and handed over BATCH at a time. An error in the
+    child (disk full, a failing encoder) stops it from doing later operations; it is raised once, by a later
+    hand-over or by close(). A child that died is such an error too, never a hang. close() hands over everything
+    queued, lets the child finish its files and waits for it to exit; a Ctrl-C or SIGTERM meanwhile is held back
+    until then, so an interrupted run still finishes its files. The child ignores SIGINT and SIGTERM: a Ctrl-C
+    reaches the whole process group, and the parent's close() is what ends it.
+
+    `pass_fds`: the parent's open files the child uses by the same number (a recording opened here, so that a path
+    that cannot be written raises at once in the caller); the caller closes its own copies afterwards.
+    """
+
+    def __init__(self, name: str, pass_fds: Sequence[int] = ()) -> None:
+        self.name = name
+        self.results: dict[str, Any] = {}
+        self._ops: list[tuple[Any, ...]] = []
+        self._last_image: object = None
+        self._error: BaseException | None = None
+        self._reported = False
+        self._closed = False
+        data_read, data_write = os.pipe()
+        self._data: int | None = data_write
+        back_read, back_write = os.pipe()
+        with contextlib.suppress(OSError, AttributeError):  # a bigger pipe: fewer wake-ups per frame
+            fcntl.fcntl(data_write, fcntl.F_SETPIPE_SZ, PIPE_SIZE)
+        # a SIGKILL of the run ends its writer too (on Linux): the file is cut where it was, as without a process
+        # (racecar-sim recover mends it), never finished behind the back of whoever reads it next. Only when the
+        # main thread starts it: the signal comes when the starting thread ends.
+        linked = os.getpid() if threading.current_thread() is threading.main_thread() else 0
+        command = [sys.executable, "-c", "from racecar_sim.recording.writer_process import serve; serve()",
+                   str(data_read), str(back_write), str(linked)]
+        # the child starts with SIGINT and SIGTERM blocked, so none arrives before it ignores them
+        blocked = signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
+        try:
+            self._process = subprocess.Popen(command, pass_fds=(data_read, back_write, *pass_fds),
+                                             stdin=subprocess.DEVNULL, env=_child_environment())
+        except BaseException:
+            os.close(data_write)
+            os.close(back_read)
+            raise
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
+            os.close(data_read)
+            os.close(back_write)
+        self._back: int | None = back_read
+        self._pending: list[memoryview] = []  # the rest of a hand-over a signal cut short
+        self._interrupt = DeferredInterrupt(_SIGNALS)
+
+    def message(self, topic: str, msgtype: str, data: bytes, log_time_ns: int) -> None:
+        """Record a serialized message (CDR bytes of type `msgtype`, `pkg/msg/Name`) at `log_time_ns`."""
+        self._ops.append((MESSAGE, topic, msgtype, data, log_time_ns))
+        if len(self._ops) >= BATCH:
+            self.flush()
+
+    def image(self, msg: Image) -> tuple[Any, ...] | None:
+        """`msg` as an op's image: its pixels, or _SAME when it is the last image handed over (the child keeps it)."""
+        if msg is self._last_image:
+            return _SAME
+        self._last_image = msg
+        data = memoryview(msg.data)
+        pixels = pickle.PickleBuffer(data if data.c_contiguous else data.tobytes())  # crosses the pipe uncopied
+        return (msg.header, msg.height, msg.width, msg.encoding, msg.is_bigendian, msg.step, pixels)
+
+    def send(self, op: tuple[Any, ...], flush: bool = False) -> None:
+        """Queue `op` (the operations above); `flush`: hand it over now."""
+        self._ops.append(op)
+        if flush or len(self._ops) >= BATCH:
+            self.flush()
+
+    def flush(self) -> None:
+        """Hand over the queued operations; raises an error the child met before (not yet raised)."""
+        if self._closed:
+            raise ValueError(f"hand-over after close() of the {self.name} writer process")
+        self._poll()
+        self._raise()
+        self._hand_over()
+        self._raise()
+
+    def _hand_over(self) -> None:
+        self._interrupt.hold()  # a hand-over cut half-way would garble every one after it
+        try:
+            if self._ops and not self._pending:
+                ops, self._ops = self._ops, []
+                buffers: list[pickle.PickleBuffer] = []
+                body = pickle.dumps(ops, 5, buffer_callback=buffers.append)
+                raws = [b.raw() for b in buffers]
+                head = _HEAD.pack(len(body), len(raws)) + b"".join(_SIZE.pack(r.nbytes) for r in raws)
+                self._pending = [memoryview(head), memoryview(body), *raws]
+            self._write_pending()
+        finally:
+            self._interrupt.release()
+
+    def _write_pending(self) -> None:
+        while self._pending:
+            try:
+                written = os.writev(self._data, self._pending)
+            except BrokenPipeError:
+                self._pending, self._ops = [], []
+                self._read_back(until="closed")  # its error, if it reported one before it died
+                self._died()
+                return
+            while written:
+                if written >= self._pending[0].nbytes:
+                    written -= self._pending.pop(0).nbytes
+                else:
+                    self._pending[0] = self._pending[0][written:]
+                    written = 0
+
+    def request(self, op: tuple[Any, ...]) -> Any:
+        """Hand over `op` and what is queued, and wait for the child's reply to it (after all the work before)."""
+        self.send(op, flush=True)
+        reply = self._read_back(until="reply") if self._error is None else None
+        self._raise()  # a child that met an error does no later operation, and so never replies
+        return reply
+
+    def _poll(self) -> None:
+        """Read what the child reported, without waiting."""
+        while self._back is not None and select.select([self._back], [], [], 0)[0]:
+            if self._read_back(until=None) is None and self._back is None:
+                return
+
+    def _read_back(self, until: str | None) -> Any:
+        """Read the child's reports (logs, errors, replies) up to one of kind `until` (None: one report)."""
+        while self._back is not None:
+            self._interrupt.hold()  # a report read half-way, or read and not taken in, would be lost
+            try:
+                kind, value = self._take_report()
+            finally:
+                self._interrupt.release()
+            if kind is None or until is None or kind in (until, "error"):
+                return value
+        return None
+
+    def _take_report(self) -> tuple[str | None, Any]:
+        assert self._back is not None
+        size = _read_exactly(self._back, _SIZE.size)
+        if not size:  # the child exited
+            os.close(self._back)
+            self._back = None
+            self._died()
+            return None, None
+        kind, value = pickle.loads(_read_exactly(self._back, _SIZE.unpack(size)[0]))
+        if kind == "log":
+            logging.getLogger(value[0]).log(value[1], "%s", value[2])
+        elif kind == "error" and self._error is None:
+            self._error = value
+        elif kind == "closed":
+            self.results = value
+        return kind, value
+
+    def _died(self) -> None:
+        """The child is gone: wait for it, and make its end an error unless it had reported one or finished."""
+        code = self._process.wait()
+        if self._error is None and not self.results:
+            self._error = RecordingError(f"{self.name}: the writer process exited (code {code}) before the files "
+                                         f"were finished")
+
+    def _raise(self) -> None:
+        if self._error is not None and not self._reported:
+            self._reported = True
+            raise self._error
+
+    def close(self) -> dict[str, Any]:
+        """Hand over what is queued, let the child finish its files and exit, and raise its error not yet raised.
+        Returns what the child reported at the end (e.g. the video's path). Idempotent."""
+        if not self._closed:
+            self._closed = True
+            interrupted = uninterrupted(self._finish)
+            self._interrupt.uninstall()
+            if interrupted:
+                self._raise()
+                raise KeyboardInterrupt
+        self._raise()
+        return self.results
+
+    def _finish(self) -> None:
+        if self._data is not None:
+            self._poll()
+            if self._error is None:
+                self._hand_over()
+            os.close(self._data)  # EOF: the child finishes its files and exits
+            self._data = None
+        while self._back is not None and not self.results:
+            self._read_back(until="closed")
+        self._process.wait()
+        if self._back is not None:
+            os.close(self._back)
+            self._back = None
+
+    @property
+    def closed(self) -> bool:
+        """Whether close() has run."""
+        return self._closed
+
+
+def _read_exactly(fd: int, size: int) -> bytes:
+    """`size` bytes from `fd`, or b"" at an end of file before them."""
+    chunks = []
+    while size:
+        chunk = os.read(fd, size)
+        if not chunk:
+            return b""
+        chunks.append(chunk)
+        size -= len(chunk)
+    return b"".join(chunks)
+
+
+def _child_environment() -> dict[str, str]:
+    """The parent's environment, with this racecar_sim first on the path (a checkout run by PYTHONPATH too)."""
+    env = dict(os.environ)
+    root = str(Path(__file__).resolve().parents[2])
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (root, env.get("PYTHONPATH")) if p)
+    return env
+
+
+class ProcessVideo:
+    """camera.mp4 encoded by a WriterProcess: VideoWriter's interface for the images of a camera topic.
+
+    write_image(msg) hands the image over (its pixels cross once when the recording has them too); close() waits
+    for the child to finish the file and returns its path (.gif when the child fell back to the GIF preview).
+    `owns_process`: close() closes the process too (a video without a recording).
+    """
+
+    def __init__(self, process: WriterProcess, path: str | Path, fps: float, width: int, height: int,
+                 owns_process: bool = False) -> None:
+        self.process = process
+        self.path = Path(path)
+        self.frames = 0
+        self._owns = owns_process
+        self._closed = False
+        process.send((OPEN_VIDEO, str(self.path), float(fps), int(width), int(height)))
+
+    def write_image(self, msg: Image) -> None:
+        """Append the frame of a bgr8 / rgb8 Image."""
+        if self._closed:
+            raise ValueError(f"write() after close() of {self.path}")
+        self.process.send((FRAME, self.process.image(msg)))
+        self.frames += 1
+
+    def close(self) -> Path:
+        """Finish the file; returns the path written. Idempotent."""
+        if not self._closed:
+            self._closed = True
+            if self._owns or self.process.closed:
+                results = self.process.close()
+            else:
+                results = {"video": self.process.request((CLOSE_VIDEO,))}
+            if results.get("video"):
+                self.path = Path(results["video"])
+        return self.path
+
+
+# ---- the child ----
+
+def serve() -> None:
+    """The child's main: do the operations read from the pipe (fd argv[1]) until its end; report on fd argv[2]."""
+    for signum in _SIGNALS:
+        signal.signal(signum, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, _SIGNALS)
+    parent = int(sys.argv[3])
+    if parent and sys.platform.startswith("linux"):
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
+        if os.getppid() != parent:  # it died before that
+            os._exit(1)
+    back = _Reports(int(sys.argv[2]))
+    logging.getLogger("racecar_sim").addHandler(back)
+    hand_overs: queue.Queue[tuple[bytes, list[bytearray]] | None] = queue.Queue(DEPTH)
+    reader = threading.Thread(target=_read_hand_overs, args=(int(sys.argv[1]), hand_overs), daemon=True)
+    reader.start()  # reads on while the main thread encodes: the parent's hand-over waits on no encoder
+    files = _Files(back)
+    error: BaseException | None = None
+    while (hand_over := hand_overs.get()) is not None:
+        if error is not None:
+            continue  # later operations are not done, but read on: the parent never waits on a pipe nobody reads
+        try:
+            body, buffers = hand_over
+            for op in pickle.loads(body, buffers=buffers):
+                files.do(op)
+        except BaseException as exc:  # noqa: BLE001 - reported to the parent
+            error = exc
+            back.send("error", exc)
+    try:
+        files.close()
+    except BaseException as exc:  # noqa: BLE001 - reported to the parent
+        if error is None:
+            back.send("error", exc)
+    back.send("closed", files.results())
+
+
+def _read_hand_overs(fd: int, hand_overs: queue.Queue[tuple[bytes, list[bytearray]] | None]) -> None:
+    with open(fd, "rb", buffering=0) as pipe:
+        while True:
+            head = _read_into(pipe, bytearray(_HEAD.size))
+            if head is None:
+                break
+            body_size, count = _HEAD.unpack(head)
+            sizes = _read_into(pipe, bytearray(_SIZE.size * count))
+            body = _read_into(pipe, bytearray(body_size))
+            buffers = [_read_into(pipe, bytearray(size)) for (size,) in _SIZE.iter_unpack(sizes or b"")]
+            if sizes is None or body is None or any(b is None for b in buffers):
+                break  # cut off: the parent died half-way through a hand-over
+            hand_overs.put((bytes(body), buffers))  # type: ignore[arg-type]
+    hand_overs.put(None)
+
+
+def _read_into(pipe: Any, buffer: bytearray) -> bytearray | None:
+    view, done = memoryview(buffer), 0
+    while done < len(buffer):
+        got = pipe.readinto(view[done:])
+        if not got:
+            return None
+        done += got
+    return buffer
+
+
+class _Reports(logging.Handler):
+    """The child's reports to the parent: log records of racecar_sim's loggers, its error, its results."""
+
+    def __init__(self, fd: int) -> None:
+        super().__init__(logging.INFO)
+        self.fd = fd
+        self.lock_ = threading.Lock()
+
+    def send(self, kind: str, value: Any) -> None:
+        try:
+            data = pickle.dumps((kind, value))
+        except Exception:  # noqa: BLE001 - an exception that does not pickle: its one line
+            data = pickle.dumps((kind, RecordingError(f"{type(value).__name__}: {value}")))
+        with self.lock_:
+            os.write(self.fd, _SIZE.pack(len(data)) + data)
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.send("log", (record.name, record.levelno, record.getMessage()))
+
+
+class _Files:
+    """The child's files: the MCAP recorder and the video writer, opened by operations."""
+
+    def __init__(self, reports: _Reports) -> None:
+        self.reports = reports
+        self.recorder: Any = None
+        self.video: Any = None
+        self.video_path: str | None = None
+        self.last_image: Image | None = None
+
+    def image(self, pixels: tuple[Any, ...] | None) -> Image:
+        if pixels is not _SAME:
+            header, height, width, encoding, is_bigendian, step, data = pixels
+            self.last_image = Image(header, height, width, encoding, is_bigendian, step, data)
+        assert self.last_image is not None
+        return self.last_image
+
+    def do(self, op: tuple[Any, ...]) -> None:
+        kind = op[0]
+        if kind == MESSAGE:
+            self.recorder.write_serialized(op[1], op[2], op[3], op[4])
+        elif kind == JPEG:
+            from racecar_sim.msgs import serialize
+            from racecar_sim.recording.images import compress_image
+
+            _, topic, msgtype, pixels, log_time, quality = op
+            self.recorder.write_serialized(topic, msgtype, serialize(compress_image(self.image(pixels), quality)),
+                                           log_time)
+        elif kind == FRAME:
+            self.video.write(self.image(op[1]).bgr_pixels())
+        elif kind == OPEN_MCAP:
+            from racecar_sim.recording.mcap_recorder import McapRecorder
+
+            _, fd, path, compression = op
+            self.recorder = McapRecorder(path, compression=compression, stream=open(fd, "wb"))  # noqa: SIM115
+        elif kind == OPEN_VIDEO:
+            from racecar_sim.recording.video import VideoWriter
+
+            self.video = VideoWriter(*op[1:])
+            self.video_path = str(self.video.path)
+        elif kind == CLOSE_VIDEO:
+            self.close_video()
+            self.reports.send("reply", self.video_path)
+
+    def close_video(self) -> None:
+        if self.video is not None:
+            video, self.video = self.video, None
+            if video.frames:
+                video.close()
+            else:  # no frame, no file: nothing was muxed
+                with contextlib.suppress(Exception):
+                    video.close()
+
+    def close(self) -> None:
+        try:
+            self.close_video()
+        finally:
+            if self.recorder is not None:
+                self.recorder.close()
+
+    def results(self) -> dict[str, Any]:
+        return {"video": self.video_path}

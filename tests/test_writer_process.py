@@ -1,0 +1,210 @@
+"""The writer process behind a run's recording and video: the same files as writing in place, byte for byte; each
+camera image crosses to it once; its errors, its death and a Ctrl-C to the whole process group are handled."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import av
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+from PIL import Image as PilImage
+from rosbags.highlevel import AnyReader
+from rosbags.typesys import Stores, get_typestore
+
+from racecar_sim.bus import Bus
+from racecar_sim.core.errors import RecordingError
+from racecar_sim.msgs import Float64, Header, Image
+from racecar_sim.recording import writer_process
+from racecar_sim.recording.images import decompress_image
+from racecar_sim.recording.run_recording import RunRecording
+from racecar_sim.recording.video import VideoWriter
+from racecar_sim.recording.writer_process import ProcessVideo, WriterProcess
+
+IMAGE = "/camera/zed/rgb/image_rect_color"
+COMPRESSED = IMAGE + "/compressed"
+HEIGHT, WIDTH = 48, 64
+CLI = [sys.executable, "-m", "racecar_sim"]
+
+
+def frame(i: int) -> np.ndarray:
+    """Frame i: a gradient with a bright square 2*i px from the left edge (BGR)."""
+    y, x = np.mgrid[0:HEIGHT, 0:WIDTH]
+    bgr = np.stack([x * 3, y * 4, np.full_like(x, 60)], axis=-1).astype(np.uint8)
+    bgr[10:26, 2 * i:2 * i + 16] = (40, 220, 250)
+    return bgr
+
+
+def image(i: int) -> Image:
+    return Image(Header.at(i * 33_000_000, "camera_link"), HEIGHT, WIDTH, "bgr8", 0, WIDTH * 3, frame(i).reshape(-1))
+
+
+def publish_run(bus: Bus, clock: list[int], frames: int = 10) -> None:
+    """Messages of a run: a command every 10 ms, a camera image every 33 ms, stamped in sim time."""
+    for tick in range(frames * 33 // 10 + 1):
+        clock[0] = tick * 10_000_000
+        bus.publish("/command", Float64(tick * 0.5))
+        if tick * 10 // 33 < frames and tick * 10 % 33 < 10:
+            bus.publish(IMAGE, image(tick * 10 // 33))
+
+
+def record(path: Path, process: bool, **options) -> RunRecording:
+    bus, clock = Bus(), [0]
+    with RunRecording(bus, lambda: clock[0], path, image_topics=[IMAGE], process=process, **options) as rec:
+        publish_run(bus, clock)
+    return rec
+
+
+def test_process_writes_the_bytes_the_thread_writes(tmp_path):
+    by_thread = record(tmp_path / "thread.mcap", process=False)
+    by_process = record(tmp_path / "process.mcap", process=True)
+    assert by_thread.process is None and by_process.process is not None
+    assert by_process.process.closed and by_process.process._process.returncode == 0  # waited for: no zombie
+    data = (tmp_path / "process.mcap").read_bytes()
+    assert data == (tmp_path / "thread.mcap").read_bytes() and len(data) > 5000
+    for raw in (False, True):  # and raw images, serialized in the parent
+        record(tmp_path / f"raw_{raw}.mcap", process=raw, raw_images=True)
+    assert (tmp_path / "raw_True.mcap").read_bytes() == (tmp_path / "raw_False.mcap").read_bytes()
+
+
+def test_recorded_jpegs_decode_to_the_published_frames_in_publication_order(tmp_path):
+    record(tmp_path / "run.mcap", process=True)
+    with open(tmp_path / "run.mcap", "rb") as f:
+        topics = [channel.topic for _, channel, _ in make_reader(f).iter_messages(log_time_order=False)]
+    assert topics[:4] == ["/command", IMAGE + "/compressed", "/command", "/command"]
+    with AnyReader([tmp_path / "run.mcap"], default_typestore=get_typestore(Stores.EMPTY)) as reader:
+        images = [c for c in reader.connections if c.topic == COMPRESSED]
+        messages = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages(connections=images)]
+    assert len(messages) == 10
+    for i, msg in enumerate(messages):
+        assert msg.header.stamp.nanosec == i * 33_000_000 and msg.format == "bgr8; jpeg compressed bgr8"
+        error = decompress_image(msg).astype(float) - frame(i)
+        assert 10 * np.log10(255.0**2 / np.mean(error**2)) > 30.0  # PSNR
+
+
+def test_an_image_both_recorded_and_filmed_crosses_once_and_the_video_is_the_in_place_one(tmp_path):
+    bus, clock = Bus(), [0]
+    rec = RunRecording(bus, lambda: clock[0], tmp_path / "run.mcap", image_topics=[IMAGE])
+    video = ProcessVideo(rec.process, tmp_path / "camera.mp4", 30.0, WIDTH, HEIGHT)
+    bus.subscribe(IMAGE, video.write_image)
+    sent: list[object] = []
+    real_image = rec.process.image
+    rec.process.image = lambda msg: sent.append(real_image(msg)) or sent[-1]  # type: ignore[method-assign]
+    publish_run(bus, clock)
+    assert video.close() == tmp_path / "camera.mp4" and video.frames == 10
+    rec.close()
+    assert len(sent) == 20 and sum(s is not None for s in sent) == 10  # pixels once, then "the same image"
+
+    with VideoWriter(tmp_path / "in_place.mp4", 30.0, WIDTH, HEIGHT) as in_place:
+        for i in range(10):
+            in_place.write(frame(i))
+    decoded = []
+    for path in (tmp_path / "camera.mp4", tmp_path / "in_place.mp4"):
+        with av.open(str(path)) as container:
+            decoded.append([f.to_ndarray(format="bgr24") for f in container.decode(video=0)])
+    assert len(decoded[0]) == 10 and all(np.array_equal(a, b) for a, b in zip(*decoded))
+
+
+def test_a_video_without_a_recording_owns_its_process_and_falls_back_to_gif(tmp_path, monkeypatch, caplog):
+    fake = tmp_path / "site"
+    fake.mkdir()
+    (fake / "av.py").write_text("raise ImportError('no PyAV in this test')\n")
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(fake), os.environ.get("PYTHONPATH", "")]))
+    video = ProcessVideo(WriterProcess("video"), tmp_path / "camera.mp4", 30.0, WIDTH, HEIGHT, owns_process=True)
+    for i in range(6):
+        video.write_image(image(i))
+    assert video.close() == tmp_path / "camera.gif" and video.process.closed
+    assert any("GIF" in r.getMessage() for r in caplog.records)  # the child's warning, logged here
+    with PilImage.open(tmp_path / "camera.gif") as gif:
+        assert gif.n_frames == 2  # 30 fps -> every third frame
+
+
+def test_an_error_in_the_child_is_raised_by_a_later_publish_or_close_and_the_file_is_finished(tmp_path):
+    bus, clock = Bus(), [0]
+    rec = RunRecording(bus, lambda: clock[0], tmp_path / "run.mcap", image_topics=[IMAGE])
+    bus.publish("/command", Float64(1.0))
+    bus.publish(IMAGE, Image(Header(), 1, 1, "mono8", 0, 1, b"\x00"))  # the child cannot JPEG-compress it
+    with pytest.raises(ValueError, match="cannot JPEG-compress a 'mono8' image"):
+        for tick in range(100_000):
+            clock[0] = tick
+            bus.publish("/command", Float64(tick))
+            time.sleep(1e-4)
+    rec.close()  # raised once
+    with AnyReader([tmp_path / "run.mcap"], default_typestore=get_typestore(Stores.EMPTY)) as reader:
+        assert {c.topic: c.msgcount for c in reader.connections} == {"/command": 1}
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full")
+def test_a_full_disk_is_an_oserror_at_close():
+    bus = Bus()
+    rec = RunRecording(bus, lambda: 0, "/dev/full")
+    bus.publish("/command", Float64(1.0))
+    with pytest.raises(OSError, match="No space left"):
+        rec.close()
+
+
+def test_a_dead_child_is_an_error_not_a_hang(tmp_path):
+    bus, clock = Bus(), [0]
+    rec = RunRecording(bus, lambda: clock[0], tmp_path / "run.mcap", image_topics=[IMAGE])
+    rec.process._process.kill()
+    with pytest.raises(RecordingError, match="writer process exited"):
+        publish_run(bus, clock, frames=200)
+        rec.close()
+    rec.close()
+
+
+def test_a_path_that_cannot_be_written_raises_in_the_caller(tmp_path):
+    with pytest.raises(RecordingError, match="cannot create the MCAP file"):
+        RunRecording(Bus(), lambda: 0, tmp_path / "missing" / "run.mcap")
+
+
+def test_without_a_process_it_records_on_a_thread(tmp_path, monkeypatch, caplog):
+    def no_process(*args, **kwargs):
+        raise OSError("no processes here")
+
+    monkeypatch.setattr(writer_process.subprocess, "Popen", no_process)
+    rec = record(tmp_path / "thread.mcap", process=True)
+    assert rec.process is None and rec.recorder is not None and "writer thread" in caplog.text
+    record(tmp_path / "again.mcap", process=False)
+    assert (tmp_path / "thread.mcap").read_bytes() == (tmp_path / "again.mcap").read_bytes()
+
+
+def test_a_script_without_a_main_guard_records(tmp_path):
+    """The child is a fresh interpreter running only the writer: a user's script is not run again in it."""
+    script = tmp_path / "script.py"
+    script.write_text(
+        "from racecar_sim.bus import Bus\nfrom racecar_sim.msgs import Float64\n"
+        "from racecar_sim.recording import RunRecording\n"
+        "print('script ran')\n"
+        "bus = Bus()\n"
+        f"with RunRecording(bus, lambda: 0, {str(tmp_path / 'run.mcap')!r}):\n"
+        "    bus.publish('/command', Float64(1.0))\n")
+    result = subprocess.run([sys.executable, str(script)], check=False, capture_output=True, text=True, timeout=60)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.count("script ran") == 1 and (tmp_path / "run.mcap").stat().st_size > 500
+
+
+@pytest.mark.skipif(os.name != "posix", reason="signals")
+def test_ctrl_c_to_the_whole_process_group_still_finishes_the_files(tmp_path):
+    """A terminal's Ctrl-C reaches every process of the group: the writer ignores it, the run closes it."""
+    out = tmp_path / "run.mcap"
+    proc = subprocess.Popen([*CLI, "run", "--world", "empty", "--driver", "constant", "--duration", "3000",
+                             "--realtime", "--record", str(out), "--out", str(tmp_path), "--no-summary"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    deadline = time.time() + 60
+    while time.time() < deadline and (not out.exists() or out.stat().st_size < 2000):
+        time.sleep(0.2)
+    time.sleep(1.5)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130, stderr
+    assert "Traceback" not in stderr
+    with AnyReader([out], default_typestore=get_typestore(Stores.EMPTY)) as reader:
+        assert sum(c.msgcount for c in reader.connections if c.topic == "/vesc/odom") >= 20
