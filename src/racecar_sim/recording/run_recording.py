@@ -13,12 +13,13 @@ from racecar_sim.bus import Bus
 from racecar_sim.msgs import Image, msgtype_of, serialize
 from racecar_sim.recording.images import JPEG_QUALITY, compress_image, compressed_topic
 from racecar_sim.recording.mcap_recorder import McapRecorder, open_recording_file
-from racecar_sim.recording.writer_process import BATCH, JPEG, OPEN_MCAP, WriterProcess
+from racecar_sim.recording.writer_process import JPEG, OPEN_MCAP, WriterProcess
 from racecar_sim.recording.writer_thread import WriterThread
 
 log = logging.getLogger("racecar_sim")
 
 COMPRESSED_MSGTYPE = "sensor_msgs/msg/CompressedImage"
+THREAD_BATCH = 32  # messages handed to the fallback writer thread at once (a few ms of sim time, images included)
 
 
 class RunRecording:
@@ -83,7 +84,7 @@ class RunRecording:
             self._batch.append((self.compressed[topic], None, msg, self.clock()))
         else:
             self._batch.append((topic, msgtype_of(msg), serialize(msg), self.clock()))
-        if len(self._batch) >= BATCH:
+        if len(self._batch) >= THREAD_BATCH:
             self._submit()
 
     def _submit(self) -> None:

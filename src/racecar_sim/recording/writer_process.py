@@ -31,7 +31,7 @@ from racecar_sim.msgs import Image
 from racecar_sim.recording.mcap_recorder import DeferredInterrupt
 from racecar_sim.recording.writer_thread import uninterrupted
 
-BATCH = 32
+BATCH = 256
 """Messages per hand-over: one pipe write per message would cost more than most messages' writing."""
 DEPTH = 64
 """Hand-overs the child may hold unwritten (with a frame each, two seconds of 30 Hz video); beyond that the parent's
@@ -67,6 +67,7 @@ class WriterProcess:
         self.results: dict[str, Any] = {}
         self._ops: list[tuple[Any, ...]] = []
         self._last_image: object = None
+        self._pixels_queued = False  # an op with an image's pixels waits: hand it over with the op that takes it
         self._error: BaseException | None = None
         self._reported = False
         self._closed = False
@@ -109,6 +110,7 @@ class WriterProcess:
         if msg is self._last_image:
             return _SAME
         self._last_image = msg
+        self._pixels_queued = True
         data = memoryview(msg.data)
         pixels = pickle.PickleBuffer(data if data.c_contiguous else data.tobytes())  # crosses the pipe uncopied
         return (msg.header, msg.height, msg.width, msg.encoding, msg.is_bigendian, msg.step, pixels)
@@ -116,7 +118,8 @@ class WriterProcess:
     def send(self, op: tuple[Any, ...], flush: bool = False) -> None:
         """Queue `op` (the operations above); `flush`: hand it over now."""
         self._ops.append(op)
-        if flush or len(self._ops) >= BATCH:
+        if flush or self._pixels_queued or len(self._ops) >= BATCH:
+            self._pixels_queued = False
             self.flush()
 
     def flush(self) -> None:

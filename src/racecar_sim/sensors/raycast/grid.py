@@ -33,15 +33,9 @@ class Cell:
     def __init__(self, segments: np.ndarray, circles: np.ndarray, bounds: np.ndarray, fan: Fan,
                  centre: tuple[float, float] = (0.0, 0.0)) -> None:
         # walls nearest the cell first: a scan from the cell then meets near walls before those they hide, which
-        # the compiled cast skips (any order gives the same ranges); grouped by the kernels' tiles, which it tests
-        # before their walls
-        if segments.shape[1]:
-            from racecar_sim.sensors.raycast.kernels import TILE, tile_keys
-
-            tile = (np.floor(segments[6:8] / TILE) + 0.5) * TILE
-            order = np.lexsort((np.hypot(segments[6] - centre[0], segments[7] - centre[1]), tile_keys(segments),
-                                np.hypot(tile[0] - centre[0], tile[1] - centre[1])))
-            segments = segments[:, order]
+        # the compiled cast skips beam by beam (any order gives the same ranges)
+        order = np.argsort(np.hypot(segments[6] - centre[0], segments[7] - centre[1]), kind="stable")
+        segments = segments[:, order]
         self.segments, self.circles, self.bounds, self.fan = segments, circles, bounds, fan
         self.breaks = sorted(set(np.concatenate([segments[4], segments[5], circles[3], circles[4]]).tolist()))
         self._covering: dict[int, tuple[Walls, np.ndarray]] = {}
