@@ -14,6 +14,7 @@ import math
 import numpy as np
 from numba import njit
 
+from racecar_sim.sensors.raycast import dense
 from racecar_sim.sensors.raycast.kernels import cast_level
 
 
@@ -46,6 +47,33 @@ def level_scan(qpos, adr, local_origin, local_axes, size, x0, y0, ids, starts, t
     origin and axes from the body's pose in qpos (LaserMount.pose's operations, in its order), the origin's grid
     cell (FlatWalls), kernels.cast_level into `ranges`, published_scan into `out`. Returns False, `out` untouched,
     where that path cannot answer (a cell with more than walls, or cast_level's refusals)."""
+    k, origin, axes = _laser_cell(qpos, adr, local_origin, local_axes, size, x0, y0, ids)
+    ranges[:] = np.inf
+    if k < 0 or not cast_level(table[:, starts[k]:starts[k + 1]], floors, origin, axes, max_tilt_cos, angle_min,
+                               inverse_step, count, turn, range_min, range_max, dirs, ranges):
+        return False
+    published_scan(ranges, values, first, second, stddev, mean, noisy, range_min, range_max, out)
+    return True
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def dense_level_scan(qpos, adr, local_origin, local_axes, size, x0, y0, ids, starts, table, floors, max_tilt_cos,
+                     angle_min, inverse_step, count, turn, range_min, range_max, dirs, values, first, second, stddev,
+                     mean, noisy, ranges, out):  # noqa: ANN001, ANN201
+    """level_scan in a world of dense cells (a map; FlatWalls.dense): raycast.dense's cast on its tables."""
+    k, origin, axes = _laser_cell(qpos, adr, local_origin, local_axes, size, x0, y0, ids)
+    ranges[:] = np.inf
+    if k < 0 or not dense.cast_level(table[:, starts[k]:starts[k + 1]], floors, origin, axes, max_tilt_cos,
+                                     angle_min, inverse_step, count, turn, range_min, range_max, dirs, ranges):
+        return False
+    published_scan(ranges, values, first, second, stddev, mean, noisy, range_min, range_max, out)
+    return True
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _laser_cell(qpos, adr, local_origin, local_axes, size, x0, y0, ids):  # noqa: ANN001, ANN202
+    """(cell number, ray origin, sensor axes) of the laser on the free body at qpos[adr:]; cell -1 where FlatWalls
+    has no walls-only cell."""
     px, py, pz = qpos[adr], qpos[adr + 1], qpos[adr + 2]
     w, x, y, z = qpos[adr + 3], qpos[adr + 4], qpos[adr + 5], qpos[adr + 6]
     r = np.empty((3, 3))
@@ -60,12 +88,6 @@ def level_scan(qpos, adr, local_origin, local_axes, size, x0, y0, ids, starts, t
         for j in range(3):
             axes[i, j] = r[i, 0] * local_axes[0, j] + r[i, 1] * local_axes[1, j] + r[i, 2] * local_axes[2, j]
     ix, iy = math.floor(origin[0] / size) - x0, math.floor(origin[1] / size) - y0
-    if ix < 0 or iy < 0 or ix >= ids.shape[0] or iy >= ids.shape[1] or ids[ix, iy] < 0:
-        return False
-    k = ids[ix, iy]
-    ranges[:] = np.inf
-    if not cast_level(table[:, starts[k]:starts[k + 1]], floors, origin, axes, max_tilt_cos, angle_min,
-                      inverse_step, count, turn, range_min, range_max, dirs, ranges):
-        return False
-    published_scan(ranges, values, first, second, stddev, mean, noisy, range_min, range_max, out)
-    return True
+    if ix < 0 or iy < 0 or ix >= ids.shape[0] or iy >= ids.shape[1]:
+        return -1, origin, axes
+    return ids[ix, iy], origin, axes

@@ -124,17 +124,18 @@ class LidarPublisher:
         spec = self.spec
         walls = self.caster.level_walls() if self.mount is not None and self.mode == "auto" else None
         if walls is not None:  # the common case in one compiled call (laser_kernel.level_scan), else the steps below
-            from racecar_sim.sensors.laser_kernel import level_scan
+            from racecar_sim.sensors.laser_kernel import dense_level_scan, level_scan
             from racecar_sim.sensors.raycast.fan import MAX_TILT_COS
 
             fan, mount = self.fan, self.mount
             first, second = self.noise_table.offsets(self.seed, stamp_ns)
             out = np.empty(fan.count, np.float32)
-            if level_scan(self.data.qpos, mount.qpos_adr, mount.local_origin, mount.local_axes, walls.size, walls.x0,
-                          walls.y0, walls.ids, walls.starts, walls.table, walls.floors, MAX_TILT_COS,
-                          fan.angle_min, fan.inverse_step, fan.count, fan.turn, fan.range_min, fan.range_max,
-                          fan.directions, self.noise_table.values, first, second, spec.noise_stddev, spec.noise_mean,
-                          self.noise, self._ranges, out):
+            scan = dense_level_scan if walls.dense else level_scan  # a map's dense cells: hidden walls dropped
+            if scan(self.data.qpos, mount.qpos_adr, mount.local_origin, mount.local_axes, walls.size, walls.x0,
+                    walls.y0, walls.ids, walls.starts, walls.table, walls.floors, MAX_TILT_COS, fan.angle_min,
+                    fan.inverse_step, fan.count, fan.turn, fan.range_min, fan.range_max, fan.directions,
+                    self.noise_table.values, first, second, spec.noise_stddev, spec.noise_mean, self.noise,
+                    self._ranges, out):
                 self.scans_cast += 1
                 self.caster.last_3d_beams = 0
                 return out

@@ -36,7 +36,7 @@ class Cell:
         # the compiled cast skips beam by beam (any order gives the same ranges)
         order = np.argsort(np.hypot(segments[6] - centre[0], segments[7] - centre[1]), kind="stable")
         segments = segments[:, order]
-        self.segments, self.circles, self.bounds, self.fan = segments, circles, bounds, fan
+        self.segments, self.circles, self.bounds, self.fan, self.centre = segments, circles, bounds, fan, centre
         self.breaks = sorted(set(np.concatenate([segments[4], segments[5], circles[3], circles[4]]).tolist()))
         self._covering: dict[int, tuple[Walls, np.ndarray]] = {}
         self._walls_only: np.ndarray | None = None
@@ -131,7 +131,8 @@ class Grid:
 class FlatWalls:
     """A Grid's walls-only cells for compiled code: cell (ix, iy) (floor(x / size), floor(y / size)) has number
     ids[ix - x0, iy - y0], -1 where it is missing or holds more than walls; its walls are table[:, starts[k]:starts[k
-    + 1]] (kernels.wall_table rows). `floors`: the heights of the world's horizontal planes."""
+    + 1]]: kernels.wall_table rows, or, if `dense` (a cell of dense.DENSE_WALLS walls or more: a map), dense.py's
+    dense_table rows. `floors`: the heights of the world's horizontal planes."""
 
     floors: np.ndarray
     size: float
@@ -140,9 +141,11 @@ class FlatWalls:
     ids: np.ndarray
     starts: np.ndarray
     table: np.ndarray
+    dense: bool = False
 
     @classmethod
     def of(cls, grid: Grid) -> FlatWalls:
+        from racecar_sim.sensors.raycast.dense import DENSE_WALLS, dense_order, dense_table
         from racecar_sim.sensors.raycast.kernels import WALL_ROWS
 
         keys = [key for key, cell in grid.cells.items() if cell.walls_only() is not None]
@@ -150,9 +153,16 @@ class FlatWalls:
             return cls(grid.floors, grid.size, 0, 0, np.full((1, 1), -1, np.int64), np.zeros(1, np.int64), np.zeros((WALL_ROWS, 0)))
         x0, y0 = min(k[0] for k in keys), min(k[1] for k in keys)
         ids = np.full((max(k[0] for k in keys) - x0 + 1, max(k[1] for k in keys) - y0 + 1), -1, np.int64)
+        dense = max(grid.cells[key].segments.shape[1] for key in keys) >= DENSE_WALLS
         tables = []
         for number, key in enumerate(keys):
             ids[key[0] - x0, key[1] - y0] = number
-            tables.append(grid.cells[key].walls_only())
+            cell = grid.cells[key]
+            if dense:
+                segments = cell.segments[:, dense_order(cell.segments, cell.centre)]
+                tables.append(dense_table(segments, cell.fan.range_min, cell.fan.range_max))
+            else:
+                tables.append(cell.walls_only())
         starts = np.concatenate([[0], np.cumsum([t.shape[1] for t in tables])]).astype(np.int64)
-        return cls(grid.floors, grid.size, x0, y0, ids, starts, np.ascontiguousarray(np.concatenate(tables, axis=1)))
+        return cls(grid.floors, grid.size, x0, y0, ids, starts, np.ascontiguousarray(np.concatenate(tables, axis=1)),
+                   dense)

@@ -56,7 +56,7 @@ def _wall_is_seen(table, w, ox, oy, lo, hi, tilted):  # noqa: ANN001, ANN202
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _hit_wall(table, w, spans, ox, oy, oz, p00, p01, p10, p11, rz0, rz1, angle_min, inverse_step, count, turn,
+def hit_wall(table, w, spans, ox, oy, oz, p00, p01, p10, p11, rz0, rz1, angle_min, inverse_step, count, turn,
               range_min, dirs, ranges):  # noqa: ANN001, ANN202
     """Lower `ranges` to the beams' hits on wall w (spans: only where the hit lies within its heights)."""
     rx0, ry0 = table[X0, w] - ox, table[Y0, w] - oy
@@ -106,7 +106,7 @@ def cast_walls(table, origin, to_plane, rotation, lo, hi, tilted, angle_min, inv
     for w in range(table.shape[1]):
         seen = _wall_is_seen(table, w, ox, oy, lo, hi, tilted)
         if seen:
-            _hit_wall(table, w, seen == 2, ox, oy, oz, p00, p01, p10, p11, rz0, rz1, angle_min, inverse_step, count,
+            hit_wall(table, w, seen == 2, ox, oy, oz, p00, p01, p10, p11, rz0, rz1, angle_min, inverse_step, count,
                       turn, range_min, dirs, ranges)
 
 
@@ -197,28 +197,44 @@ def cast_level(table, floors, origin, rotation, max_tilt_cos, angle_min, inverse
     `ranges` (count,) to the first hits on the walls of `table`, range_max applied, and returns True; or returns
     False, `ranges` untouched, when the scan needs the general path (a steep scan plane, a floor in the band, a
     wall within reach covering only part of the band). The frame is ScanFrame's, computed here."""
+    level, lo, hi = level_band(floors, origin, rotation, max_tilt_cos, range_max)
+    if not level or partly_covered(table, origin[0], origin[1], lo, hi):
+        return False
     e1x, e2x, e1y, e2y = rotation[0, 0], rotation[0, 1], rotation[1, 0], rotation[1, 1]
     det = e1x * e2y - e2x * e1y
-    if det < max_tilt_cos:
-        return False
-    half = range_max * math.hypot(rotation[2, 0], rotation[2, 1]) * (1.0 + 1e-12) + 1e-12
-    ox, oy, oz = origin[0], origin[1], origin[2]
-    lo, hi = oz - half, oz + half
-    for z in floors:
-        if lo <= z <= hi:
-            return False
-    for w in range(table.shape[1]):
-        zlo, zhi = table[ZLO, w], table[ZHI, w]
-        if not (zlo <= lo and zhi >= hi) and zlo < hi and zhi > lo:
-            dx, dy = table[MIDX, w] - ox, table[MIDY, w] - oy
-            if dx * dx + dy * dy <= table[REACH2, w]:
-                return False
     p00, p01, p10, p11 = e2y / det, -e2x / det, -e1y / det, e1x / det
+    ox, oy, oz = origin[0], origin[1], origin[2]
     for w in range(table.shape[1]):
         if _wall_is_seen(table, w, ox, oy, lo, hi, False):
-            _hit_wall(table, w, False, ox, oy, oz, p00, p01, p10, p11, 0.0, 0.0, angle_min, inverse_step, count,
+            hit_wall(table, w, False, ox, oy, oz, p00, p01, p10, p11, 0.0, 0.0, angle_min, inverse_step, count,
                       turn, range_min, dirs, ranges)
     for b in range(count):
         if ranges[b] > range_max:
             ranges[b] = np.inf
     return True
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def level_band(floors, origin, rotation, max_tilt_cos, range_max):  # noqa: ANN001, ANN201
+    """(level, lo, hi): the height band [lo, hi] of a scan from `origin` with axes `rotation`, and whether the 2-D
+    cast answers it alone (not a steep scan plane, no floor in the band)."""
+    det = rotation[0, 0] * rotation[1, 1] - rotation[0, 1] * rotation[1, 0]
+    half = range_max * math.hypot(rotation[2, 0], rotation[2, 1]) * (1.0 + 1e-12) + 1e-12
+    lo, hi = origin[2] - half, origin[2] + half
+    level = det >= max_tilt_cos
+    for z in floors:
+        if lo <= z <= hi:
+            level = False
+    return level, lo, hi
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def partly_covered(table, ox, oy, lo, hi):  # noqa: ANN001, ANN201
+    """Whether a wall of `table` within reach of (ox, oy) covers only part of [lo, hi]."""
+    for w in range(table.shape[1]):
+        zlo, zhi = table[ZLO, w], table[ZHI, w]
+        if not (zlo <= lo and zhi >= hi) and zlo < hi and zhi > lo:
+            dx, dy = table[MIDX, w] - ox, table[MIDY, w] - oy
+            if dx * dx + dy * dy <= table[REACH2, w]:
+                return True
+    return False

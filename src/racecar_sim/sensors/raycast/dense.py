@@ -1,0 +1,275 @@
+"""The wall cast of a map's dense cells (thousands of walls within reach): walls hidden behind nearer hits dropped
+before they are cast, with the ranges of kernels.cast_level to the last bit.
+
+In a dense map most walls within reach lie behind nearer ones. The fan is cut into sectors of SECTOR_BEAMS beams,
+each holding the largest range among its beams; a wall no nearer than that largest range over the sectors it may
+span cannot lower any beam, and is dropped before kernels.hit_wall finds its beam interval (two atan2s) and
+visits its beams. Its sectors come from a cheap arctangent, widened by a margin far above that arctangent's
+error, so only walls the exact cast would have skipped beam by beam are dropped. Consecutive walls in one TILE
+square (dense_table lists them so) form a run, tested first as one circle: a run hidden behind nearer hits is
+skipped without reading its walls. The bookkeeping costs a sparse world's scan more than it saves (and its code
+more cache in a pipeline), so it is only used from DENSE_WALLS walls a cell (grid.FlatWalls).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from racecar_sim.sensors.raycast.kernels import (
+    CREACH2,
+    CROSS,
+    CX,
+    CY,
+    EX,
+    EY,
+    MIDX,
+    MIDY,
+    REACH2,
+    TWO_SIDED,
+    X0,
+    X1,
+    Y0,
+    Y1,
+    ZHI,
+    ZLO,
+    hit_wall,
+    level_band,
+    partly_covered,
+    wall_table,
+)
+
+# the rows a dense table adds to a wall table: ZLO_MAX, ZHI_MIN, the highest bottom and lowest top of this wall and
+# those after it; RUN_X, RUN_Y, RUN_R, RUN_END: a circle holding the run of consecutive walls in one tile (TILE) that
+# this wall belongs to, and the column after the run's last
+ZLO_MAX, ZHI_MIN, RUN_X, RUN_Y, RUN_R, RUN_END = range(16, 22)
+DENSE_WALLS = 256  # walls in a cell from which the culling pays
+TILE = 1.0  # m: walls whose middles share a TILE square are tested as one (a run) before any of them
+SECTOR_BEAMS = 16  # beams per sector of the fan (the unit in which walls hidden behind nearer hits are dropped)
+_ARC_MARGIN = 1e-4  # rad added to each side of a wall's arc for its sectors: _fast_angle errs by less than 2e-5
+_ARC_SURE = 1e-6  # below this |sin| of a wall's arc, its short way round is not trusted to the cheap arctangent
+
+
+def dense_order(segments: np.ndarray, centre: tuple[float, float]) -> np.ndarray:
+    """The column order of a cell's walls for a dense table: by TILE squares, near to far from `centre`, and near
+    to far within each."""
+    tile = (np.floor(segments[6:8] / TILE) + 0.5) * TILE
+    return np.lexsort((np.hypot(segments[6] - centre[0], segments[7] - centre[1]), tile_keys(segments),
+                       np.hypot(tile[0] - centre[0], tile[1] - centre[1])))
+
+
+def dense_table(segments: np.ndarray, range_min: float, range_max: float) -> np.ndarray:
+    """kernels.wall_table of `segments` (in dense_order) with the rows above."""
+    extra = np.array([np.maximum.accumulate(segments[4][::-1])[::-1], np.minimum.accumulate(segments[5][::-1])[::-1],
+                      *_runs(segments)]).reshape(6, -1)
+    return np.ascontiguousarray(np.vstack([wall_table(segments, range_min, range_max), extra]))
+
+
+def tile_keys(segments: np.ndarray) -> np.ndarray:
+    """The TILE square of each wall's middle, as one integer per wall (equal keys: the same square)."""
+    ix, iy = (np.floor(segments[6:8] / TILE).astype(np.int64) + (1 << 20))
+    return ix * (1 << 21) + iy
+
+
+def _runs(segments: np.ndarray) -> np.ndarray:
+    """Rows RUN_X, RUN_Y, RUN_R, RUN_END: the runs of consecutive walls with the same tile_keys."""
+    n = segments.shape[1]
+    keys = tile_keys(segments)
+    starts = np.flatnonzero(np.r_[True, keys[1:] != keys[:-1]]) if n else np.zeros(0, np.intp)
+    ends = np.r_[starts[1:], n].astype(np.intp)
+    run = np.repeat(np.arange(len(starts)), ends - starts)
+    ends_x = np.concatenate([segments[0], segments[2]])
+    ends_y = np.concatenate([segments[1], segments[3]])
+    lo_x = np.minimum.reduceat(ends_x.reshape(2, n).min(axis=0), starts) if n else np.zeros(0)
+    hi_x = np.maximum.reduceat(ends_x.reshape(2, n).max(axis=0), starts) if n else np.zeros(0)
+    lo_y = np.minimum.reduceat(ends_y.reshape(2, n).min(axis=0), starts) if n else np.zeros(0)
+    hi_y = np.maximum.reduceat(ends_y.reshape(2, n).max(axis=0), starts) if n else np.zeros(0)
+    centre_x, centre_y = 0.5 * (lo_x + hi_x), 0.5 * (lo_y + hi_y)
+    # every end point lies within the circle (a margin for rounding); the walls between them too
+    reach = np.hypot(ends_x.reshape(2, n) - centre_x[run], ends_y.reshape(2, n) - centre_y[run]).max(axis=0) if n \
+        else np.zeros(0)
+    radius = np.maximum.reduceat(reach, starts) * (1.0 + 1e-9) + 1e-9 if n else np.zeros(0)
+    return np.array([centre_x[run], centre_y[run], radius[run], ends[run].astype(float)]).reshape(4, n)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _fast_angle(x, y):  # noqa: ANN001, ANN202
+    """atan2(y, x) to within 2e-5 rad (Abramowitz & Stegun 4.4.49 on the octant), without a library call."""
+    ax, ay = abs(x), abs(y)
+    big = max(ax, ay)
+    if big == 0.0:
+        return 0.0
+    z = min(ax, ay) / big
+    z2 = z * z
+    a = z * (0.9998660 + z2 * (-0.3302995 + z2 * (0.1801410 + z2 * (-0.0851330 + z2 * 0.0208351))))
+    if ay > ax:
+        a = 0.5 * math.pi - a
+    if x < 0.0:
+        a = math.pi - a
+    return -a if y < 0.0 else a
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _arc(q0x, q0y, q1x, q1y, cross, angle_min, inverse_step, turn):  # noqa: ANN001, ANN202
+    """Fan positions (lo, hi), in beam steps from the first beam with 0 <= lo < turn + margin, holding every beam
+    the segment q0-q1 (beam plane, origin at 0) spans, the exact cast's edge slack included; (0, inf) when its
+    short way round is in doubt (an arc near nothing or a half turn: the cheap arctangent cannot tell)."""
+    if not abs(cross) > _ARC_SURE * (abs(q0x) + abs(q0y)) * (abs(q1x) + abs(q1y)):
+        return 0.0, np.inf
+    if cross > 0.0:  # counter-clockwise from end 0 to end 1 is the short way round
+        start, end = _fast_angle(q0x, q0y), _fast_angle(q1x, q1y)
+    else:
+        start, end = _fast_angle(q1x, q1y), _fast_angle(q0x, q0y)
+    arc = end - start
+    if arc < 0.0:
+        arc += 2.0 * math.pi
+    first = (start - angle_min) * inverse_step
+    while first < 0.0:  # into [0, turn): at most once for a fan starting within a turn of the angle -pi
+        first += turn
+    while first >= turn:
+        first -= turn
+    margin = _ARC_MARGIN * inverse_step
+    return first - margin, first + arc * inverse_step + margin
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _sector_maxima(ranges, sectors, first, last):  # noqa: ANN001, ANN202
+    """sectors[k] for the sectors holding beams first..last: the largest of their ranges."""
+    for k in range(first // SECTOR_BEAMS, last // SECTOR_BEAMS + 1):
+        top = -np.inf
+        for b in range(k * SECTOR_BEAMS, min((k + 1) * SECTOR_BEAMS, len(ranges))):
+            top = max(top, ranges[b])
+        sectors[k] = top
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _run_hidden(tx, ty, radius, p00, p01, p10, p11, stretch, angle_min, inverse_step, count, turn, sectors):  # noqa: ANN001, ANN202
+    """Whether every sector the circle (offset tx, ty from the origin, `radius`) may span holds no range above
+    the circle's nearest distance (beam plane): then no wall inside it can lower a beam."""
+    qx, qy = p00 * tx + p01 * ty, p10 * tx + p11 * ty
+    d = math.sqrt(qx * qx + qy * qy)
+    r = radius * stretch
+    if not d > 2.0 * r:  # near or around the origin: its arc is wide, test its walls one by one
+        return False
+    near = (d - r) * (1.0 - 1e-6) - 1e-9  # below any wall's nearest in it, rounding of both included
+    half = (r / d) * (0.5 * math.pi)  # >= asin(r / d)
+    first = (_fast_angle(qx, qy) - half - angle_min) * inverse_step
+    while first < 0.0:
+        first += turn
+    while first >= turn:
+        first -= turn
+    margin = _ARC_MARGIN * inverse_step
+    start, end = first - margin, first + 2.0 * half * inverse_step + margin
+    shift = -turn
+    while start + shift <= count - 1:
+        a, b = max(start + shift, 0.0), min(end + shift, count - 1.0)
+        if a <= b:
+            for k in range(int(a) // SECTOR_BEAMS, int(b) // SECTOR_BEAMS + 1):
+                if not sectors[k] <= near:
+                    return False
+        shift += turn
+    return True
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _cast(table, ox, oy, oz, p00, p01, p10, p11, lo, hi, angle_min, inverse_step, count, turn, range_min, dirs,
+          ranges):  # noqa: ANN001, ANN202
+    """kernels.cast_walls' loop for a level scan of walls that cover its band, dropping hidden runs and walls (the
+    module doc); a wall not hidden is cast by kernels.hit_wall, and the maxima of the sectors it may span are
+    taken again."""
+    sectors = np.empty((count + SECTOR_BEAMS - 1) // SECTOR_BEAMS)
+    _sector_maxima(ranges, sectors, 0, count - 1)
+    squares, det = p00 * p00 + p01 * p01 + p10 * p10 + p11 * p11, p00 * p11 - p01 * p10
+    stretch = math.sqrt(0.5 * (squares + math.sqrt(max(squares * squares - 4.0 * det * det, 0.0))))
+    stretch = stretch * (1.0 + 1e-9) + 1e-12  # the largest singular value of to_plane, rounded up
+    seen = np.empty(table.shape[1], np.intp)
+    run_end = 0
+    while run_end < table.shape[1]:
+        run, run_end = run_end, int(table[RUN_END, run_end])
+        if _run_hidden(table[RUN_X, run] - ox, table[RUN_Y, run] - oy, table[RUN_R, run], p00, p01, p10, p11,
+                       stretch, angle_min, inverse_step, count, turn, sectors):
+            continue
+        # the walls seen (kernels._wall_is_seen for walls covering the band), listed first without a branch per
+        # wall: whether a wall is seen is hard to predict
+        n = 0
+        for w in range(run, run_end):
+            dx, dy = table[MIDX, w] - ox, table[MIDY, w] - oy
+            cx, cy = table[CX, w] - ox, table[CY, w] - oy
+            seen[n] = w
+            n += ((dx * dx + dy * dy <= table[REACH2, w]) & (table[ZLO, w] <= lo) & (table[ZHI, w] >= hi)
+                  & ((table[CROSS, w] - ox * table[EY, w] + oy * table[EX, w] < 0.0)
+                     | (cx * cx + cy * cy <= table[CREACH2, w]) | (table[TWO_SIDED, w] > 0.0)))
+        for i in range(n):
+            w = seen[i]
+            rx0, ry0 = table[X0, w] - ox, table[Y0, w] - oy
+            rx1, ry1 = table[X1, w] - ox, table[Y1, w] - oy
+            q0x, q0y = p00 * rx0 + p01 * ry0, p10 * rx0 + p11 * ry0
+            q1x, q1y = p00 * rx1 + p01 * ry1, p10 * rx1 + p11 * ry1
+            ex, ey = q1x - q0x, q1y - q0y
+            along = min(max(-(q0x * ex + q0y * ey) / (ex * ex + ey * ey), 0.0), 1.0)
+            nx, ny = q0x + along * ex, q0y + along * ey
+            # hidden if every sector it may span holds no range above its nearest point; squared, with a margin
+            # (4e-9) over hit_wall's (1e-9 below) that dwarfs the rounding of hypot against a square root
+            near2 = (nx * nx + ny * ny) * (1.0 - 4e-9)
+            start, end = _arc(q0x, q0y, q1x, q1y, q0x * q1y - q0y * q1x, angle_min, inverse_step, turn)
+            if _hidden(sectors, ranges, near2, start, end, count, turn):
+                continue
+            hit_wall(table, w, False, ox, oy, oz, p00, p01, p10, p11, 0.0, 0.0, angle_min, inverse_step, count, turn,
+                      range_min, dirs, ranges)
+            shift = -turn  # the maxima of the sectors the arc spans, once round each way
+            while start + shift <= count - 1:
+                a, b = max(start + shift, 0.0), min(end + shift, count - 1.0)
+                if a <= b:
+                    _sector_maxima(ranges, sectors, int(a), int(b))
+                shift += turn
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _hidden(sectors, ranges, near2, start, end, count, turn):  # noqa: ANN001, ANN202
+    """Whether every beam of the arc start..end (fan positions) holds a range no greater than the square root of
+    near2: by sectors, then, for a short arc, beam by beam."""
+    hidden = True
+    shift = -turn  # the arc once round each way: the parts of it on beams of the fan
+    while hidden and start + shift <= count - 1:
+        a, b = max(start + shift, 0.0), min(end + shift, count - 1.0)
+        if a <= b:
+            for k in range(int(a) // SECTOR_BEAMS, int(b) // SECTOR_BEAMS + 1):
+                top = sectors[k]
+                if not (top >= 0.0 and top * top <= near2):
+                    hidden = False
+                    break
+        shift += turn
+    if hidden or end - start >= SECTOR_BEAMS:
+        return hidden
+    shift = -turn  # a short arc: its beams one by one
+    while start + shift <= count - 1:
+        a, b = max(start + shift, 0.0), min(end + shift, count - 1.0)
+        for k in range(math.ceil(a), int(b) + 1):
+            top = ranges[k]
+            if not (top >= 0.0 and top * top <= near2):
+                return False
+        shift += turn
+    return True
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def cast_level(table, floors, origin, rotation, max_tilt_cos, angle_min, inverse_step, count, turn, range_min,
+               range_max, dirs, ranges):  # noqa: ANN001, ANN201
+    """kernels.cast_level on a dense_table: the same ranges and refusals, hidden walls dropped."""
+    level, lo, hi = level_band(floors, origin, rotation, max_tilt_cos, range_max)
+    if not level:
+        return False
+    # the columns' lowest top and highest bottom from there on tell at once that no wall covers part of the band
+    if table.shape[1] and not (table[ZLO_MAX, 0] <= lo and table[ZHI_MIN, 0] >= hi):
+        if partly_covered(table, origin[0], origin[1], lo, hi):
+            return False
+    e1x, e2x, e1y, e2y = rotation[0, 0], rotation[0, 1], rotation[1, 0], rotation[1, 1]
+    det = e1x * e2y - e2x * e1y
+    _cast(table, origin[0], origin[1], origin[2], e2y / det, -e2x / det, -e1y / det, e1x / det, lo, hi, angle_min,
+          inverse_step, count, turn, range_min, dirs, ranges)
+    for b in range(count):
+        if ranges[b] > range_max:
+            ranges[b] = np.inf
+    return True
