@@ -172,3 +172,20 @@ def test_a_car_spawned_at_run_time_gets_slots_of_its_own(room):
         xy = near.data.xpos[root, :2]
         gap = np.hypot(*np.maximum(np.maximum(lower - xy, xy - upper), 0.0).T)
         assert set(np.flatnonzero(gap <= walls.reach[mover] + SLACK).tolist()) <= set(walls.held.tolist())
+
+
+def test_the_dense_scan_of_a_map_is_mujocos_own_ray_cast(room):
+    """The map's cells are dense (raycast/dense.py casts them): the published scan, noise off, is MuJoCo's 3-D ray
+    cast of the held-out walls, clamped and rounded to float32 as Gazebo publishes it."""
+    near, _ = pair(room, sensor_noise=False)
+    assert near.lidar.caster.level_walls().dense
+    rng = np.random.default_rng(5)
+    spec = near.lidar.spec
+    for _ in range(4):
+        place(near, *rng.uniform(-1.0, 1.0, 2), rng.uniform(-np.pi, np.pi))
+        published = near.lidar.scan(0)
+        assert near.lidar.caster.last_3d_beams == 0  # the compiled 2-D path answered
+        rays = near.lidar.caster.cast(*near.lidar.ray_origin(), mode="3d")
+        expected = np.where(np.isfinite(rays), np.clip(rays, spec.range_min, spec.range_max), np.inf)
+        assert np.isfinite(expected).sum() > 500
+        np.testing.assert_allclose(published, expected.astype(np.float32), rtol=0, atol=1e-5)

@@ -90,6 +90,11 @@ def hold_out(spec: mujoco.MjSpec, name: str, friction: float,
     spec.add_numeric(name=LIBRARY + name, data=[friction, *np.ravel(rows).tolist()])
 
 
+def can_hold(spec: mujoco.MjSpec, friction: float) -> bool:
+    """Whether boxes of `friction` may join the boxes `spec` holds out already: the slots have one friction."""
+    return all(numeric.data[0] == friction for numeric in spec.numerics if numeric.name.startswith(LIBRARY))
+
+
 def drop(spec: mujoco.MjSpec, name: str) -> None:
     """Remove the held-out boxes of the static body `name` (its model was deleted), if any."""
     for numeric in spec.numerics:
@@ -289,6 +294,8 @@ class _WorldTree:
         inner = nodes[child[:, 0] >= 0][::-1]
         pairs = np.where(child < 0, child[:, :1], child)  # a node with one child unites it with itself
         self._inner, self._children = inner, np.ascontiguousarray(first + pairs[inner - first])
+        if not (self._children > inner[:, None]).all():
+            raise RuntimeError("near walls: MuJoCo's world tree lists a child before its parent; cannot refit it")
 
     def refit(self, model: mujoco.MjModel) -> None:
         """Recompute every inner node's box as the union of its children's (the leaves are written already)."""

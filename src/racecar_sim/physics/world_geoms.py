@@ -12,7 +12,7 @@ import mujoco
 import numpy as np
 
 from racecar_sim.core.transforms import compose, quat_to_matrix
-from racecar_sim.physics.near_walls import MIN_BOXES, hold_out
+from racecar_sim.physics.near_walls import MIN_BOXES, can_hold, hold_out
 from racecar_sim.worlds.world import Light, Mesh, Scene, World, WorldBody, WorldGeom
 
 VISUAL_GROUP = 1  # rendered by the camera and viewer
@@ -171,7 +171,8 @@ def _add_static(spec: mujoco.MjSpec, wb: WorldBody, assets: _Assets, near_walls:
     """
     boxes: dict[tuple[float, ...], list[tuple[WorldGeom, np.ndarray, np.ndarray]]] = {}
     walls = [g for g in wb.geoms if g.kind == "box" and g.collides]
-    held = near_walls and len(walls) >= MIN_BOXES and len({g.mu for g in walls}) == 1
+    held = (near_walls and len(walls) >= MIN_BOXES and len({g.mu for g in walls}) == 1
+            and can_hold(spec, walls[0].mu))
     if held:
         hold_out(spec, wb.name, walls[0].mu, [(*compose(wb.pos, wb.quat, g.pos, g.quat), g.size) for g in walls])
     for geom in wb.geoms:

@@ -32,7 +32,8 @@ from racecar_sim.recording.mcap_recorder import DeferredInterrupt
 from racecar_sim.recording.writer_thread import uninterrupted
 
 BATCH = 256
-"""Messages per hand-over: one pipe write per message would cost more than most messages' writing."""
+"""Operations per hand-over: one pipe write per message would cost more than most messages' writing. An operation
+with an image's pixels is handed over at once, so that a hand-over holds at most one frame."""
 DEPTH = 64
 """Hand-overs the child may hold unwritten (with a frame each, two seconds of 30 Hz video); beyond that the parent's
 send waits, so the simulation never runs far ahead of its files and memory stays bounded."""

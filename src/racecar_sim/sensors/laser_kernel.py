@@ -3,8 +3,9 @@
 The same operations, in the same order, as LidarPublisher's numpy code (true range + (unit noise x stddev +
 mean), clamped to [range_min, range_max], +inf where nothing was hit), so either gives the same bits.
 
-level_scan compiles raycast/kernels.py's cast into itself, and numba's cache (cache=True) knows only this file's
-stamp: after changing kernels.py in a checkout, delete src/**/__pycache__/*.nbi (an install starts afresh).
+level_scan and dense_level_scan compile the casts of raycast/kernels.py and raycast/dense.py into themselves, and
+numba's cache (cache=True) knows only each function's own file: after changing kernels.py or dense.py in a
+checkout, delete src/**/__pycache__/*.nbi (an install starts afresh).
 """
 
 from __future__ import annotations
