@@ -1,7 +1,8 @@
 """Camera frames per second at 640x480 in the empty and tunnel worlds: `python bench/bench_camera.py [--frames N]`.
 
 Per world, with the car driving a 1 m/s, 0.2 rad circle (physics steps between frames are not timed):
-  draw        scene update + drawing, finished (glFinish) but not read back
+  draw        scene update + drawing (the sky left out where it is one flat colour), finished (glFinish), not read
+              back
   + readback  the same plus reading the pixels back (OffscreenCamera.render)
   full frame  what a 30 Hz tick costs: render, readback, flip to BGR, Gaussian noise, Image + CameraInfo, publish
 The OpenGL renderer is printed first: "llvmpipe" is Mesa's software rasteriser (no GPU).
@@ -37,12 +38,16 @@ def _draw(camera: CameraPublisher) -> Callable[[int], None]:
 
     renderer = camera.renderer
 
+    def finish() -> None:
+        target = renderer.target
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, target.context)
+        mujoco.mjr_render(target.rect, target.scene, target.context)
+        GL.glFinish()
+
     def draw(_: int) -> None:
         mujoco.mjv_updateScene(renderer.model, renderer.data, renderer.option, None, renderer.camera,
-                               mujoco.mjtCatBit.mjCAT_STATIC | mujoco.mjtCatBit.mjCAT_DYNAMIC, renderer.scene)
-        renderer.gl.make_current()
-        mujoco.mjr_render(renderer.rect, renderer.scene, renderer.context)
-        GL.glFinish()
+                               mujoco.mjtCatBit.mjCAT_STATIC | mujoco.mjtCatBit.mjCAT_DYNAMIC, renderer.target.scene)
+        renderer.gl.call(finish)
 
     return draw
 

@@ -305,6 +305,64 @@ def test_sky_is_flat_and_the_ground_shows_its_squares():
     assert 60 < ground.mean() < 230, "the ground is lit, not black or burnt out"
 
 
+def test_flat_sky_only_where_painting_it_is_exact():
+    """The sky is painted only for a one-colour skybox (MuJoCo's colour, 0-255) and only when nothing drawn is
+    translucent (blended over the cleared background, it would differ from blending over the sky)."""
+    import mujoco
+
+    from racecar_sim.physics.world_geoms import VISUAL_GROUP
+    from racecar_sim.sensors.render import flat_sky
+
+    def model(sky_top, sky_bottom, alpha=1.0, material_alpha=1.0, skybox=True):
+        spec = mujoco.MjSpec()
+        spec.add_material(name="paint", rgba=[1, 1, 1, material_alpha])
+        spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[1, 1, 1], group=VISUAL_GROUP,
+                                rgba=[1, 0, 0, alpha], material="paint")
+        spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[1, 1, 1], group=VISUAL_GROUP + 1,
+                                rgba=[1, 0, 0, 0.5])  # not drawn by the camera: may be translucent
+        if skybox:
+            spec.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+                             builtin=mujoco.mjtBuiltin.mjBUILTIN_FLAT, width=8, height=8, rgb1=sky_top,
+                             rgb2=sky_bottom)
+        return spec.compile()
+
+    assert flat_sky(model([0.2, 0.4, 0.6], [0.2, 0.4, 0.6])).tolist() == [51, 102, 153]
+    assert flat_sky(model([0.2, 0.4, 0.6], [0.6, 0.4, 0.2])) is None, "a gradient sky is drawn by MuJoCo"
+    assert flat_sky(model([0.2, 0.4, 0.6], [0.2, 0.4, 0.6], alpha=0.5)) is None
+    assert flat_sky(model([0.2, 0.4, 0.6], [0.2, 0.4, 0.6], material_alpha=0.5)) is None
+    assert flat_sky(model([0.2, 0.4, 0.6], [0.2, 0.4, 0.6], skybox=False)) is None
+
+
+@needs_gl
+@pytest.mark.parametrize("world", ["walker", "ar"])
+def test_the_painted_sky_is_mujocos_skybox_bit_for_bit(world):
+    """Frames are drawn without MuJoCo's cube-mapped skybox (slow in software GL) and the pixels left at alpha 0
+    are painted its flat colour: from any pose, the image is the one MuJoCo draws with its skybox, noise included."""
+    import mujoco
+
+    sim = camera_sim(world=world, seed=2)
+    model, data, renderer = sim.model, sim.data, sim.camera.renderer
+    assert renderer.sky is not None and renderer.sky.tolist() == [178] * 3  # the worlds' 0.7 grey background
+    free = model.jnt_qposadr[np.flatnonzero(model.jnt_type == mujoco.mjtJoint.mjJNT_FREE)[0]]
+    rng = np.random.default_rng(7)
+    start = data.qpos.copy()
+    sky_seen = []
+    for k in range(6):
+        data.qpos[:] = start
+        data.qpos[free:free + 2] += rng.uniform(-3.0, 3.0, 2)
+        yaw = rng.uniform(-math.pi, math.pi)
+        data.qpos[free + 3:free + 7] = [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]
+        mujoco.mj_forward(model, data)
+        painted = sim.camera.capture(1_000_000 * k)
+        sky_seen.append((renderer.target.rgba[..., 3] == 0).mean())
+        flat, renderer.target.sky = renderer.target.sky, None  # MuJoCo draws its skybox
+        drawn = sim.camera.capture(1_000_000 * k)
+        renderer.target.sky = flat
+        assert np.array_equal(painted, drawn), f"pose {k}: {(painted != drawn).any(axis=2).sum()} pixels differ"
+    assert sum(0.05 < f < 0.95 for f in sky_seen) >= 3, f"too few poses see both sky and ground: {sky_seen}"
+    sim.close()
+
+
 @needs_gl
 def test_tunnel_walls_are_lit():
     sim = camera_sim(world="tunnel", noise=False)

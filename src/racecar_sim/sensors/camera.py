@@ -34,6 +34,7 @@ __all__ = ["CameraPublisher", "CameraSpec", "RenderingError", "add_camera", "add
 
 NOISE_STREAM = "camera"
 _NO_NOISE = np.zeros(1, dtype=np.float32)  # the noise table finish_frame gets when there is no noise
+_NO_SKY = np.zeros(3, dtype=np.uint8)  # the sky finish_frame gets when the skybox was drawn
 # A MuJoCo camera looks along its -z with +y up; Gazebo's looks along the link's +x with +z up. This rotation
 # takes the camera axes to the link's: x_cam = -y_link, y_cam = +z_link, z_cam = -x_link.
 LOOK_ALONG_X = np.array([0.5, 0.5, -0.5, -0.5])
@@ -127,8 +128,8 @@ class CameraPublisher:
 
         if self.noise:
             self._noise_table  # noqa: B018 - drawn here
-        tiny = np.zeros((1, 1, 3), dtype=np.uint8)
-        finish_frame(tiny, _NO_NOISE, 0, 0, np.float32(0.0), np.float32(0.0), True, tiny.copy())
+        finish_frame(np.zeros((1, 1, 4), dtype=np.uint8), _NO_SKY, False, _NO_NOISE, 0, 0, np.float32(0.0),
+                     np.float32(0.0), True, np.zeros((1, 1, 3), dtype=np.uint8))
 
     def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         """Render a recompiled model (a model was spawned or deleted): same node, schedule and noise."""
@@ -188,16 +189,17 @@ class CameraPublisher:
     def _finish(self, drawn: Future[np.ndarray], stamp_ns: int) -> np.ndarray:
         from racecar_sim.sensors.camera_noise import finish_frame  # numba loads with the first frame
 
-        gl_rgb = drawn.result()  # GL rows run bottom-up; the buffer is reused by the next drawing (after this job)
+        gl_rgba = drawn.result()  # GL rows run bottom-up; the buffer is reused by the next drawing (after this job)
         spec = self.spec
+        sky = self.renderer.sky
         pixels = np.empty((spec.height, spec.width, 3), dtype=np.uint8)  # the message keeps its own pixels
+        table, first, second = _NO_NOISE, 0, 0
         if self.noise:
-            table = self._noise_table
-            first, second = table.offsets(self.seed ^ self._stream_key, stamp_ns)
-            finish_frame(gl_rgb, table.values, first, second, np.float32(255.0 * spec.noise_stddev),
-                         np.float32(255.0 * spec.noise_mean), spec.encoding == "bgr8", pixels)
-        else:
-            finish_frame(gl_rgb, _NO_NOISE, 0, 0, np.float32(0.0), np.float32(0.0), spec.encoding == "bgr8", pixels)
+            table = self._noise_table.values
+            first, second = self._noise_table.offsets(self.seed ^ self._stream_key, stamp_ns)
+        finish_frame(gl_rgba, _NO_SKY if sky is None else sky, sky is not None, table, first, second,
+                     np.float32(255.0 * spec.noise_stddev if self.noise else 0.0),
+                     np.float32(255.0 * spec.noise_mean if self.noise else 0.0), spec.encoding == "bgr8", pixels)
         return pixels
 
     @property

@@ -1,4 +1,5 @@
-"""The camera's frame finishing compiled (numba): GL readback to a top-row-first image, noise added, one pass.
+"""The camera's frame finishing compiled (numba): GL readback to a top-row-first image, sky painted, noise added,
+one pass.
 
 camera.add_noise's numpy is ~10 passes over the frame (cast, scale, round, clamp, widen, add per channel, clamp,
 narrow) plus the copies of the flip, each dropping and retaking the GIL; here each pixel is read once and
@@ -12,17 +13,18 @@ from numba import njit
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def finish_frame(gl_rgb, table, first, second, stddev, mean, bgr, out):
-    """`out` (h, w, 3) uint8 = the GL buffer `gl_rgb` (h, w, 3, bottom row first) flipped to top row first, in BGR
-    order if `bgr`, plus per pixel p = row * w + column the noise round(stddev * (table[first + p] +
-    table[second + p]) + mean) (a NoiseTable's windows: unit normals) on every channel, clamped to 0-255.
-    stddev = 0 and mean = 0: no noise."""
+def finish_frame(gl_rgba, sky, fill_sky, table, first, second, stddev, mean, bgr, out):
+    """`out` (h, w, 3) uint8 = the GL buffer `gl_rgba` (h, w, 4, bottom row first) flipped to top row first, in BGR
+    order if `bgr`, the pixels of alpha 0 painted `sky` (3 uint8, RGB) if `fill_sky` (render.flat_sky), plus per
+    pixel p = row * w + column the noise round(stddev * (table[first + p] + table[second + p]) + mean) (a
+    NoiseTable's windows: unit normals) on every channel, clamped to 0-255. stddev = 0 and mean = 0: no noise."""
     height, width = out.shape[0], out.shape[1]
     noisy = stddev != 0 or mean != 0
     first_ch, last_ch = (2, 0) if bgr else (0, 2)
+    sky_first, sky_mid, sky_last = np.int32(sky[first_ch]), np.int32(sky[1]), np.int32(sky[last_ch])
     noise = np.zeros(width, dtype=np.int32)
     for row in range(height):
-        src = gl_rgb[height - 1 - row]
+        src = gl_rgba[height - 1 - row]
         dst = out[row]
         if noisy:
             base = row * width
@@ -31,6 +33,10 @@ def finish_frame(gl_rgb, table, first, second, stddev, mean, bgr, out):
                 noise[col] = np.int32(np.rint(min(max(x, np.float32(-255.0)), np.float32(255.0))))
         for col in range(width):
             k = noise[col]
-            dst[col, 0] = min(max(np.int32(src[col, first_ch]) + k, 0), 255)
-            dst[col, 1] = min(max(np.int32(src[col, 1]) + k, 0), 255)
-            dst[col, 2] = min(max(np.int32(src[col, last_ch]) + k, 0), 255)
+            is_sky = fill_sky and src[col, 3] == 0
+            c0 = sky_first if is_sky else np.int32(src[col, first_ch])
+            c1 = sky_mid if is_sky else np.int32(src[col, 1])
+            c2 = sky_last if is_sky else np.int32(src[col, last_ch])
+            dst[col, 0] = min(max(c0 + k, 0), 255)
+            dst[col, 1] = min(max(c1 + k, 0), 255)
+            dst[col, 2] = min(max(c2 + k, 0), 255)
