@@ -329,6 +329,34 @@ def test_nested_list_errors_name_the_element() -> None:
         msgs.serialize(tf)
 
 
+def test_repeated_name_lists_and_pose_arrays_match_rosbags(typestore: Any) -> None:
+    """Name lists are reused while they repeat at the same alignment, and Pose / Twist arrays are packed in one go:
+    each message, repeated or changed, is still the bytes rosbags writes."""
+    rng = np.random.default_rng(3)
+    names = [f"racecar::{'x' * k}_link" for k in range(9)]  # every length modulo 4
+    sequence = []
+    for links in (names, names, names[:5], names[:5] + ["z"], names):
+        sequence.append(msgs.LinkStates(
+            list(links), [msgs.Pose(msgs.Point(*rng.normal(size=3)), msgs.Quaternion(*rng.normal(size=4)))
+                          for _ in links],
+            [msgs.Twist(msgs.Vector3(*rng.normal(size=3)), msgs.Vector3(*rng.normal(size=3))) for _ in links]))
+    for frame in ("", "a", "ab", "abc", "", "abcd"):  # the same joint names after headers of every alignment
+        sequence.append(msgs.JointState(_stamped(5, frame), ["left_rear_wheel_joint", "hinge"],
+                                        np.array([0.5, 1.0]), np.zeros(2), np.zeros(0)))
+    for msg in sequence:
+        assert msgs.serialize(msg) == typestore.serialize_cdr(to_rosbags(msg, typestore), msgs.msgtype_of(msg))
+    empty = msgs.LinkStates(["a"], [], [])
+    assert msgs.serialize(empty) == typestore.serialize_cdr(to_rosbags(empty, typestore), "gazebo_msgs/msg/LinkStates")
+
+
+def test_a_bad_element_of_a_packed_array_is_named() -> None:
+    poses = [msgs.Pose(), msgs.Pose(msgs.Point(1.0, "north", 0.0))]  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match=r"gazebo_msgs/msg/ModelStates: field 'pose\[1\]'.*position.y"):
+        msgs.serialize(msgs.ModelStates(["a", "b"], poses, [msgs.Twist(), msgs.Twist()]))
+    with pytest.raises(TypeError, match=r"field 'name\[1\]'"):
+        msgs.serialize(msgs.ModelStates(["a", np.array([1, 2])], [], []))  # type: ignore[list-item]
+
+
 def test_nan_is_carried() -> None:
     data = msgs.serialize(msgs.Float64(math.nan))
     assert math.isnan(msgs.deserialize(data, "std_msgs/msg/Float64").data)

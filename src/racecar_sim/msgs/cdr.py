@@ -12,6 +12,7 @@ from __future__ import annotations
 import struct
 from collections.abc import Callable, Iterator
 from functools import cache
+from itertools import chain
 from operator import attrgetter
 from typing import Any
 
@@ -274,26 +275,57 @@ def _sequence(msgtype: str, path: str, value: Any, size: int | None) -> Any:
 
 def _string_array_op(msgtype: str, path: str, size: int | None) -> Encoder:
     get = _get(msgtype, path)
+    # The last encoding, reused while the strings and the start's alignment repeat: name lists (links, joints)
+    # go out unchanged at 50-100 Hz. Equal tuples of str encode to equal bytes.
+    last: list[Any] = [None, -1, b"", 0]  # strings, start modulo 4, bytes, end - start
 
     def op(msg: Any, out: list[Any], pos: int) -> int:
         items = _sequence(msgtype, path, get(msg), size)
+        key = tuple(items)
+        try:
+            same = pos & 3 == last[1] and key == last[0]
+        except (TypeError, ValueError):  # a non-str item compared with a name (numpy's ambiguous truth value)
+            same = False
+        if same:
+            out.append(last[2])
+            return pos + last[3]
+        start, chunks = pos, []
         prefix, pos = _length_prefix(pos, len(items), size)
-        out.append(prefix)
+        chunks.append(prefix)
         for index, item in enumerate(items):
-            pos = _encode_str(msgtype, f"{path}[{index}]", item, out, pos)
+            pos = _encode_str(msgtype, f"{path}[{index}]", item, chunks, pos)
+        data = b"".join(chunks)
+        last[:] = key, start & 3, data, pos - start
+        out.append(data)
         return pos
 
     return op
 
 
+def _uniform_leaves(element_type: str) -> tuple[tuple[str, ...], str] | None:
+    """The leaf paths of a message type whose leaves are all scalars of one numeric type (Pose, Twist, Point: all
+    float64), and that type; None otherwise. Such elements lie end to end with no padding between them."""
+    leaves = list(_leaves(element_type))
+    types = {spec.type for _, spec in leaves}
+    if not leaves or len(types) != 1 or any(spec.is_array for _, spec in leaves):
+        return None
+    (type_name,) = types
+    if type_name not in _SCALARS or type_name == "bool":
+        return None
+    return tuple(path for path, _ in leaves), type_name
+
+
+@cache
+def _packer(code: str, count: int) -> struct.Struct:
+    return struct.Struct(f"<{count}{code}")
+
+
 def _message_array_op(msgtype: str, path: str, element_type: str, size: int | None) -> Encoder:
     get = _get(msgtype, path)
     encode = _encoder(element_type)
+    uniform = _uniform_leaves(element_type)
 
-    def op(msg: Any, out: list[Any], pos: int) -> int:
-        items = _sequence(msgtype, path, get(msg), size)
-        prefix, pos = _length_prefix(pos, len(items), size)
-        out.append(prefix)
+    def one_by_one(items: Any, out: list[Any], pos: int) -> int:
         for index, item in enumerate(items):
             try:
                 pos = encode(item, out, pos)
@@ -301,7 +333,36 @@ def _message_array_op(msgtype: str, path: str, element_type: str, size: int | No
                 raise _error(type(exc), msgtype, f"{path}[{index}]", str(exc)) from None
         return pos
 
-    return op
+    if uniform is None:
+        def op(msg: Any, out: list[Any], pos: int) -> int:
+            items = _sequence(msgtype, path, get(msg), size)
+            prefix, pos = _length_prefix(pos, len(items), size)
+            out.append(prefix)
+            return one_by_one(items, out, pos)
+
+        return op
+
+    paths, type_name = uniform
+    code, width = _SCALARS[type_name]
+    getter, per_item = attrgetter(*paths), len(paths)
+
+    def op_uniform(msg: Any, out: list[Any], pos: int) -> int:
+        # every element's numbers in one struct.pack; whatever it refuses is diagnosed element by element
+        items = _sequence(msgtype, path, get(msg), size)
+        prefix, pos = _length_prefix(pos, len(items), size)
+        out.append(prefix)
+        if not items:
+            return pos
+        try:
+            numbers = list(chain.from_iterable(map(getter, items))) if per_item > 1 else list(map(getter, items))
+            data = _packer(code, len(numbers)).pack(*numbers)
+        except (struct.error, TypeError, AttributeError, OverflowError):
+            return one_by_one(items, out, pos)
+        pad = -pos % width
+        out.append(_PAD[pad] + data)
+        return pos + pad + len(data)
+
+    return op_uniform
 
 
 # --- decoding (straightforward, not performance critical) -----------------------------
