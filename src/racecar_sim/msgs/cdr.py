@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import struct
 from collections.abc import Callable, Iterator
-from functools import cache
+from functools import cache, lru_cache
 from itertools import chain
 from operator import attrgetter
 from typing import Any
@@ -315,7 +315,7 @@ def _uniform_leaves(element_type: str) -> tuple[tuple[str, ...], str] | None:
     return tuple(path for path, _ in leaves), type_name
 
 
-@cache
+@lru_cache(maxsize=256)  # a few array lengths repeat (links, models); a PoseArray of any length must not pile up
 def _packer(code: str, count: int) -> struct.Struct:
     return struct.Struct(f"<{count}{code}")
 
