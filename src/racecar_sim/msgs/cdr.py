@@ -276,26 +276,28 @@ def _sequence(msgtype: str, path: str, value: Any, size: int | None) -> Any:
 def _string_array_op(msgtype: str, path: str, size: int | None) -> Encoder:
     get = _get(msgtype, path)
     # The last encoding, reused while the strings and the start's alignment repeat: name lists (links, joints)
-    # go out unchanged at 50-100 Hz. Equal tuples of str encode to equal bytes.
-    last: list[Any] = [None, -1, b"", 0]  # strings, start modulo 4, bytes, end - start
+    # go out unchanged at 50-100 Hz. Equal tuples of str encode to equal bytes. One tuple, read and replaced whole,
+    # so that threads serializing at once never mix two encodings.
+    last: list[tuple[tuple[Any, ...], int, bytes, int]] = [((), -1, b"", 0)]  # strings, start % 4, bytes, length
 
     def op(msg: Any, out: list[Any], pos: int) -> int:
         items = _sequence(msgtype, path, get(msg), size)
         key = tuple(items)
+        names, align, data, length = last[0]
         try:
-            same = pos & 3 == last[1] and key == last[0]
+            same = pos & 3 == align and key == names
         except (TypeError, ValueError):  # a non-str item compared with a name (numpy's ambiguous truth value)
             same = False
         if same:
-            out.append(last[2])
-            return pos + last[3]
+            out.append(data)
+            return pos + length
         start, chunks = pos, []
         prefix, pos = _length_prefix(pos, len(items), size)
         chunks.append(prefix)
         for index, item in enumerate(items):
             pos = _encode_str(msgtype, f"{path}[{index}]", item, chunks, pos)
         data = b"".join(chunks)
-        last[:] = key, start & 3, data, pos - start
+        last[0] = (key, start & 3, data, pos - start)
         out.append(data)
         return pos
 
