@@ -34,6 +34,19 @@ def sections(quick: bool) -> list[tuple[str, str, list[str], bool]]:
              False)]
 
 
+def compare_problem(compare: str, own_src: Path) -> str | None:
+    """Why `compare` is not another checkout's src folder (None if it is): a path that holds no racecar_sim would
+    measure this checkout twice, as if it were the old one."""
+    folder = Path(compare)
+    if not (folder / "racecar_sim" / "__init__.py").is_file():
+        why = "no such folder" if not folder.exists() else "not a src folder: it holds no racecar_sim/__init__.py"
+        return f"{why} (give an older checkout's src folder, e.g. git worktree add /tmp/old HEAD~1, then " \
+               "--compare /tmp/old/src)"
+    if folder.resolve() == own_src.resolve():
+        return "is this checkout's own src folder: give an older checkout's"
+    return None
+
+
 def run(script: str, args: list[str], pythonpath: str | None = None) -> int:
     env = dict(os.environ)
     if pythonpath is not None:
@@ -49,6 +62,10 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     failed = []
     src = str(HERE.parent / "src")
+    if args.compare is not None:
+        problem = compare_problem(args.compare, Path(src))
+        if problem:
+            parser.exit(2, f"{parser.prog}: error: --compare {args.compare}: {problem}\n")
     for title, script, extra, compares in sections(args.quick):
         print(f"\n=== {title} ({script}) ===", flush=True)
         if args.compare and compares:

@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import statistics
 import subprocess
 import sys
@@ -85,6 +86,9 @@ def first_step(workdir: Path, src: str | None = None) -> tuple[float, float]:
     mark = workdir / "first_step"
     mark.unlink(missing_ok=True)
     out = workdir / "run"
+    # each run writes a folder of its own: a run never replaces a recording unasked (and an older checkout's run
+    # takes no --overwrite)
+    shutil.rmtree(out, ignore_errors=True)
     start = time.monotonic()
     result = subprocess.run([sys.executable, "-c", _CHILD, str(mark), *RUN_ARGS, "--out", str(out)],
                             capture_output=True, text=True, cwd=workdir, env=_env(src), check=False)

@@ -1,10 +1,12 @@
 """The speed benches run: `racecar-sim bench --speed --quick` (bench/bench_speed.py and the five benches behind the
-speed figures) finishes and prints every table. A check that they do not rot, not a timing test."""
+speed figures) finishes and prints every table; so does the memory soak (bench/bench_soak.py --quick). A check that
+they do not rot, not a timing test."""
 
 from __future__ import annotations
 
 import subprocess
 import sys
+from pathlib import Path
 
 
 def test_speed_benches_run_and_print_their_tables():
@@ -17,3 +19,13 @@ def test_speed_benches_run_and_print_their_tables():
     for line in ("main job (camera, noise, MCAP, video)", "tunnel ", "walker ", "start -> first physics step",
                  "import racecar_sim.msgs", "basement-like (generated)", "lidar beams (tunnel)", "cars in empty"):
         assert line in out, line
+
+
+def test_soak_bench_runs_and_prints_its_table():
+    """bench/bench_soak.py --quick: the memory slopes of a short fleet run and a short one-car run."""
+    bench = Path(__file__).resolve().parents[1] / "bench" / "bench_soak.py"
+    result = subprocess.run([sys.executable, str(bench), "--quick"], capture_output=True, text=True, timeout=600,
+                            check=False)
+    assert result.returncode == 0, result.stderr[-3000:]
+    for line in ("anon start", "4 cars, 10 s", "1 car, 10 s", "k blocks/1000 s"):
+        assert line in result.stdout, line

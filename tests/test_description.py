@@ -78,7 +78,9 @@ def test_gazebo_surfaces_and_transmissions(robot):
     assert (chassis.mu1, chassis.mu2, chassis.kp, chassis.kd) == (0.0, 0.0, 1e7, 1.0)
     assert sorted(t.joint for t in robot.transmissions) == sorted([f"{n}_joint" for n in WHEELS + HINGES])
     assert all(t.hardware_interface == "EffortJointInterface" and t.reduction == 1 for t in robot.transmissions)
-    assert robot.plugins["gazebo_ros_control"]["robotNamespace"] == "/racecar"
+    (control,) = robot.plugins
+    assert (control.name, control.filename) == ("gazebo_ros_control", "libgazebo_ros_control.so")
+    assert control.params["robotNamespace"] == "/racecar" and control.link is None
 
 
 def test_sensor_blocks(robot):

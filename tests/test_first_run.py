@@ -75,7 +75,7 @@ def test_steering_without_driver_means_the_constant_command(tmp_path):
 def test_speed_zero_stands_still_with_the_constant_driver(tmp_path):
     for extra in ([], ["--driver", "constant"]):
         result = run_cli("run", "--world", "empty", "--speed", "0", "--duration", "2", "--out", str(tmp_path),
-                         *QUIET, *extra)
+                         "--overwrite", *QUIET, *extra)  # the second run replaces the first's run.mcap
         assert result.returncode == 0, result.stderr
         assert "driver constant" in result.stdout
         odom = messages(tmp_path / "run.mcap", "/vesc/odom")

@@ -144,7 +144,7 @@ def test_fleet_spawns_walk_back_along_a_polyline():
 @pytest.mark.parametrize("options, message", [
     # walker's course bends 7 m behind the start line: car2 8 m back is in the bend's wall ...
     (["--cars", "2", "--car-spacing", "8"], "car2's spawn pose (-8, 0, 0.05, 0) is inside an obstacle: the car's "
-                                            "car2/left_front_wheel_collision is 0.11 m into walker_racecourse::"),
+                                            "left_front_wheel_collision is 0.11 m into walker_racecourse::"),
     # ... and car7 9 m back is past it, on the infield's floor but on the far side of the wall from car6
     (["--cars", "8"], "car7's spawn pose (-9, 0, 0.05, 0) is on the far side of walker_racecourse::wall_left_8/"
                       "collision from car6"),
@@ -155,7 +155,9 @@ def test_a_car_put_into_or_behind_a_wall_is_one_line_naming_it(tmp_path, options
     assert "Traceback" not in result.stderr
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1, lines
-    assert lines[0].startswith("racecar-sim: error: walker (racecar_walker.world): ") and message in lines[0]
+    # checked before the cars are built: the message names the options and how many cars fit
+    assert lines[0].startswith("racecar-sim: error: --cars ") and message in lines[0]
+    assert "walker (racecar_walker.world): " in lines[0] and " in a row at " in lines[0]
     assert not (tmp_path / "summary.png").exists()
 
 

@@ -121,6 +121,14 @@ SAMPLES: dict[str, Callable[[np.random.Generator], Message]] = {
         _stamped(33_000_000, "camera_link"), "bgr8; jpeg compressed bgr8", rng.bytes(1001)),
     "sensor_msgs/msg/RegionOfInterest": lambda _: msgs.RegionOfInterest(1, 2, 3, 4, True),
     "sensor_msgs/msg/CameraInfo": lambda _: _camera_info(),
+    "sensor_msgs/msg/Imu": lambda rng: msgs.Imu(
+        _stamped(10_000_000, "imu_link"), msgs.Quaternion(0.0, 0.1, 0.2, 0.97), rng.normal(size=9),
+        msgs.Vector3(0.01, -0.02, 0.5), rng.normal(size=9), msgs.Vector3(0.1, 0.2, 9.81), rng.normal(size=9)),
+    "sensor_msgs/msg/PointField": lambda _: msgs.PointField("z", 8, msgs.PointField.FLOAT32, 1),
+    "sensor_msgs/msg/PointCloud2": lambda rng: msgs.PointCloud2(
+        _stamped(100_000_000, "depth_link"), 1, 3, [msgs.PointField("x", 0, 7, 1), msgs.PointField("y", 4, 7, 1),
+                                                   msgs.PointField("z", 8, 7, 1)],
+        False, 12, 36, rng.normal(size=9).astype("<f4").tobytes(), True),
     "tf2_msgs/msg/TFMessage": lambda _: msgs.TFMessage(
         [_transform("base_link", 0.0), _transform("laser", 0.265)]
     ),
@@ -373,7 +381,7 @@ def test_registry_and_helpers() -> None:
     assert msgs.message_class("sensor_msgs/LaserScan") is msgs.LaserScan
     assert msgs.msgtype_of(msgs.Odometry) == "nav_msgs/msg/Odometry"
     with pytest.raises(KeyError):
-        msgs.message_class("sensor_msgs/msg/Imu")
+        msgs.message_class("sensor_msgs/msg/NavSatFix")
     with pytest.raises(TypeError):
         msgs.msgtype_of(3.0)
     with pytest.raises(TypeError, match="instance"):

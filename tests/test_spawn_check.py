@@ -75,7 +75,7 @@ def test_spawn_inside_a_tunnel_wall_is_an_error():
 def test_spawn_inside_a_tunnel_wall_fails_in_one_line_from_the_cli(tmp_path):
     wall, x, y, yaw = inside_a_tunnel_wall()
     line = one_error_line(run_cli(tmp_path, "tunnel", f"{x},{y},{yaw}"))
-    assert line.startswith("racecar-sim: error: tunnel (racecar_tunnel.world): spawn pose")
+    assert line.startswith("racecar-sim: error: --spawn: tunnel (racecar_tunnel.world): spawn pose")
     assert "inside an obstacle" in line and line.endswith(f"into {wall}")
 
 

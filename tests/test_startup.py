@@ -178,7 +178,7 @@ def test_an_empty_world_loads_no_mesh_library(tmp_path):
         from racecar_sim.cli.main import main
         with contextlib.redirect_stdout(io.StringIO()):
             assert main(["run", "--no-camera", "--world", "empty", "--duration", "{duration}", "--out",
-                         {str(tmp_path)!r}, "--no-summary"]) == 0
+                         {str(tmp_path)!r}, "--no-summary", "--overwrite"]) == 0
     """) for duration in ("0.02", "0.1")}
     assert runs["0.02"] == ["mujoco"]
     assert set(runs["0.1"]) <= {"mujoco", "scipy"}

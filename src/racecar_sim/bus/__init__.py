@@ -1,5 +1,6 @@
 """The in-process topic bus: the spine every node publishes to and subscribes from, with ROS-style services."""
 
-from racecar_sim.bus.bus import Bus, ServiceError, Subscription
+from racecar_sim.bus.bus import Bus, ServiceError, Subscription, type_name
+from racecar_sim.bus.port import BusPort
 
-__all__ = ["Bus", "ServiceError", "Subscription"]
+__all__ = ["Bus", "BusPort", "ServiceError", "Subscription", "type_name"]

@@ -23,6 +23,7 @@ class Subscription:
     topic: str
     callback: Callback
     feeds: tuple[tuple[str, type], ...] = ()  # (topic, message class) it publishes one message on per message
+    msgtype: type | None = None  # the message class it declared it takes (it checks what it gets)
 
     def unsubscribe(self) -> None:
         self.bus._unsubscribe(self)
@@ -50,6 +51,13 @@ class _Topic:
 class _Tap:
     callback: Tap
     wants: Callable[[str], bool] | None
+
+
+def type_name(msg_or_cls: object) -> str:
+    """A message's or message class's ROS name (std_msgs/String); for anything else, its Python class name."""
+    cls = msg_or_cls if isinstance(msg_or_cls, type) else type(msg_or_cls)
+    msgtype = getattr(cls, "__msgtype__", None)
+    return msgtype.replace("/msg/", "/") if isinstance(msgtype, str) else cls.__name__
 
 
 class ServiceError(LookupError):
@@ -106,6 +114,14 @@ class Bus:
         """Deliver `msg` to the topic's subscribers and taps now."""
         t = self._topics.get(topic) or self._topic(topic)
         if type(msg) is not t.msgtype:
+            if t.declared is not None and type(msg) is not t.declared:
+                # not what the topic's nodes take: it goes only to those that declared a class (they drop it with a
+                # warning, as a ROS subscriber refuses a publisher of another type); it is not counted, recorded or
+                # bridged, and the topic keeps taking the declared class
+                for sub in list(t.subscribers):
+                    if sub.msgtype is not None:
+                        sub.callback(msg)
+                return
             if t.msgtype is not None:
                 raise TypeError(f"topic {topic} carries {t.msgtype.__name__}, got {type(msg).__name__}")
             t.msgtype = type(msg)
@@ -139,6 +155,7 @@ class Bus:
 
         `msgtype`: the message class the subscriber takes, declared by nodes that take commands from outside (the
         muxes' inputs, the controllers' commands) so that a bridge can subscribe to them before anyone publishes.
+        A message of another class on that topic reaches only the subscribers that declared one (they check it).
         `feeds` ({topic: message class}), for a node that only turns each message into one message on each of those
         topics (robot_state_publisher: a joint state into a /tf message): it listens only while someone listens
         there (has_listeners), and a message tallied on `topic` is tallied there too. No cycles.
@@ -146,7 +163,7 @@ class Bus:
         t = self._topic(topic)
         if msgtype is not None:
             t.declared = msgtype
-        sub = Subscription(self, topic, callback, tuple((feeds or {}).items()))
+        sub = Subscription(self, topic, callback, tuple((feeds or {}).items()), msgtype)
         t.subscribers.append(sub)
         t.refresh()
         if t.latched and t.last is not None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import itertools
 import math
 import os
 import re
@@ -11,8 +12,12 @@ from pathlib import Path
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.ros_packages import add_model_path, add_package_path
 from racecar_sim.worlds import DEFAULT_WALL_HEIGHT, Spawn
+from racecar_sim.worlds.world import MAX_COORDINATE
 
 _ARG_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_\-]*")
+# Hz: the slowest timer rate; the scheduler keeps a rate as a fraction with a denominator up to 1e6 (1e-300 Hz
+# became Fraction(1, 0))
+MIN_RATE = 1e-6
 
 
 def finite_float(text: str) -> float:
@@ -31,6 +36,19 @@ def positive_float(text: str) -> float:
     value = finite_float(text)
     if value <= 0:
         raise argparse.ArgumentTypeError(f"'{text}' must be positive")
+    return value
+
+
+def rate_hz(text: str) -> float:
+    """A rate in Hz the scheduler can keep: from MIN_RATE up (the physics rate, the top, is checked once the
+    physics step is known)."""
+    value = finite_float(text)
+    if not value >= MIN_RATE:
+        from racecar_sim.physics.presets import load_preset  # only for the message
+
+        top = 1.0 / load_preset("default").timestep
+        raise argparse.ArgumentTypeError(f"'{text}' Hz is outside the rates a timer keeps: from {MIN_RATE:g} Hz up to "
+                                         f"the physics rate ({top:g} Hz with --physics default)")
     return value
 
 
@@ -60,6 +78,10 @@ def spawn_pose(text: str) -> Spawn:
     if len(parts) not in (3, 4):
         raise argparse.ArgumentTypeError(f"'{text}' is not x,y,yaw or x,y,z,yaw")
     values = [finite_float(p) for p in parts]
+    for name, value in zip(("x", "y") if len(values) == 3 else ("x", "y", "z"), values):
+        if abs(value) > MAX_COORDINATE:
+            raise argparse.ArgumentTypeError(f"'{text}': {name} {value:g} m is beyond the largest world coordinate "
+                                             f"(±{MAX_COORDINATE:g} m)")
     if len(values) == 3:
         return Spawn(values[0], values[1], Spawn().z, values[2])
     return Spawn(*values)
@@ -106,7 +128,12 @@ def apply_ros_path_options(args: argparse.Namespace) -> None:
     """Put --package-path (and --model-path) first on ROS_PACKAGE_PATH (GAZEBO_MODEL_PATH), for this process and
     the ROS processes it starts; ConfigError for a folder that does not exist."""
     add_package_path(getattr(args, "package_path", None) or [])
-    add_model_path(getattr(args, "model_path", None) or [])
+    model_dirs = getattr(args, "model_path", None) or []
+    for folder in model_dirs:
+        if not Path(folder).is_dir():
+            raise ConfigError(f"--model-path {folder}: no such folder (give a folder that holds model:// models, "
+                              "each a folder with its model.config)")
+    add_model_path(model_dirs)
 
 
 def add_world_arguments(p: argparse.ArgumentParser, world_option: bool = True, default_world: str = "empty") -> None:
@@ -155,8 +182,35 @@ def make_folder(flag: str, folder: Path) -> None:
         raise ConfigError(f"{flag} {folder}: cannot create the folder ({exc.strerror or exc})") from None
 
 
-def check_record_path(record: Path, flag: str = "--record") -> None:
-    """An MCAP path that can be written: not a folder, in a folder that exists or can be made."""
+def fresh_folder(flag: str, base: Path) -> Path:
+    """`base`, or base-2, base-3, ...: the first of them that did not exist, made now (mkdir is atomic: two runs
+    started in the same second get a runs/<date-time> folder each)."""
+    for k in itertools.count(1):
+        folder = base if k == 1 else base.with_name(f"{base.name}-{k}")
+        try:
+            folder.mkdir(parents=True)
+            return folder
+        except FileExistsError:
+            continue
+        except OSError as exc:
+            raise ConfigError(f"{flag} {folder}: cannot create the folder ({exc.strerror or exc})") from None
+    raise AssertionError("unreachable")
+
+
+def add_overwrite_argument(p: argparse.ArgumentParser) -> None:
+    """--overwrite: a recording file that exists is replaced (without it, refused)."""
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace a recording file that exists (default: refuse it; a recording is never replaced "
+                        "unless asked, and never written by two runs at once)")
+
+
+def check_record_path(record: Path, flag: str = "--record", overwrite: bool = True) -> None:
+    """An MCAP path that can be written: not a folder, in a folder that exists or can be made, and (without
+    `overwrite`) not a file that exists. The file is taken exclusively when the recording starts
+    (recording.open_recording_file): this is the early look, before the sim is built."""
     if record.is_dir():
         raise ConfigError(f"{flag} {record}: is a folder; give a file name such as {record / 'run.mcap'}")
     check_folder(flag, record.parent)
+    if not overwrite and (record.exists() or record.is_symlink()):
+        raise ConfigError(f"{flag} {record}: the file exists and a recording is never replaced unless asked: give "
+                          "--overwrite to replace it, or another file name")

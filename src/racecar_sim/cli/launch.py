@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 
 from racecar_sim.cli.args import (
+    add_overwrite_argument,
     add_ros_path_options,
     apply_ros_path_options,
     check_folder,
@@ -28,7 +29,7 @@ from racecar_sim.cli.args import (
 )
 from racecar_sim.cli.live import RealTimePacer
 from racecar_sim.cli.terminal import RawTerminal, stdin_is_tty
-from racecar_sim.core.errors import ConfigError
+from racecar_sim.core.errors import ConfigError, RecordingError
 from racecar_sim.launch import LaunchPlan, LaunchRun, RosOnlyLaunch, has_car, load_launch, map_plan
 
 CHUNK = 0.05  # s of sim time between looks at the keyboard and the clock
@@ -51,6 +52,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--record", metavar="FILE.mcap", help="record every topic to this MCAP (default OUT/run.mcap with "
                                                          "--out, else none)")
     p.add_argument("--out", metavar="DIR", help="folder for the run's files (the recording)")
+    add_overwrite_argument(p)
     p.add_argument("--seed", type=seed_value, default=0, help="random seed, a whole number >= 0 (default 0)")
     p.add_argument("--model-path", action="append", default=[], metavar="DIR",
                    help="folder holding model:// models, searched before GAZEBO_MODEL_PATH (repeatable)")
@@ -79,7 +81,7 @@ def _record_path(args: argparse.Namespace) -> Path | None:
     if args.out:
         check_folder("--out", Path(args.out))
     if record is not None:
-        check_record_path(record)
+        check_record_path(record, overwrite=args.overwrite)
     return record
 
 
@@ -99,12 +101,23 @@ def main(args: argparse.Namespace) -> int:
     with LaunchRun(setup, seed=args.seed, sensor_noise=not args.no_noise, model_path=args.model_path,
                    ros=args.ros) as run:
         sim = run.sim
-        if record is not None:
+        recording = None
+        if record is not None:  # the file taken exclusively (an existing one only with --overwrite)
+            from racecar_sim.recording import RunRecording  # mcap loads only when a launch records
+
             make_folder("--record", record.parent)
-            sim.record(record)
+            try:
+                recording = RunRecording(sim.bus, lambda: sim.time_ns, record, raw_images=True,
+                                         overwrite=args.overwrite)
+            except RecordingError as exc:  # taken by another run since the look before, or cannot be created
+                raise RecordingError(f"--record {exc}") from None
         print(f"launch {plan.file.name}: world {sim.world.name}, cars {', '.join(c.model_name for c in sim.cars)}"
               + (f", {len(setup.ros_nodes)} ROS nodes" if args.ros else ""), file=sys.stderr)
-        interrupted = _run(args, run)
+        try:
+            interrupted = _run(args, run)
+        finally:
+            if recording is not None:
+                recording.close()  # what the writer process holds, then the summary and footer
         for car in sim.cars:
             pos, _ = car.state.base_pose()
             print(f"{car.model_name:<10} x {pos[0]:.3f} m, y {pos[1]:.3f} m at sim time {sim.time:.2f} s")

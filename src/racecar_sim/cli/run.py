@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import signal
 import sys
 import time
@@ -24,16 +23,17 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-import mujoco
 import numpy as np
 
-from racecar_sim.cli.args import (add_ros_path_options, add_sensor_arguments, add_world_arguments, add_xacro_arguments,
-                                  apply_ros_path_options, check_folder, check_record_path, finite_float, make_folder,
-                                  positive_float, positive_int, seed_value, sensor_options, xacro_options)
+from racecar_sim.cli.args import (MIN_RATE, add_overwrite_argument, add_ros_path_options, add_sensor_arguments,
+                                  add_world_arguments, add_xacro_arguments, apply_ros_path_options, check_folder,
+                                  check_record_path, finite_float, fresh_folder, make_folder, positive_float, rate_hz,
+                                  seed_value, sensor_options, xacro_options)
 from racecar_sim.cli.live import LiveViews, RealTimePacer, add_live_arguments
 from racecar_sim.cli.ros_env import PAUSED_WAIT, add_ros_arguments, check_ros, start_ros_bridge
+from racecar_sim.cli.spawns import check_row, check_spawn_option, fleet_size
 from racecar_sim.control.profiles import profile_names
-from racecar_sim.core.errors import ConfigError, WorldError
+from racecar_sim.core.errors import ConfigError, RecordingError
 from racecar_sim.core.names import ODOM
 from racecar_sim.drivers import pure_pursuit_config, wall_follow_config
 from racecar_sim.physics import preset_names
@@ -49,7 +49,6 @@ PROGRESS_MIN_DURATION = 5.0  # s of sim time; shorter runs finish before a bar i
 CHUNK = 0.1  # s of sim time between progress updates
 LIVE_CHUNK = 0.02  # s of sim time between viewer updates
 CAR_SPACING = 1.5  # m between the base_links of two cars in a row (--car-spacing)
-ROW_CHECK_HEIGHT = 0.1  # m above the spawn height: the sight line between two cars in a row, under any wall's top
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -67,8 +66,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         f"{pure_pursuit.speed:g} where the path has no speed column)")
     p.add_argument("--steering", type=finite_float,
                    help=f"rad, the constant command's steering angle (default {CONSTANT_DEFAULTS['steering']:g})")
-    p.add_argument("--rate", type=positive_float,
-                   help=f"Hz of the constant command (default {CONSTANT_DEFAULTS['rate']:g}; at most the physics rate)")
+    p.add_argument("--rate", type=rate_hz,
+                   help=f"Hz of the constant command (default {CONSTANT_DEFAULTS['rate']:g}; from {MIN_RATE:g} up to "
+                        "the physics rate)")
     p.add_argument("--side", choices=["right", "left"], help=f"wall-follow: the wall to follow (default {wall_follow.side})")
     p.add_argument("--distance", type=positive_float,
                    help=f"wall-follow: metres to keep from the wall (default {wall_follow.distance:g})")
@@ -81,15 +81,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--odometry", default="original", choices=["original", "ros"],
                    help="original: map->odom as the 2017 sim; ros: odom->base_link, body twist")
     p.add_argument("--seed", type=seed_value, default=0, help="random seed, a whole number >= 0 (default 0)")
-    p.add_argument("--out", metavar="DIR", help="folder for the run's files (default runs/<date-time>)")
+    p.add_argument("--out", metavar="DIR", help="folder for the run's files (default runs/<date-time>, or "
+                                                "runs/<date-time>-2... where a run started in the same second has it)")
     p.add_argument("--record", metavar="FILE.mcap", help="the MCAP's path (default OUT/run.mcap)")
+    add_overwrite_argument(p)
     p.add_argument("--no-record", action="store_true", help="no MCAP recording")
     p.add_argument("--raw-images", action="store_true",
                    help="record camera images as raw sensor_msgs/Image on the image topic (default: JPEG "
                         "sensor_msgs/CompressedImage on <image topic>/compressed, as image_transport records them)")
     p.add_argument("--no-video", action="store_true", help="no camera.mp4")
     p.add_argument("--no-summary", action="store_true", help="no summary.png")
-    p.add_argument("--cars", type=positive_int, metavar="N",
+    p.add_argument("--cars", type=fleet_size, metavar="N",
                    help="a fleet of N cars named car1..carN (topics /carK/..., frames carK/...), each with its own "
                         "driver: car1 at the spawn pose, each next one --car-spacing behind the one before "
                         "(default: one car with the original names)")
@@ -128,7 +130,10 @@ def _attach_driver(args: argparse.Namespace, sim: Simulator, car: Car) -> object
     try:
         return attach_driver(sim, car, args.driver, params)
     except ConfigError as exc:  # the scheduler refuses a rate above the physics rate
-        raise ConfigError(f"--rate: {exc}" if args.driver == "constant" else str(exc)) from None
+        if args.driver != "constant":
+            raise
+        top = 1.0 / sim.model.opt.timestep
+        raise ConfigError(f"--rate: {exc} (--rate takes {MIN_RATE:g} Hz up to the physics rate, {top:g} Hz)") from None
 
 
 def _is_track(world: object) -> bool:
@@ -168,7 +173,11 @@ def _simulator(args: argparse.Namespace) -> Simulator:
     if args.cars is None:
         if args.car_spacing is not None:
             raise ConfigError("--car-spacing places a fleet: give --cars N too")
-        return Simulator(world=args.world, profile=args.profile, seed=args.seed, physics=args.physics,
+        world: str | World = args.world
+        if args.spawn is not None:  # checked here, to name the option
+            world = load_world(args.world, args.spawn, [Path(p) for p in args.model_path], args.wall_height)
+            check_spawn_option(world, args)
+        return Simulator(world=world, profile=args.profile, seed=args.seed, physics=args.physics,
                          spawn=args.spawn, odometry=args.odometry, model_path=args.model_path,
                          wall_height=args.wall_height, **sensor_options(args), **xacro_options(args))
     world = load_world(args.world, args.spawn, [Path(p) for p in args.model_path], args.wall_height)
@@ -178,51 +187,13 @@ def _simulator(args: argparse.Namespace) -> Simulator:
 
         centerline = read_centerline(Path(args.world))[0]
     spacing = CAR_SPACING if args.car_spacing is None else args.car_spacing
+    spawns = fleet_spawns(world, args.cars, spacing, centerline)
+    check_row(world, args, spawns, spacing, centerline)  # before N cars are built (that costs ~N²)
     sensors = sensor_options(args)
     cars = [Car(f"car{k + 1}", profile=args.profile, spawn=spawn, lidar=sensors["lidar"], camera=sensors["camera"],
                 odometry=args.odometry, **xacro_options(args))
-            for k, spawn in enumerate(fleet_spawns(world, args.cars, spacing, centerline))]
-    sim = Simulator(world=world, cars=cars, **common)  # WorldError: a car in a wall or another car, or off the ground
-    if centerline is None:
-        try:
-            check_row(sim)
-        except WorldError:
-            sim.close()
-            raise
-    return sim
-
-
-def check_row(sim: Simulator) -> None:
-    """WorldError naming the first car that a wall separates from the car before it: a straight row that runs past
-    a bend of a course (walker's) puts the cars beyond it on the far side of the wall, on the ground but off the
-    course. Seen along the line between base_links ROW_CHECK_HEIGHT up; cars and loose objects do not count."""
-    model, data = sim.model, sim.data
-    for before, car in zip(sim.cars, sim.cars[1:]):
-        a, b = before.spawn, car.spawn
-        start = np.array([a.x, a.y, min(a.z, b.z) + ROW_CHECK_HEIGHT])
-        geom = _first_wall(model, data, start, np.array([b.x - a.x, b.y - a.y, 0.0]))
-        if geom is not None:
-            x, y, z, yaw = b.x, b.y, b.z, b.yaw
-            name = model.geom(geom).name or model.body(model.geom_bodyid[geom]).name or f"geom {geom}"
-            raise WorldError(f"{sim.world.label}: {car.model_name}'s spawn pose ({x:g}, {y:g}, {z:g}, {yaw:g}) is on "
-                             f"the far side of {name} from {before.model_name} (the cars line up straight back along "
-                             f"the spawn heading): use fewer --cars or a smaller --car-spacing")
-
-
-def _first_wall(model: mujoco.MjModel, data: mujoco.MjData, start: np.ndarray, vec: np.ndarray) -> int | None:
-    """The first colliding geom fixed to the world on the segment start .. start + vec, or None."""
-    geomid = np.zeros(1, dtype=np.int32)
-    travelled = 0.0
-    while travelled < 1.0:
-        hit = mujoco.mj_ray(model, data, start + travelled * vec, vec, None, 1, -1, geomid)
-        if hit < 0 or travelled + hit > 1.0:
-            return None
-        geom = int(geomid[0])
-        fixed = model.body_weldid[model.geom_bodyid[geom]] == 0
-        if fixed and (model.geom_contype[geom] or model.geom_conaffinity[geom]):
-            return geom
-        travelled += hit + 1e-6  # past a car's or a loose object's geom, and on
-    return None
+            for k, spawn in enumerate(spawns)]
+    return Simulator(world=world, cars=cars, **common)  # its own check: a car in a wall or another car, no ground
 
 
 def _output_paths(args: argparse.Namespace) -> tuple[Path, Path | None]:
@@ -233,8 +204,20 @@ def _output_paths(args: argparse.Namespace) -> tuple[Path, Path | None]:
     check_folder("--out", out)
     if args.raw_images and record is None:
         raise ConfigError("--raw-images says how camera images are recorded: drop --no-record")
-    if record is not None:
-        check_record_path(record)
+    if record is not None:  # in the default folder: that is a fresh one (_run_folder)
+        check_record_path(record, overwrite=args.overwrite or (args.out is None and args.record is None))
+    return out, record
+
+
+def _run_folder(args: argparse.Namespace, out: Path, record: Path | None, files: bool) -> tuple[Path, Path | None]:
+    """Make the run's folder where it gets `files` (summary, video) or the recording: the default runs/<date-time>
+    is a fresh folder (runs/<date-time>-2 if another run has that one), so no two runs share it."""
+    default_record = record is not None and args.record is None
+    if args.out is None and (files or default_record):
+        out = fresh_folder("--out", out)
+        return out, out / "run.mcap" if default_record else record
+    if files:
+        make_folder("--out", out)
     return out, record
 
 
@@ -251,8 +234,8 @@ def main(args: argparse.Namespace) -> int:
     with _simulator(args) as sim:
         for car in sim.cars:
             _attach_driver(args, sim, car)
-        if not args.no_summary or (sim.camera is not None and not args.no_video):
-            make_folder("--out", out)
+        out, record = _run_folder(args, out, record,
+                                  files=not args.no_summary or (sim.camera is not None and not args.no_video))
         recording = _recording(args, sim, record)
         try:
             runlogs = [RunLog(sim.bus, car.lidar.topic if car.lidar else None,
@@ -286,7 +269,8 @@ def main(args: argparse.Namespace) -> int:
         written.insert(0, save_summary(out / "summary.png", sim.world, paths,
                                        scan_origin=None if origin is None else origin[:2],
                                        scan_points=None if ends is None else ends[:, :2],
-                                       camera_bgr=runlog.last_frame(), title=_title(args, sim), lines=lines))
+                                       camera_bgr=runlog.last_frame(), title=_title(args, sim), lines=lines,
+                                       rate=runlog.trajectory_rate))
     _print_summary(args, sim, runlogs, wall, written)
     if interrupted:
         print(f"racecar-sim: interrupted at sim time {sim.time:.2f} s; the files above are complete", file=sys.stderr)
@@ -302,8 +286,11 @@ def _recording(args: argparse.Namespace, sim: Simulator, record: Path | None) ->
 
     make_folder("--record", record.parent)
     image_topics = [car.camera.spec.image_topic for car in sim.cars if car.camera is not None]
-    return RunRecording(sim.bus, lambda: sim.time_ns, record, image_topics=image_topics,
-                        raw_images=args.raw_images)
+    try:
+        return RunRecording(sim.bus, lambda: sim.time_ns, record, image_topics=image_topics,
+                            raw_images=args.raw_images, overwrite=args.overwrite)
+    except RecordingError as exc:  # taken by another run since the look before the build, or cannot be created
+        raise RecordingError(f"--record {exc}") from None
 
 
 def _video(args: argparse.Namespace, sim: Simulator, out: Path, recording: object) -> object:

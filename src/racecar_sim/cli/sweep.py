@@ -43,7 +43,7 @@ def main(args: argparse.Namespace) -> int:
         raise ConfigError(INSTALL_HINT)
     out = Path(args.out) if args.out else Path("sweeps") / datetime.now().strftime("%Y%m%d-%H%M%S")
     check_folder("--out", out)
-    episodes = len(spec.episodes())
+    episodes = spec.size  # counted: the episodes are made one at a time as they run
     where = "here, one by one" if args.local else f"on Ray ({args.address or 'local or RAY_ADDRESS'})"
     print(f"sweep {args.file}: {episodes} episodes of {spec.settings.duration:g} s sim, {where}", file=sys.stderr)
     bar = tqdm(total=episodes, unit="episode", file=sys.stderr)

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import TextIO
 
 from racecar_sim.cli.args import (
+    add_overwrite_argument,
     add_ros_path_options,
     add_sensor_arguments,
     add_world_arguments,
@@ -26,12 +27,14 @@ from racecar_sim.cli.args import (
     xacro_options,
 )
 from racecar_sim.cli.live import LiveViews, RealTimePacer, add_live_arguments
+from racecar_sim.cli.spawns import check_spawn_option
 from racecar_sim.cli.terminal import RawTerminal, StopSignals, stdin_is_tty
 from racecar_sim.control.teleop import TELEOP, KeyboardTeleop, load_teleop_config
-from racecar_sim.core.errors import ConfigError
+from racecar_sim.core.errors import ConfigError, RecordingError
 from racecar_sim.core.transforms import yaw_of
 from racecar_sim.msgs import AckermannDriveStamped, Odometry
 from racecar_sim.runtime import Simulator
+from racecar_sim.worlds import World, load_world
 
 SLICE = 0.02  # s of sim time between two looks at the keyboard
 STATUS_PERIOD = 0.1  # s of wall time between status line redraws
@@ -64,6 +67,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="end the session after S sim seconds (default: at q or Ctrl-C)")
     p.add_argument("--seed", type=seed_value, default=0, help="random seed (default 0)")
     p.add_argument("--record", metavar="FILE.mcap", help="record every topic to an MCAP file")
+    add_overwrite_argument(p)
     add_xacro_arguments(p)
     add_ros_path_options(p)
     add_sensor_arguments(p)
@@ -179,23 +183,39 @@ def _session(sim: Simulator, teleop: KeyboardTeleop, views: LiveViews, terminal:
         pacer.wait(sim.time)
 
 
+def _recording(args: argparse.Namespace, sim: Simulator) -> object:
+    """--record: every topic to the MCAP (camera images raw, as sim.record() records them), written by a writer
+    process, the file taken exclusively (an existing one only with --overwrite); None without --record."""
+    if not args.record:
+        return None
+    from racecar_sim.recording import RunRecording  # mcap loads only when a session records
+
+    make_folder("--record", Path(args.record).parent)
+    try:
+        return RunRecording(sim.bus, lambda: sim.time_ns, args.record, raw_images=True, overwrite=args.overwrite)
+    except RecordingError as exc:  # taken by another run since the look before the build, or cannot be created
+        raise RecordingError(f"--record {exc}") from None
+
+
 def main(args: argparse.Namespace) -> int:
     """Drive the car from the keyboard until q, Ctrl-C, --duration, or a closed viewer."""
     interactive = stdin_is_tty()
     if not interactive and not args.viewer:
         raise ConfigError(NOT_A_TTY)
     if args.record:
-        check_record_path(Path(args.record))
+        check_record_path(Path(args.record), overwrite=args.overwrite)
     apply_ros_path_options(args)
-    with StopSignals() as signals, Simulator(world=args.world, seed=args.seed, spawn=args.spawn,
+    world: str | World = args.world
+    if args.spawn is not None:  # checked here, to name the option
+        world = load_world(args.world, args.spawn, [Path(p) for p in args.model_path], args.wall_height)
+        check_spawn_option(world, args)
+    with StopSignals() as signals, Simulator(world=world, seed=args.seed, spawn=args.spawn,
                                              model_path=args.model_path, wall_height=args.wall_height,
                                              **sensor_options(args), **xacro_options(args)) as sim:
-        if args.record:
-            make_folder("--record", Path(args.record).parent)
-        recorder = sim.record(args.record) if args.record else None
+        recorder = _recording(args, sim)
         teleop = KeyboardTeleop(sim.bus, sim.scheduler, lambda: sim.time_ns, args.speed, args.turn, args.hold)
         dashboard = Dashboard(sim, args.record, sys.stderr)
-        with LiveViews(sim, args.viewer, args.foxglove, teleop) as views:
+        with recorder or contextlib.nullcontext(), LiveViews(sim, args.viewer, args.foxglove, teleop) as views:
             if not interactive and views.viewer is None:
                 raise ConfigError(NO_KEYBOARD)
             with RawTerminal(sys.stdin.fileno()) if interactive else contextlib.nullcontext() as terminal:

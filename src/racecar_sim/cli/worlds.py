@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from racecar_sim.cli.args import add_world_arguments
+from racecar_sim.cli.args import add_world_arguments, apply_ros_path_options
+from racecar_sim.cli.spawns import check_spawn_option
 from racecar_sim.core.errors import RacecarSimError
 from racecar_sim.worlds import BUILTIN_WORLDS, load_world, world_names, world_summary
 
@@ -37,7 +38,9 @@ def main(args: argparse.Namespace) -> int:
     if args.show is None:
         print(listing())
         return 0
+    apply_ros_path_options(args)  # a --model-path that is not a folder is refused
     world = load_world(args.show, spawn=args.spawn, model_path=args.model_path, wall_height=args.wall_height)
+    check_spawn_option(world, args)  # as `run` checks it: in an obstacle, below the ground, over nothing
     name = args.show if args.show in BUILTIN_WORLDS else Path(args.show).stem
     out = Path(args.out) if args.out else Path(f"{name}.png")
     from racecar_sim.plots import save_world_png  # matplotlib only loads when a map is drawn

@@ -6,7 +6,7 @@ import logging
 import math
 from collections.abc import Callable
 
-from racecar_sim.bus import Bus
+from racecar_sim.bus import Bus, type_name
 from racecar_sim.control.controllers import VELOCITY, ControllerConfig, JointController
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.throttle import ThrottledWarning, is_finite_number
@@ -41,6 +41,10 @@ class ControllerCommands:
         lo, hi = self.limits.get(name, _UNLIMITED)
 
         def on_command(msg: Float64) -> None:
+            if type(msg) is not Float64:
+                warn(f"{topic} type", "%s: ignored a %s message (the topic takes %s)", topic, type_name(msg),
+                     type_name(Float64))
+                return
             value = msg.data
             # a finite float (what servo_commands sends) in one look; anything else through the full check
             if (type(value) is not float or value - value != 0.0) and not is_finite_number(value):

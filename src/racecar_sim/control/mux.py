@@ -18,7 +18,7 @@ from typing import Any
 
 import yaml
 
-from racecar_sim.bus import Bus
+from racecar_sim.bus import Bus, type_name
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.time import to_ns
@@ -67,10 +67,15 @@ def forward(bus: Bus, topic: str, msg: AckermannDriveStamped) -> None:
 
 
 def accept_command(topic: str, msg: AckermannDriveStamped, warn: ThrottledWarning) -> bool:
-    """Whether a command may enter the command path; a non-finite one is dropped with a throttled warning,
-    so it neither drives the car nor refreshes any mux timeout (a NaN driver stops the car like a silent one)."""
+    """Whether a command may enter the command path; a non-finite one, or a message of another type, is dropped with
+    a throttled warning, so it neither drives the car nor refreshes any mux timeout (a NaN driver stops the car like a
+    silent one)."""
     if msg is _Forwarding.msg:  # accepted by the node that is forwarding it to us
         return True
+    if type(msg) is not AckermannDriveStamped:
+        warn(f"{topic} type", "%s: ignored a %s message (the topic takes %s)", topic, type_name(msg),
+             type_name(AckermannDriveStamped))
+        return False
     bad = non_finite_field(msg)
     if bad is None:
         return True

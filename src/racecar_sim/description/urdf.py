@@ -60,6 +60,24 @@ class Surface:
 
 
 @dataclass
+class Plugin:
+    """A Gazebo <plugin> block: its name, the library it loads (`libgazebo_ros_imu.so`), its parameters (child tag ->
+    text) and the full XML. `link` is the link of the <gazebo reference> block it sits in (None: a model plugin)."""
+
+    name: str
+    filename: str
+    params: dict[str, str]
+    element: ET.Element = field(repr=False)
+    link: str | None = None
+
+    @classmethod
+    def of(cls, el: ET.Element, link: str | None = None) -> Plugin:
+        """The plugin of a <plugin> element."""
+        params = {c.tag: (c.text or "").strip() for c in el if isinstance(c.tag, str)}
+        return cls(el.get("name", ""), el.get("filename", "").strip(), params, el, link)
+
+
+@dataclass
 class Sensor:
     """A Gazebo <sensor> block attached to a link; `element` keeps the full XML for the sensor's own parser."""
 
@@ -69,6 +87,11 @@ class Sensor:
     pose: Origin
     update_rate: float
     element: ET.Element = field(repr=False)
+
+    @property
+    def plugins(self) -> list[Plugin]:
+        """The <plugin> blocks inside the sensor (the ROS interface: gazebo_ros_laser, gazebo_ros_camera, ...)."""
+        return [Plugin.of(el, self.link) for el in self.element.findall("plugin")]
 
 
 @dataclass
@@ -122,14 +145,14 @@ class Transmission:
 
 @dataclass
 class Robot:
-    """A whole robot description: links, joints, transmissions, gazebo sensors and plugins."""
+    """A whole robot description: links, joints, transmissions, gazebo sensors and model plugins (in file order)."""
 
     name: str
     links: dict[str, Link]
     joints: dict[str, Joint]
     transmissions: list[Transmission]
     sensors: list[Sensor]
-    plugins: dict[str, dict[str, str]]
+    plugins: list[Plugin]
     urdf: str = field(repr=False, default="")
     materials: dict[str, tuple[float, float, float, float]] = field(default_factory=dict)
     source: str = ""  # the file it was read from (errors name it; relative mesh paths start from its folder)
@@ -302,17 +325,18 @@ def parse_urdf(text: str, source: str = "<urdf>") -> Robot:
         transmissions.append(Transmission(el.get("name", ""), joint_el.get("name", ""), actuator_el.get("name", ""),
                                           interface, reduction))
 
-    sensors, plugins = [], {}
+    sensors: list[Sensor] = []
+    plugins: list[Plugin] = []
     for el in root.findall("gazebo"):
         ref = el.get("reference")
         if ref is None:
-            for plugin in el.findall("plugin"):
-                plugins[plugin.get("name", "")] = {c.tag: (c.text or "").strip() for c in plugin}
+            plugins += [Plugin.of(plugin) for plugin in el.findall("plugin")]
             continue
         if ref not in links:
             raise DescriptionError(f"{source}: <gazebo reference='{ref}'> names no link")
         _surface(el, links[ref].surface, f"{source}: gazebo {ref}")
         sensors += [_sensor(s, ref, f"{source}: gazebo {ref}") for s in el.findall("sensor")]
+        plugins += [Plugin.of(plugin, ref) for plugin in el.findall("plugin")]
 
     robot = Robot(root.get("name", ""), links, joints, transmissions, sensors, plugins, text,  # type: ignore[arg-type]
                   materials, source)

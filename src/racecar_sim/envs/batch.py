@@ -48,6 +48,7 @@ from racecar_sim.envs.spaces import (
     DriveLimits,
     action_space,
     check_action_mode,
+    checked_action,
     observation_space,
     scan_observation,
     steering_from_hinges,
@@ -173,12 +174,9 @@ class DriveBatch:
     def step(self, actions: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray,
                                                  dict[str, Any]]:
         """Every world one control period with its action (N, 2); finished worlds are reset (SAME_STEP)."""
-        actions = np.asarray(actions, np.float64)
-        if actions.shape != (self.num_worlds, 2):
-            raise ValueError(f"DriveBatch.step: actions must have shape ({self.num_worlds}, 2), got {actions.shape}")
+        actions = checked_action(actions, self.action_space, f"DriveBatch.step ({self.num_worlds} worlds)",
+                                 (self.num_worlds, *self.action_space.shape))
         command = to_command(actions, self.action_mode, self.limits)
-        if not np.isfinite(command).all():
-            raise ValueError("DriveBatch.step: actions must be finite")
         self.commands.ctrl(command[:, 0], command[:, 1], self.ctrl)
         self.steps += 1
         self._run()

@@ -15,6 +15,7 @@ import gymnasium as gym
 import numpy as np
 
 from racecar_sim.core.errors import ConfigError
+from racecar_sim.core.throttle import is_finite_number
 from racecar_sim.core.time import NS_PER_S, to_ns
 from racecar_sim.envs.agent import CarAgent
 from racecar_sim.envs.crash import CHECK_RATE, CrashMonitor
@@ -24,6 +25,7 @@ from racecar_sim.envs.spaces import (
     MAX_STEERING,
     DriveLimits,
     check_action_mode,
+    checked_action,
 )
 from racecar_sim.envs.view import EnvView
 from racecar_sim.runtime.simulator import Simulator
@@ -34,19 +36,31 @@ CRASH_PENALTY = 10.0  # reward lost on the step that crashes (10 m of progress)
 NAVIGATION_TIMEOUT = 0.2  # s, high_level_mux.yaml's Navigation 0: slower commands let the car stop in between
 
 
-def spawn_pose(value: Any, z: float = Spawn().z) -> Spawn:
-    """options["spawn"]: a Spawn or (x, y, yaw) (or (x, y, z, yaw)) -> Spawn; ConfigError otherwise."""
+def spawn_pose(value: Any, z: float = Spawn().z, what: str = "reset options spawn") -> Spawn:
+    """options["spawn"]: a Spawn or (x, y, yaw) (or (x, y, z, yaw)) of finite numbers -> Spawn; ConfigError otherwise
+    (`what` names the option in the message). Where the pose lies is checked by Simulator.reset (WorldError)."""
     if isinstance(value, Spawn):
-        return value
-    try:
-        numbers = [float(v) for v in value]
-    except (TypeError, ValueError):
-        numbers = []
-    if len(numbers) == 3:
-        return Spawn(numbers[0], numbers[1], z, numbers[2])
-    if len(numbers) == 4:
-        return Spawn(*numbers)
-    raise ConfigError(f"reset options spawn={value!r}: give a Spawn or (x, y, yaw) in m and rad")
+        pose = value
+    else:
+        try:
+            numbers = [float(v) for v in value]
+        except (TypeError, ValueError):
+            numbers = []
+        if len(numbers) not in (3, 4):
+            raise ConfigError(f"{what}={value!r}: give a Spawn or (x, y, yaw) in m and rad")
+        pose = Spawn(numbers[0], numbers[1], z, numbers[2]) if len(numbers) == 3 else Spawn(*numbers)
+    for name in ("x", "y", "z", "yaw"):
+        number = getattr(pose, name)
+        if not is_finite_number(number):
+            raise ConfigError(f"{what}={_brief(value)}: {name} must be a finite number, got {number!r}")
+    return pose
+
+
+def _brief(value: Any) -> str:
+    """A pose as the user gave it, numpy scalars shown as plain numbers."""
+    if isinstance(value, (tuple, list, np.ndarray)):
+        return "(" + ", ".join(repr(float(v)) if isinstance(v, (float, np.floating)) else repr(v) for v in value) + ")"
+    return repr(value)
 
 
 class DriveEnv(gym.Env):
@@ -118,15 +132,16 @@ class DriveEnv(gym.Env):
         the sensor noise; without one, a seed is drawn from the env's generator. Nothing of the last episode is
         left: physics, muxes, controllers (and their integrators) start afresh and the first scan is cast at the
         new pose."""
-        super().reset(seed=seed)
         options = dict(options or {})
+        spawn = options.get("spawn")
+        pose = spawn_pose(spawn) if spawn is not None else None  # a malformed pose is refused before anything changes
+        super().reset(seed=seed)
         world = options.get("world")
         if world is not None and str(world) != self._world_key:
             self._build(world)
             self._view = EnvView(self.render_mode, self.sim)
         noise_seed = seed if seed is not None else int(self.np_random.integers(2**31))
-        spawn = options.get("spawn")
-        self.sim.reset(noise_seed, spawn_pose(spawn) if spawn is not None else None)
+        self.sim.reset(noise_seed, pose)  # WorldError for a pose off the ground or in a wall: the sim left as it was
         self.crashes.clear()
         self._steps = 0
         self.agent.fresh_sensors()
@@ -134,9 +149,10 @@ class DriveEnv(gym.Env):
         return self.agent.observation(), self._info(0.0)
 
     def step(self, action: np.ndarray) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
-        """Publish `action` as the navigation command, run the sim one control period, observe."""
+        """Publish `action` as the navigation command, run the sim one control period, observe. An action of another
+        shape than the action space's, or not numbers, is a ConfigError, a NaN a CommandError (nothing has moved)."""
         sim = self.sim
-        self.agent.send(action)
+        self.agent.send(checked_action(action, self.action_space, "DriveEnv.step"))
         self._steps += 1
         sim.run_until(self._steps * self.period_ns / NS_PER_S)
         self.crashes.check(sim.data)

@@ -33,6 +33,7 @@ from racecar_sim.envs.spaces import (
     MAX_STEERING,
     DriveLimits,
     check_action_mode,
+    checked_action,
 )
 from racecar_sim.envs.view import EnvView
 from racecar_sim.runtime.car import Car
@@ -89,8 +90,8 @@ class RaceEnv(ParallelEnv):
         if len(spawns) != num_cars:
             raise ConfigError(f"race env spawns: {len(spawns)} poses for {num_cars} cars")
         self.possible_agents = [f"car{i + 1}" for i in range(num_cars)]
-        cars = [Car(name, profile=profile, spawn=spawn_pose(s), camera=camera)
-                for name, s in zip(self.possible_agents, spawns)]
+        cars = [Car(name, profile=profile, spawn=spawn_pose(s, what=f"race env spawns[{i}]"), camera=camera)
+                for i, (name, s) in enumerate(zip(self.possible_agents, spawns))]
         self.sim = sim = Simulator(world=loaded, physics=physics, sensor_noise=sensor_noise, cars=cars)
         centerline = world_centerline(loaded, centerline)
         mode = check_action_mode(action)
@@ -121,9 +122,14 @@ class RaceEnv(ParallelEnv):
         options = dict(options or {})
         spawn = options.get("spawn")
         if isinstance(spawn, Mapping):
-            spawn = {name: spawn_pose(pose) for name, pose in spawn.items()}
+            spawn = {name: spawn_pose(pose, what=f"reset options spawn[{name!r}]") for name, pose in spawn.items()}
         elif spawn is not None:
-            spawn = [spawn_pose(pose) for pose in spawn]
+            try:
+                poses = list(spawn)
+            except TypeError:
+                raise ConfigError(f"reset options spawn={spawn!r}: give a pose per car, or a mapping of agent names "
+                                  "to poses") from None
+            spawn = [spawn_pose(pose, what=f"reset options spawn[{i}]") for i, pose in enumerate(poses)]
         self.sim.reset(seed if seed is not None else int(self._rng.integers(2**31)), spawn)
         self.crashes.clear()
         self._steps = 0
@@ -137,10 +143,16 @@ class RaceEnv(ParallelEnv):
     def step(self, actions: Mapping[str, np.ndarray]):
         """Each live agent's action as its navigation command, the sim run one control period, then per agent:
         observation, reward, termination, truncation, info; terminated and truncated agents leave `agents`."""
+        if not isinstance(actions, Mapping):
+            raise ConfigError(f"RaceEnv.step: actions must map agent names to actions, got {type(actions).__name__}")
+        unknown = [name for name in actions if name not in self._agents]
+        if unknown:
+            raise ConfigError(f"RaceEnv.step: no agent {unknown[0]!r} (agents: {', '.join(self.possible_agents)})")
         live = list(self.agents)
-        for name in live:
-            if name in actions:
-                self._agents[name].send(actions[name])
+        checked = {name: checked_action(actions[name], self.action_spaces[name], f"RaceEnv.step: {name}")
+                   for name in live if name in actions}  # every action checked before any is sent
+        for name, action in checked.items():
+            self._agents[name].send(action)
         self._steps += 1
         self.sim.run_until(self._steps * self.period_ns / NS_PER_S)
         self.crashes.check(self.sim.data)

@@ -13,7 +13,8 @@ Observation (a `Dict`, every entry float32 unless said):
 
 Action: `Box(-1, 1, (2,))` [speed, steering] scaled to [-max_speed, max_speed] m/s and [-max_steering,
 max_steering] rad (action="normalized", the default), or the same command in Ackermann units (action="raw":
-`Box([-max_speed, -max_steering], [max_speed, max_steering])`). Values outside the box are clipped. The
+`Box([-max_speed, -max_steering], [max_speed, max_steering])`). Values outside the box (infinities too) are
+clipped; an action of another shape, or not numbers, is refused (ConfigError), and so is a NaN (CommandError). The
 defaults are the original's joystick ranges (racecar/config/racecar-v2/joy_teleop.yaml: "plus or minus 2 meters
 / second", "plus or minus ~20 degrees steering angle" = 0.34 rad, also the drivers' max_steering).
 """
@@ -27,7 +28,7 @@ from functools import lru_cache
 import numpy as np
 from gymnasium import spaces
 
-from racecar_sim.core.errors import ConfigError
+from racecar_sim.core.errors import CommandError, ConfigError
 from racecar_sim.sensors.camera_spec import CameraSpec
 from racecar_sim.sensors.laser_spec import LaserSpec
 
@@ -76,9 +77,34 @@ def action_scale(action: str = "normalized", limits: DriveLimits = DriveLimits()
     return np.ones(2)
 
 
+def checked_action(action: object, space: spaces.Box, where: str, shape: tuple[int, ...] | None = None) -> np.ndarray:
+    """`action` as a float64 array of `shape` (default: the space's); ConfigError for anything else (not numbers, or
+    another shape), CommandError for a NaN. `where`: who takes it ("DriveEnv.step"), for the message. An infinity
+    is clipped to the box as any value outside it is."""
+    shape = space.shape if shape is None else shape
+    try:
+        array = np.asarray(action, np.float64)
+    except (TypeError, ValueError):
+        raise ConfigError(f"{where}: action {_brief(action)} is not an array of numbers; the action space is "
+                          f"{space}") from None
+    if array.shape != shape:
+        expected = (f"the action space {space} takes shape {shape}" if shape == space.shape else
+                    f"it takes shape {shape}, a row per world in {space}")
+        raise ConfigError(f"{where}: action of shape {array.shape} given; {expected}")
+    if np.isnan(array).any():
+        raise CommandError(f"{where}: action {_brief(array.tolist())} holds a NaN; the action space is {space}")
+    return array
+
+
+def _brief(value: object, limit: int = 80) -> str:
+    """repr(value), cut to `limit` characters (an action may be a large array)."""
+    text = " ".join(repr(value).split())
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
 def to_command(actions: np.ndarray, action: str = "normalized", limits: DriveLimits = DriveLimits()) -> np.ndarray:
     """Actions (..., 2) to commands (..., 2) float64 [speed m/s, steering rad], clipped to the limits; works on one
-    action or a batch. NaN passes through (the mux drops a non-finite command, as the original does)."""
+    action or a batch. NaN passes through (the envs refuse it first: checked_action)."""
     scale = action_scale(action, limits)
     bound = np.array([limits.max_speed, limits.max_steering])
     return np.clip(np.asarray(actions, np.float64) * scale, -bound, bound)

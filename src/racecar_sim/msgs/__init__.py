@@ -27,7 +27,8 @@ from racecar_sim.msgs.idl import schema_text
 from racecar_sim.msgs.nav_msgs import Odometry
 from racecar_sim.msgs.registry import message_class, msgtype_of
 from racecar_sim.msgs.rosgraph_msgs import Clock
-from racecar_sim.msgs.sensor_msgs import CameraInfo, Image, JointState, LaserScan, RegionOfInterest
+from racecar_sim.msgs.sensor_msgs import (CameraInfo, Image, Imu, JointState, LaserScan, PointCloud2, PointField,
+                                         RegionOfInterest)
 from racecar_sim.msgs.std_msgs import Float64, Header, Int8, String
 from racecar_sim.msgs.tf2_msgs import TFMessage
 
@@ -42,6 +43,7 @@ __all__ = [
     "Header",
     "HardwareInterfaceResources",
     "Image",
+    "Imu",
     "Int8",
     "JointControllerState",
     "JointState",
@@ -51,6 +53,8 @@ __all__ = [
     "ModelStates",
     "Odometry",
     "Point",
+    "PointCloud2",
+    "PointField",
     "Pose",
     "PoseStamped",
     "PoseWithCovariance",

@@ -1,4 +1,5 @@
-"""ROS 2 ``sensor_msgs`` messages: JointState, LaserScan, Image, CompressedImage, CameraInfo, RegionOfInterest."""
+"""ROS 2 ``sensor_msgs`` messages: JointState, LaserScan, Image, CompressedImage, CameraInfo, RegionOfInterest, Imu,
+PointField, PointCloud2."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import numpy as np
 import numpy.typing as npt
 
 from racecar_sim.msgs._base import Message
+from racecar_sim.msgs.geometry_msgs import Quaternion, Vector3
 from racecar_sim.msgs.std_msgs import Header
 
 
@@ -122,3 +124,56 @@ class CameraInfo(Message):
     binning_x: int = 0
     binning_y: int = 0
     roi: RegionOfInterest = field(default_factory=RegionOfInterest)
+
+
+@dataclass(eq=False, repr=False, slots=True)
+class Imu(Message):
+    """An inertial measurement: orientation (in the world, REP 145), angular velocity (rad/s) and linear acceleration
+    (m/s^2, the proper acceleration: +9.81 up at rest) in the sensor frame, each with a row-major 3x3 covariance."""
+
+    __msgtype__: ClassVar[str] = "sensor_msgs/msg/Imu"
+
+    header: Header = field(default_factory=Header)
+    orientation: Quaternion = field(default_factory=Quaternion)
+    orientation_covariance: npt.NDArray[np.float64] = field(default_factory=_k)
+    angular_velocity: Vector3 = field(default_factory=Vector3)
+    angular_velocity_covariance: npt.NDArray[np.float64] = field(default_factory=_k)
+    linear_acceleration: Vector3 = field(default_factory=Vector3)
+    linear_acceleration_covariance: npt.NDArray[np.float64] = field(default_factory=_k)
+
+
+@dataclass(eq=False, repr=False, slots=True)
+class PointField(Message):
+    """One field of a PointCloud2 point: its name, byte offset, datatype (FLOAT32 = 7, ...) and element count."""
+
+    __msgtype__: ClassVar[str] = "sensor_msgs/msg/PointField"
+    INT8: ClassVar[int] = 1
+    UINT8: ClassVar[int] = 2
+    INT16: ClassVar[int] = 3
+    UINT16: ClassVar[int] = 4
+    INT32: ClassVar[int] = 5
+    UINT32: ClassVar[int] = 6
+    FLOAT32: ClassVar[int] = 7
+    FLOAT64: ClassVar[int] = 8
+
+    name: str = ""
+    offset: int = 0
+    datatype: int = 0
+    count: int = 0
+
+
+@dataclass(eq=False, repr=False, slots=True)
+class PointCloud2(Message):
+    """Points as packed records (``point_step`` bytes each, laid out by ``fields``), ``height`` rows of ``width``."""
+
+    __msgtype__: ClassVar[str] = "sensor_msgs/msg/PointCloud2"
+
+    header: Header = field(default_factory=Header)
+    height: int = 0
+    width: int = 0
+    fields: list[PointField] = field(default_factory=list)
+    is_bigendian: bool = False
+    point_step: int = 0
+    row_step: int = 0
+    data: bytes = b""
+    is_dense: bool = False

@@ -43,7 +43,9 @@ def build_spec(robot: Robot, world: World, preset: PhysicsPreset, names: CarName
 def world_spec(world: World, preset: PhysicsPreset, near_walls: bool = False) -> mujoco.MjSpec:
     """The world alone (options, geoms, lights): cars are added with add_car, then finish_spec before compiling.
     `near_walls`: a map's thousands of wall boxes are held out of the collision model (near_walls.py); the model
-    compiled from the spec then needs fit_near_walls."""
+    compiled from the spec then needs fit_near_walls. WorldError for a world MuJoCo could not take or place exactly
+    (beyond worlds.MAX_COORDINATE, two geoms of one name), naming the world and the model."""
+    world.check_extent()  # a World built in Python has not been through load_world
     spec = mujoco.MjSpec()
     spec.modelname = world.name or "world"
     _options(spec, world, preset)
@@ -58,10 +60,14 @@ def fit_near_walls(spec: mujoco.MjSpec, model: mujoco.MjModel) -> bool:
 
 
 def add_car(spec: mujoco.MjSpec, robot: Robot, spawn: Spawn, preset: PhysicsPreset,
-            names: CarNames = CarNames()) -> None:
-    """One car from its URDF at `spawn`, every MuJoCo name of it from `names` (no prefix for the unnamed car)."""
+            names: CarNames = CarNames(), rank_friction: bool = True) -> None:
+    """One car from its URDF at `spawn`, every MuJoCo name of it from `names` (no prefix for the unnamed car).
+
+    rank_friction=False leaves friction_min_rule to the caller: a fleet ranks every geom once, after its last car
+    (ranking after each car visits every geom of the cars before it, which made building N cars cost N²)."""
     _add_robot(spec, robot, spawn, preset, names)
-    friction_min_rule(spec)
+    if rank_friction:
+        friction_min_rule(spec)
 
 
 def _options(spec: mujoco.MjSpec, world: World, preset: PhysicsPreset) -> None:

@@ -31,6 +31,7 @@ LONGEST_WAIT = 0.25  # s, between two looks at where the movers are
 SPEED_FLOOR = 2.0  # m/s, added to the speed bound: what a mover at rest can reach before the next look (~ 10 m/s^2)
 REACH_MARGIN = 0.1  # m, over a mover's measured reach: steering and suspension move parts about its root
 PARK_DEPTH = 1.0e4  # m: an unused slot waits this far under the world, where nothing is
+MOST_CELLS = 1 << 22  # cells counted at most when sizing the slots (32 MB), however far a map's boxes spread
 _PARK_HALF = np.array([1e-3, 1e-3, 1e-3])
 _ROW = 10
 
@@ -162,7 +163,15 @@ def _most_per_cell(lower: np.ndarray, upper: np.ndarray, pad: float) -> int:
     first, last = _cell_range(lower, upper, pad)
     origin = first.min(axis=0)
     first, last = first - origin, last - origin + 1
-    counts = np.zeros(tuple(last.max(axis=0) + 1), int)
+    shape = last.max(axis=0) + 1
+    if int(shape[0]) * int(shape[1]) > MOST_CELLS:  # a map kilometres across: count between the boxes' edges only
+        edges = [np.unique(np.concatenate([first[:, k], last[:, k]])) for k in range(2)]
+        if len(edges[0]) * len(edges[1]) > MOST_CELLS:
+            return len(lower)  # every box: never too few
+        first = np.stack([np.searchsorted(edges[k], first[:, k]) for k in range(2)], axis=1)
+        last = np.stack([np.searchsorted(edges[k], last[:, k]) for k in range(2)], axis=1)
+        shape = np.array([len(edges[0]), len(edges[1])]) + 1
+    counts = np.zeros(tuple(shape), int)
     for (x0, y0), (x1, y1) in zip(first.tolist(), last.tolist()):  # a 2-D difference array: +1 over each box's cells
         counts[x0, y0] += 1
         counts[x1, y0] -= 1

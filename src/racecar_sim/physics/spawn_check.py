@@ -14,12 +14,16 @@ forever. With the car at its spawn pose (after mj_forward) this module
   tips off the edge and falls forever), the car landing more than DROP_WARN below its wheels a warning.
 
 A world with no colliding geometry at all (a scene to look at, nothing to drive on) only gets a warning.
+
+`SpawnProbe` runs the same check for many poses before a fleet is built: the world and two copies of the car,
+compiled once (building N cars costs ~N² in MuJoCo's model editing, so a row that cannot fit is refused first).
 """
 
 from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Sequence
 
 import mujoco
 import numpy as np
@@ -27,7 +31,9 @@ import numpy as np
 from racecar_sim.core.errors import WorldError
 from racecar_sim.core.names import CarNames
 from racecar_sim.description.urdf import Robot
-from racecar_sim.worlds.world import Spawn, World
+from racecar_sim.physics.builder import add_car, world_spec
+from racecar_sim.physics.presets import PhysicsPreset
+from racecar_sim.worlds.world import MAX_COORDINATE, Spawn, World
 
 # Deepest overlap let through: resting wheels touch the ground at ~0 m. MuJoCo pushes a penetration d out at
 # ~d / 0.01 s (measured, default preset): 3 mm hops the car 2 mm, 5 mm 8 mm, 1 cm 4 cm, 2 cm 19 cm, 5 cm 1.2 m.
@@ -38,17 +44,22 @@ DROP_WARN = 0.5  # m
 GROUND_SEARCH = 100.0  # m below a wheel; nothing there: the car falls forever
 RAY_LIFT = 0.01  # m, rays start this far above a wheel's lowest point (above any overlap let through)
 SEPARATE_UP = math.cos(math.radians(45))  # a car that must move (mostly) up to get out is below the ground
+ROW_CHECK_HEIGHT = 0.1  # m above the lower spawn: the sight line between two cars in a row, under any wall's top
+PROBE_BEFORE = "car_before"  # SpawnProbe's second car: the one before in the row
+_PARKED = Spawn(0.0, 0.0, -1e6, 0.0)  # SpawnProbe's second car when no other is near: far out of reach
 _G = mujoco.mjtGeom
 
 
 def check_spawn(model: mujoco.MjModel, data: mujoco.MjData, world: World, robot: Robot,
-                names: CarNames = CarNames(), spawn: Spawn | None = None) -> None:
+                names: CarNames = CarNames(), spawn: Spawn | None = None, car_name: str | None = None) -> None:
     """Raise WorldError if the car, at its spawn pose in `data` (after mj_forward), overlaps the world or has no
-    ground under it; warn if it will fall more than DROP_WARN. The car is the body tree of `robot.root`."""
+    ground under it; warn if it will fall more than DROP_WARN. The car is the body tree of `robot.root`.
+    `car_name`: how the message names the car (default: its namespace)."""
     car = _subtree_geoms(model, model.body(names.mj(robot.root)).id)
     others = np.setdiff1d(np.arange(model.ngeom), car)
     solid = others[_colliding(model, others)]
-    who = f"{names.namespace}'s " if names.namespace else ""
+    car_name = names.namespace if car_name is None else car_name
+    who = f"{car_name}'s " if car_name else ""
     where = f"{world.label}: {who}spawn pose ({_pose(spawn or world.spawn)})"
     if len(solid) == 0:
         warnings.warn(f"{world.label}: the world has no collision geometry: nothing holds the car up", stacklevel=3)
@@ -177,3 +188,82 @@ def _drop_below(model: mujoco.MjModel, data: mujoco.MjData, point: np.ndarray, s
     if hit[0] < 0 or dist > GROUND_SEARCH + RAY_LIFT:
         return None
     return float(dist - RAY_LIFT)
+
+
+class CarOverlap(WorldError):
+    """A spawn pose of a row puts the car inside another car of the row."""
+
+
+class SpawnProbe:
+    """The world and two copies of one car, compiled once, to check a row of spawn poses before the fleet is built.
+
+    check() puts the first copy at a pose and the second at each earlier car of the row within reach of it, and runs
+    check_spawn: the same test the Simulator runs once every car is built, with every wall box of a map a geom (no
+    near-wall slots to place). wall_between() finds a wall across a straight row. Milliseconds a pose.
+    MuJoCo's ValueError if the world itself does not compile (the Simulator's build then reports it).
+    """
+
+    def __init__(self, world: World, robot: Robot, preset: PhysicsPreset) -> None:
+        self.world, self.robot = world, robot
+        spec = world_spec(world, preset, near_walls=False)
+        self._names = (CarNames(), CarNames(PROBE_BEFORE))
+        for names in self._names:
+            add_car(spec, robot, Spawn(), preset, names, rank_friction=False)  # no contacts: friction plays no part
+        self.model = spec.compile()
+        self.data = mujoco.MjData(self.model)
+        roots = [self.model.body(names.mj(robot.root)).id for names in self._names]
+        self._qpos = [int(self.model.jnt_qposadr[self.model.body_jntadr[root]]) for root in roots]
+        self._place(_PARKED)
+        mujoco.mj_forward(self.model, self.data)
+        car = _subtree_geoms(self.model, roots[0])
+        # how far from base_link a part of the car reaches: two cars farther apart than twice this cannot touch
+        self.reach = float(np.max(np.linalg.norm(self.data.geom_xpos[car] - self.data.xpos[roots[0]], axis=1)
+                                  + self.model.geom_rbound[car]))
+
+    def _place(self, spawn: Spawn, other: Spawn = _PARKED) -> None:
+        for adr, pose in zip(self._qpos, (spawn, other)):
+            self.data.qpos[adr:adr + 3] = (pose.x, pose.y, pose.z)
+            self.data.qpos[adr + 3:adr + 7] = (math.cos(pose.yaw / 2), 0.0, 0.0, math.sin(pose.yaw / 2))
+
+    def check(self, spawn: Spawn, car_name: str = "", others: Sequence[tuple[str, Spawn]] = ()) -> None:
+        """WorldError if a car at `spawn` would be beyond MAX_COORDINATE, in the world's geometry or over nothing;
+        CarOverlap if it would be inside one of the `others` (name, pose), the cars placed before it. Warnings are
+        left to the Simulator's own check."""
+        who = f"{car_name}'s " if car_name else ""
+        if not (math.hypot(spawn.x, spawn.y, spawn.z) <= MAX_COORDINATE):
+            raise WorldError(f"{self.world.label}: {who}spawn pose ({_pose(spawn)}) is beyond {MAX_COORDINATE:g} m "
+                             "from the origin, the largest world coordinate")
+        near = 2 * self.reach + PENETRATION_TOL
+        beside = [(name, pose) for name, pose in others
+                  if math.hypot(pose.x - spawn.x, pose.y - spawn.y, pose.z - spawn.z) < near]
+        for other_name, other in beside or [("", _PARKED)]:
+            self._place(spawn, other)
+            mujoco.mj_forward(self.model, self.data)
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    check_spawn(self.model, self.data, self.world, self.robot, self._names[0], spawn, car_name)
+            except WorldError as exc:
+                message = str(exc)
+                if f"{PROBE_BEFORE}/" not in message:
+                    raise
+                # the second copy's parts are named car_before/...: name them as the car they stand for
+                raise CarOverlap(message.replace(f"{PROBE_BEFORE}/", f"{other_name}/" if other_name else "")) from None
+
+    def wall_between(self, a: Spawn, b: Spawn) -> str | None:
+        """The first colliding geom fixed to the world on the sight line from base_link at `a` to base_link at `b`,
+        ROW_CHECK_HEIGHT above the lower one (cars and loose objects do not count), or None."""
+        model, data = self.model, self.data
+        start = np.array([a.x, a.y, min(a.z, b.z) + ROW_CHECK_HEIGHT])
+        vec = np.array([b.x - a.x, b.y - a.y, 0.0])
+        geomid = np.zeros(1, dtype=np.int32)
+        travelled = 0.0
+        while travelled < 1.0:
+            hit = mujoco.mj_ray(model, data, start + travelled * vec, vec, None, 1, -1, geomid)
+            if hit < 0 or travelled + hit > 1.0:
+                return None
+            geom = int(geomid[0])
+            if model.body_weldid[model.geom_bodyid[geom]] == 0 and _colliding(model, geom):
+                return _name(model, geom)
+            travelled += hit + 1e-6  # past a car's or a loose object's geom, and on
+        return None

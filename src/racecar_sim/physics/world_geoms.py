@@ -8,9 +8,12 @@ _add_static (bench/bench_maps.py measures it).
 
 from __future__ import annotations
 
+import re
+
 import mujoco
 import numpy as np
 
+from racecar_sim.core.errors import ConfigError, RacecarSimError, WorldError
 from racecar_sim.core.transforms import compose, quat_to_matrix
 from racecar_sim.physics.near_walls import MIN_BOXES, can_hold, hold_out
 from racecar_sim.worlds.world import Light, Mesh, Scene, World, WorldBody, WorldGeom
@@ -26,6 +29,7 @@ _LIGHT_TYPES = {True: mujoco.mjtLightType.mjLIGHT_DIRECTIONAL, False: mujoco.mjt
 CHECKER_SIZE = 0.5  # m, side of the squares drawn on ground planes, so that the camera sees the ground move
 CHECKER_SHADE = 0.85  # brightness of the darker squares relative to the plane's colour
 HEADLIGHT_DIFFUSE = 0.3  # the viewer's light, at the camera: lights the faces the camera looks at
+MESH_SUFFIX = "/mesh"  # a world mesh asset is its first geom's name and this
 
 
 def mj_size(kind: str, size: tuple[float, ...]) -> list[float]:
@@ -52,10 +56,11 @@ class _Assets:
         self.materials: dict[int, str] = {}
         self.checkers: dict[tuple[float, ...], str] = {}
 
-    def mesh(self, mesh: Mesh, textured: bool) -> str:
+    def mesh(self, mesh: Mesh, textured: bool, geom: str) -> str:
+        """The mesh asset, named after the first geom that uses it (so that MuJoCo's errors name the model)."""
         key = id(mesh)
         if key not in self.meshes:
-            name = f"mesh{len(self.meshes)}"
+            name = f"{geom}{MESH_SUFFIX}"
             m = self.spec.add_mesh(name=name, uservert=mesh.vertices.ravel().tolist(),
                                    userface=mesh.faces.ravel().tolist())
             m.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL  # open surfaces (a floor sheet) are valid
@@ -101,7 +106,7 @@ def _add_geom(body: mujoco.MjsBody, geom: WorldGeom, pos: np.ndarray, quat: np.n
     g = body.add_geom(name=geom.name, type=GEOM_TYPES[geom.kind], size=mj_size(geom.kind, geom.size),
                       pos=list(pos), quat=list(quat))
     if geom.mesh is not None:
-        g.meshname = assets.mesh(geom.mesh, textured=geom.texture is not None)
+        g.meshname = assets.mesh(geom.mesh, textured=geom.texture is not None, geom=geom.name)
     if geom.collides:
         g.group, g.contype, g.conaffinity, g.condim = COLLISION_GROUP, 1, 1, 3
         g.friction = [geom.mu, 0.0, 0.0]  # MuJoCo's sliding friction is isotropic: mu2 has no counterpart
@@ -199,7 +204,8 @@ def _add_static(spec: mujoco.MjSpec, wb: WorldBody, assets: _Assets, near_walls:
 
 def add_world(spec: mujoco.MjSpec, world: World, near_walls: bool = False) -> None:
     """Add every body, geom and light of `world` to `spec`; `near_walls`: a map's many wall boxes as data (see
-    near_walls.py)."""
+    near_walls.py). WorldError for a name given twice (MuJoCo takes each once)."""
+    _check_names(world)
     assets = _Assets(spec)
     for wb in world.bodies:
         if wb.static:
@@ -214,3 +220,37 @@ def add_world(spec: mujoco.MjSpec, world: World, near_walls: bool = False) -> No
     for light in world.lights:
         _add_light(spec, light)
     _scene(spec, world.scene)
+
+
+def _check_names(world: World) -> None:
+    """A WorldError naming the world and the name if two free bodies, two geoms or two lights share a name."""
+    for kind, names in (("models' links", [body.name for body in world.bodies if not body.static]),
+                        ("geoms", [geom.name for _, geom in world.geoms()]),
+                        ("lights", [light.name for light in world.lights])):
+        seen: set[str] = set()
+        for name in names:
+            if name in seen:
+                raise WorldError(f"{world.label}: two {kind} named '{name}' (MuJoCo takes each name once)")
+            seen.add(name)
+
+
+def world_element(world: World, element: str) -> str | None:
+    """The name of the world's body, geom or light that the MuJoCo element `element` (a name in one of MuJoCo's
+    messages) was built from, or None if the world built none of that name (a car's)."""
+    name = element.removesuffix(MESH_SUFFIX)
+    names = {body.name for body in world.bodies} | {geom.name for _, geom in world.geoms()}
+    return name if name in names or name in {light.name for light in world.lights} else None
+
+
+def mujoco_rejected(exc: Exception, world: World, xacro: object) -> RacecarSimError:
+    """MuJoCo's compile error (`Error: ...`, `Element name 'x', id n`, maybe a line more) as one line that blames
+    what the element was built from: the world file and its model (WorldError), else the car's xacro (ConfigError)."""
+    lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+    reason = (lines[0] if lines else "no reason given").removeprefix("Error:").strip()
+    found = re.search(r"Element name '([^']*)'", str(exc))
+    element = found[1] if found else ""
+    owner = world_element(world, element) if element else None
+    if owner is not None:
+        return WorldError(f"{world.label}: {owner}: MuJoCo cannot take it: {reason}")
+    where = f" ({element})" if element else ""
+    return ConfigError(f"MuJoCo rejected the model built from {xacro}{where} in world {world.label}: {reason}")

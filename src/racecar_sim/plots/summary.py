@@ -73,10 +73,10 @@ Trajectories = np.ndarray | Mapping[str, np.ndarray]
 
 def save_summary(path: str | Path, world: World, trajectory: Trajectories, *, scan_origin: np.ndarray | None = None,
                  scan_points: np.ndarray | None = None, camera_bgr: np.ndarray | None = None, title: str = "",
-                 lines: Sequence[str] = ()) -> Path:
+                 lines: Sequence[str] = (), rate: float = TRAJECTORY_RATE) -> Path:
     """Write the run's summary PNG (1600x1000 px) and return its path; see summary_figure for the arguments."""
     fig, _ = summary_figure(world, trajectory, scan_origin=scan_origin, scan_points=scan_points,
-                            camera_bgr=camera_bgr, title=title, lines=lines)
+                            camera_bgr=camera_bgr, title=title, lines=lines, rate=rate)
     path = Path(path)
     fig.savefig(path, format="png", dpi=DPI)
     return path
@@ -84,10 +84,11 @@ def save_summary(path: str | Path, world: World, trajectory: Trajectories, *, sc
 
 def summary_figure(world: World, trajectory: Trajectories, *, scan_origin: np.ndarray | None = None,
                    scan_points: np.ndarray | None = None, camera_bgr: np.ndarray | None = None, title: str = "",
-                   lines: Sequence[str] = ()) -> tuple[Figure, Axes]:
+                   lines: Sequence[str] = (), rate: float = TRAJECTORY_RATE) -> tuple[Figure, Axes]:
     """The summary figure (not attached to pyplot) and its map Axes.
 
-    trajectory: (N, 3) x, y (m, world frame) and ground speed (m/s), row i at i / TRAJECTORY_RATE s; or a fleet's
+    trajectory: (N, 3) x, y (m, world frame) and ground speed (m/s), row i at i / rate s (a long run's RunLog keeps
+    fewer rows: its trajectory_rate), the last row the end of the path; or a fleet's
     {car name: (N, 3)}, each car drawn in its own colour (one entry is drawn as the single car's path).
     scan_origin: (x, y) of the laser; scan_points: (M, 2) world end points of the finite beams.
     camera_bgr: (H, W, 3) uint8 BGR image. lines: summary text, one item a line. Scan and camera may be None.
@@ -121,7 +122,7 @@ def summary_figure(world: World, trajectory: Trajectories, *, scan_origin: np.nd
         handles = _draw_fleet(ax, paths) + handles
     else:
         norm = Normalize(0.0, max(float(traj[:, 2].max()) if len(traj) else 0.0, 0.1))
-        handles = _draw_trajectory(ax, traj, norm) + handles
+        handles = _draw_trajectory(ax, traj, norm, rate) + handles
         colorbar = fig.colorbar(ScalarMappable(norm=norm, cmap=SPEED_CMAP), cax=fig.add_axes(layout.colorbar))
         colorbar.set_label("speed (m/s)")
     _fill_panel(fig, layout, image, handles, lines, f"{next(iter(paths))}'s " if fleet else "")
@@ -202,7 +203,7 @@ def _set_view(ax: Axes, lo: np.ndarray, hi: np.ndarray) -> None:
     ax.set_aspect("equal", adjustable="box")  # the limits already fit the box
 
 
-def _draw_trajectory(ax: Axes, traj: np.ndarray, norm: Normalize) -> list[Line2D]:
+def _draw_trajectory(ax: Axes, traj: np.ndarray, norm: Normalize, rate: float = TRAJECTORY_RATE) -> list[Line2D]:
     """The path as segments coloured by speed over a white halo, start and end markers, a label every 10 s."""
     if not len(traj):
         return []
@@ -214,10 +215,10 @@ def _draw_trajectory(ax: Axes, traj: np.ndarray, norm: Normalize) -> list[Line2D
         speed = (traj[:-1, 2] + traj[1:, 2]) / 2
         ax.add_collection(LineCollection(segments, array=speed, cmap=SPEED_CMAP, norm=norm, linewidths=PATH_WIDTH,
                                          capstyle="round", joinstyle="round", zorder=Z_PATH), autolim=False)
-    step = round(TIME_MARK_EVERY * TRAJECTORY_RATE)
+    step = max(round(TIME_MARK_EVERY * rate), 1)
     for i in range(step, len(traj) - step // 4, step):  # none right before the end marker
         ax.plot(*xy[i], "o", color="white", markeredgecolor="black", markersize=4, zorder=Z_MARKS)
-        ax.annotate(f"{i / TRAJECTORY_RATE:g} s", xy[i], xytext=(5, 5), textcoords="offset points", fontsize=8,
+        ax.annotate(f"{i / rate:g} s", xy[i], xytext=(5, 5), textcoords="offset points", fontsize=8,
                     zorder=Z_MARKS, bbox={"boxstyle": "round,pad=0.15", "facecolor": "white", "alpha": 0.7,
                                           "linewidth": 0})
     start, = ax.plot(*xy[0], "o", color=START_COLOR, markeredgecolor="white", markeredgewidth=1.5, markersize=11,

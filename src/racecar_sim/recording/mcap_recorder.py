@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
+import errno
+import fcntl
 import functools
 import os
+import stat
 import signal
 import threading
 from collections.abc import Iterable
@@ -15,6 +19,7 @@ from mcap.writer import CompressionType, Writer
 
 from racecar_sim.core.errors import RecordingError
 from racecar_sim.msgs import msgtype_of, schema_text, serialize
+from racecar_sim.recording.chunk_index_spill import spill_chunk_indexes
 
 _COMPRESSION = {
     "zstd": CompressionType.ZSTD,
@@ -39,6 +44,17 @@ class RecordingFileError(RecordingError, OSError):
         return f"{self.filename}: cannot create the MCAP file ({self.strerror})"
 
 
+class RecordingWriteError(RecordingError, OSError):
+    """The recording's file stopped taking bytes (disk full, a file size limit, an I/O error): one line naming the
+    file, the sim time it failed at and what it keeps (every chunk written before, without the index:
+    `racecar-sim recover` makes it readable). Also the OSError that stopped it (its errno, strerror, filename)."""
+
+    message = ""
+
+    def __str__(self) -> str:
+        return self.message or super().__str__()
+
+
 @functools.cache
 def _file_error_type(os_error: type[OSError]) -> type[RecordingFileError]:
     if os_error is OSError or not issubclass(os_error, OSError):
@@ -46,14 +62,41 @@ def _file_error_type(os_error: type[OSError]) -> type[RecordingFileError]:
     return type(f"Recording{os_error.__name__}", (RecordingFileError, os_error), {})
 
 
-def open_recording_file(path: str | os.PathLike[str]) -> BinaryIO:
-    """``path`` created or truncated, open for binary writing;
-    :class:`RecordingFileError` naming the path when it cannot be."""
+class RecordingInUseError(RecordingError):
+    """The recording's file exists and may not be replaced, or another recording is writing it: one line naming it."""
+
+
+def open_recording_file(path: str | os.PathLike[str], overwrite: bool = True) -> BinaryIO:
+    """``path`` open for binary writing, held exclusively: created, or (``overwrite``) an existing file truncated.
+
+    The file is locked (``flock``) for as long as it stays open, in this process or in a writer process it is handed
+    to, so that two recordings never write one file: the second is refused. Without ``overwrite`` an existing file
+    is refused too (``O_EXCL``: of two runs creating it at once, one gets it). :class:`RecordingInUseError` for
+    those; :class:`RecordingFileError` naming the path when it cannot be opened.
+    """
+    name = os.fspath(path)
+    flags = os.O_WRONLY | os.O_CREAT | getattr(os, "O_CLOEXEC", 0) | (0 if overwrite else os.O_EXCL)
     try:
-        return open(path, "wb")  # the recorder closes it
+        fd = os.open(name, flags, 0o666)
+    except FileExistsError:
+        raise RecordingInUseError(f"{name}: the file exists and a recording is never replaced unless asked: give "
+                                  "--overwrite to replace it, or another file name") from None
     except OSError as exc:
         reason = exc.strerror or str(exc)
-        raise _file_error_type(type(exc))(exc.errno, reason, os.fspath(path)) from None
+        raise _file_error_type(type(exc))(exc.errno, reason, name) from None
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError as exc:  # another errno: a file system without locks (some network ones), written unguarded
+            if exc.errno in (errno.EWOULDBLOCK, errno.EAGAIN):
+                raise RecordingInUseError(f"{name}: another recording is writing this file (two would mix into "
+                                          "one): give another file name") from None
+        if stat.S_ISREG(os.fstat(fd).st_mode):
+            os.ftruncate(fd, 0)
+        return os.fdopen(fd, "wb")  # the recorder closes it
+    except BaseException:
+        os.close(fd)
+        raise
 
 
 def _qos_profiles_v8(durability: int, depth: int) -> str:
@@ -207,6 +250,8 @@ class McapRecorder:
         self._counts: dict[str, int] = {}
         self._flushed = 0
         self._chunk_times: tuple[int, int] | None = None  # log-time span of the chunk in progress
+        self._kept_ns: int | None = None  # the last log time of the chunks handed to the OS
+        self._failed: RecordingWriteError | None = None
         self._stream = open_recording_file(self.path) if stream is None else stream
         self._interrupt = DeferredInterrupt()
         self._interrupt.hold()
@@ -214,12 +259,15 @@ class McapRecorder:
             self._writer = Writer(
                 self._stream, chunk_size=chunk_size, compression=_COMPRESSION[compression]
             )
+            spill_chunk_indexes(self._writer, self.path, self._stream)  # memory flat in a long recording
             self._writer.start(profile="ros2", library=_library())
             # With a 'rosbag2' record lacking 'serialized_metadata', rosbag2 (Jazzy and
             # later) decodes offered_qos_profiles as metadata version 8, our integer form.
             self._writer.add_metadata("rosbag2", {"ROS_DISTRO": "racecar_sim"})
             self._stream.flush()  # the header is on disk from the start
             self._flushed = self._stream.tell()
+        except OSError as exc:  # the file takes no bytes (a full disk): one line, the file left empty
+            raise self._give_up(exc, "at its start") from None
         except BaseException:
             self._stream.close()
             self._interrupt.uninstall()
@@ -269,11 +317,15 @@ class McapRecorder:
             log_time if publish_time_ns is None else _timestamp(publish_time_ns, "publish_time_ns")
         )
         with self._lock:
+            if self._failed is not None:
+                raise self._failed
             if self._closed:
                 raise ValueError(f"write to a closed recorder ({self.path})")
             self._interrupt.hold()
             try:
                 self._append(topic, msgtype, data, log_time, publish_time)
+            except OSError as exc:
+                raise self._give_up(exc, f"at sim time {log_time / 1e9:.3f} s") from None
             finally:
                 self._interrupt.release()
 
@@ -292,9 +344,9 @@ class McapRecorder:
         count = self._counts[topic] + 1
         self._writer.add_message(channel[0], log_time, data, publish, count & 0xFFFFFFFF)
         self._counts[topic] = count
-        if not self._chunk_written():
-            first, last = self._chunk_times or (log_time, log_time)
-            self._chunk_times = (min(first, log_time), max(last, log_time))
+        first, last = self._chunk_times or (log_time, log_time)
+        self._chunk_times = (min(first, log_time), max(last, log_time))
+        self._chunk_written()  # a chunk closed by size holds this message too
 
     def _chunk_written(self) -> bool:
         """Whether the writer wrote a chunk since the last call; if so, hand it to the OS.
@@ -307,8 +359,34 @@ class McapRecorder:
             return False
         self._stream.flush()
         self._flushed = self._stream.tell()
+        if self._chunk_times is not None:
+            self._kept_ns = max(self._kept_ns or 0, self._chunk_times[1])
         self._chunk_times = None
         return True
+
+    def _give_up(self, exc: OSError, when: str) -> RecordingWriteError:
+        """The file stopped taking bytes: cut it back to its last complete chunk (what a crash would leave, which
+        `racecar-sim recover` reads), let go of it, and the one-line error saying what it keeps."""
+        self._closed = True
+        fd = self._stream.fileno()
+        with contextlib.suppress(OSError):
+            os.ftruncate(fd, self._flushed)
+        with contextlib.suppress(OSError):  # the bytes still buffered go nowhere: the file stays cut there
+            null = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(null, fd)
+            os.close(null)
+        with contextlib.suppress(OSError, ValueError):
+            self._stream.close()
+        self._interrupt.uninstall()
+        if self._kept_ns is None:
+            kept = "it keeps no message"
+        else:
+            kept = (f"it keeps the messages up to sim time {self._kept_ns / 1e9:.3f} s, without its index: "
+                    f"`racecar-sim recover {self.path}` makes it readable")
+        self._failed = RecordingWriteError(exc.errno, exc.strerror or str(exc), self.path)
+        self._failed.message = f"{self.path}: the recording stopped {when}: cannot write the file " \
+                               f"({exc.strerror or exc}); {kept}"
+        return self._failed
 
     def _channel(self, topic: str, msgtype: str) -> tuple[int, str]:
         if topic in self._channels:
@@ -338,8 +416,12 @@ class McapRecorder:
             self._interrupt.hold()
             try:
                 self._writer.finish()  # type: ignore[no-untyped-call]
-            finally:
                 self._stream.close()
+            except OSError as exc:
+                raise self._give_up(exc, "while finishing it") from None
+            finally:
+                if not self._stream.closed:
+                    self._stream.close()
                 self._interrupt.uninstall()
                 self._interrupt.release()
 

@@ -30,7 +30,9 @@ class RunRecording:
     file is byte for byte the one writing in place would give: same seed, same bytes. Images on `image_topics` are
     recorded as ROS users record camera images, JPEG `sensor_msgs/CompressedImage` on `<topic>/compressed`,
     encoded by the writer; `raw_images` keeps them as the raw `sensor_msgs/Image` on the topic itself. Latched
-    topics' last messages are written first. A path that cannot be written raises RecordingFileError here.
+    topics' last messages are written first. A path that cannot be written raises RecordingFileError here; one that
+    another recording is writing, or (without `overwrite`) one that exists, RecordingInUseError
+    (mcap_recorder.open_recording_file: the file is held exclusively until it is finished).
 
     close() (or leaving the `with` block, whatever the reason) writes everything published before it and
     finishes the file; an error met while writing is raised by a later publish or by close(), after the file
@@ -40,9 +42,9 @@ class RunRecording:
 
     def __init__(self, bus: Bus, clock: Callable[[], int], path: str | os.PathLike[str], *,
                  image_topics: Iterable[str] = (), raw_images: bool = False, jpeg_quality: int = JPEG_QUALITY,
-                 compression: str = "zstd", process: bool = True) -> None:
+                 compression: str = "zstd", process: bool = True, overwrite: bool = True) -> None:
         self._path = os.fspath(path)
-        stream = open_recording_file(self._path)  # a bad path is the caller's error now, not the writer's later
+        stream = open_recording_file(self._path, overwrite)  # a bad path is the caller's error now, not the writer's
         self.clock = clock
         self.jpeg_quality = jpeg_quality
         self.compressed = {} if raw_images else {topic: compressed_topic(topic) for topic in image_topics}
@@ -103,6 +105,13 @@ class RunRecording:
     def path(self) -> str:
         """The MCAP file's path."""
         return self._path
+
+    @property
+    def message_count(self) -> dict[str, int]:
+        """Messages written per topic: so far on a writer thread; from a writer process, once closed."""
+        if self.recorder is not None:
+            return self.recorder.message_count
+        return dict(self.process.results.get("counts", {})) if self.process is not None else {}
 
     def close(self) -> None:
         """Stop recording, write what was published so far and finish the file (summary, footer). Idempotent."""

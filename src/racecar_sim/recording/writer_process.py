@@ -420,7 +420,11 @@ class _Files:
             self.recorder.write_serialized(topic, msgtype, serialize(compress_image(self.image(pixels), quality)),
                                            log_time)
         elif kind == FRAME:
-            self.video.write(self.image(op[1]).bgr_pixels())
+            try:
+                self.video.write(self.image(op[1]).bgr_pixels())
+            except OSError as exc:  # a full disk, a file size limit: one line, not the encoder's traceback
+                raise RecordingError(f"{self.video_path}: the video stopped: cannot write the file "
+                                     f"({exc.strerror or exc})") from None
         elif kind == OPEN_MCAP:
             from racecar_sim.recording.mcap_recorder import McapRecorder
 
@@ -452,4 +456,5 @@ class _Files:
                 self.recorder.close()
 
     def results(self) -> dict[str, Any]:
-        return {"video": self.video_path}
+        counts = self.recorder.message_count if self.recorder is not None else {}
+        return {"video": self.video_path, "counts": counts}

@@ -36,8 +36,10 @@ from typing import TYPE_CHECKING
 import mujoco
 import numpy as np
 
+from racecar_sim.bus import type_name
 from racecar_sim.core.errors import RacecarSimError, WorldError
 from racecar_sim.core.names import CarNames
+from racecar_sim.core.throttle import ThrottledWarning
 from racecar_sim.core.transforms import compose, quat_mul, quat_rotate, quat_to_matrix, yaw_of
 from racecar_sim.msgs import Header, Point, Pose, Quaternion, Twist, Vector3
 from racecar_sim.msgs.gazebo_msgs import (
@@ -120,13 +122,22 @@ class GazeboApi:
         self._index()
         sim.on_rebuild(lambda model, data: self._index())
         self.task = sim.scheduler.every(STATES_RATE, self._tick, "gazebo_ros_api_plugin", unheard=self._unheard)
-        self.bus.subscribe(SET_MODEL_STATE, lambda msg: self.set_model_state(SetModelStateRequest(msg)), ModelState)
+        self._warn = ThrottledWarning(log, lambda: sim.time_ns)
+        self.bus.subscribe(SET_MODEL_STATE, self._on_set_model_state, ModelState)
         for name, handler in (("get_model_state", self.get_model_state), ("set_model_state", self.set_model_state),
                               ("spawn_urdf_model", self.spawn_urdf_model), ("spawn_sdf_model", self.spawn_sdf_model),
                               ("delete_model", self.delete_model), ("get_world_properties", self.get_world_properties),
                               ("pause_physics", self.pause_physics), ("unpause_physics", self.unpause_physics),
                               ("reset_simulation", self.reset_simulation), ("reset_world", self.reset_world)):
             self.bus.advertise_service(f"{NAMESPACE}/{name}", handler)
+
+    def _on_set_model_state(self, msg: ModelState) -> None:
+        """The /gazebo/set_model_state topic; a message of another type is dropped with a throttled warning."""
+        if type(msg) is not ModelState:
+            self._warn(SET_MODEL_STATE, "%s: ignored a %s message (the topic takes %s)", SET_MODEL_STATE,
+                       type_name(msg), type_name(ModelState))
+            return
+        self.set_model_state(SetModelStateRequest(msg))
 
     # --- the model table ---------------------------------------------------------------------------------------
     @property

@@ -1,4 +1,8 @@
-"""What a run did, from its topics: the path, the speeds, the closest wall, the last scan and camera frame."""
+"""What a run did, from its topics: the path, the speeds, the closest wall, the last scan and camera frame.
+
+Its memory does not grow with the run: the figures (distance, mean speed, min clearance) are kept as running
+totals, and the path for the plot is kept at most TRAJECTORY_ROWS rows long (a longer run keeps every other row).
+"""
 
 from __future__ import annotations
 
@@ -10,20 +14,29 @@ from racecar_sim.bus import Bus
 from racecar_sim.drivers.odom import planar_pose
 from racecar_sim.msgs import Image, LaserScan, Odometry
 
+TRAJECTORY_ROWS = 1 << 14  # the most path rows kept per car (819 s at 20 Hz, 384 KB); then every other one is dropped
+ODOMETRY_RATE = 20.0  # Hz, the rows of `trajectory` until it is thinned out
+
 
 class RunLog:
     """Subscribes to /vesc/odom, /scan and the camera image of one car; summarises the run for people.
 
     A fleet's car has its own topics: `RunLog(bus, car.topic("/scan"), None, odom_topic=car.topic("/vesc/odom"))`.
 
-    `trajectory` rows are x, y (m) and ground speed (m/s) at the odometry rate (20 Hz).
-    `min_clearance` is the shortest lidar range seen (m): how close the car came to a wall, from the laser.
+    `trajectory` rows are x, y (m) and ground speed (m/s) at the odometry rate (20 Hz), `trajectory_rate` rows per
+    sim second: past TRAJECTORY_ROWS rows every other one is dropped and the rate halves (memory stays flat in a long
+    run); the last row is always the last odometry. `distance` (m) and `mean_speed` (m/s) are summed over every
+    odometry message. `min_clearance` is the shortest lidar range seen (m): how close the car came to a wall.
     """
 
     def __init__(self, bus: Bus, scan_topic: str | None = "/scan",
                  image_topic: str | None = "/camera/zed/rgb/image_rect_color", odom_topic: str = "/vesc/odom") -> None:
-        self._rows: list[tuple[float, float, float]] = []
-        self._times: list[int] = []
+        self._path = np.empty((TRAJECTORY_ROWS, 3))  # rows taken every `_stride`-th odometry message
+        self._kept = 0  # rows of _path in use
+        self._stride = 1
+        self._count = 0  # odometry messages seen
+        self._last_row: tuple[float, float, float] | None = None
+        self._first_ns = self._last_ns = 0
         self.distance = 0.0
         self.min_clearance = math.inf
         self.last_scan: LaserScan | None = None
@@ -39,11 +52,24 @@ class RunLog:
     def _on_odom(self, msg: Odometry) -> None:
         pose = planar_pose(msg)
         v = msg.twist.twist.linear
-        if self._rows:
-            x, y, _ = self._rows[-1]
+        stamp = msg.header.stamp.to_ns()
+        if self._last_row is not None:
+            x, y, _ = self._last_row
             self.distance += math.hypot(pose.x - x, pose.y - y)
-        self._rows.append((pose.x, pose.y, math.hypot(v.x, v.y)))
-        self._times.append(msg.header.stamp.to_ns())
+        else:
+            self._first_ns = stamp
+        row = (pose.x, pose.y, math.hypot(v.x, v.y))
+        if self._count % self._stride == 0:
+            if self._kept == TRAJECTORY_ROWS:  # full: keep every other row, and every other one from now on
+                half = self._path[::2].copy()
+                self._path[:len(half)] = half
+                self._kept, self._stride = len(half), self._stride * 2
+            if self._count % self._stride == 0:
+                self._path[self._kept] = row
+                self._kept += 1
+        self._count += 1
+        self._last_row = row
+        self._last_ns = stamp
         self.last_pose = (pose.x, pose.y, pose.yaw)
 
     def _on_scan(self, msg: LaserScan) -> None:
@@ -59,13 +85,21 @@ class RunLog:
 
     @property
     def trajectory(self) -> np.ndarray:
-        """(N, 3): x, y, ground speed."""
-        return np.array(self._rows, dtype=np.float64).reshape(-1, 3)
+        """(N, 3): x, y, ground speed; row i at i / trajectory_rate s, and the last odometry as the last row."""
+        path = self._path[:self._kept]
+        if self._last_row is not None and (self._count - 1) % self._stride:  # the last message was not kept
+            return np.vstack([path, self._last_row])
+        return path.copy()
+
+    @property
+    def trajectory_rate(self) -> float:
+        """Rows of `trajectory` per sim second (ODOMETRY_RATE until the path is thinned out)."""
+        return ODOMETRY_RATE / self._stride
 
     @property
     def mean_speed(self) -> float:
         """Distance over the time the odometry covered (m/s)."""
-        span = (self._times[-1] - self._times[0]) / 1e9 if self._times else 0.0
+        span = (self._last_ns - self._first_ns) / 1e9
         return self.distance / span if span > 0 else 0.0
 
     def last_frame(self) -> np.ndarray | None:

@@ -20,12 +20,15 @@ from racecar_sim.core.errors import ConfigError, PhysicsError
 from racecar_sim.core.names import CLOCK
 from racecar_sim.core.rng import check_seed
 from racecar_sim.core.scheduler import Scheduler
+from racecar_sim.core.throttle import is_finite_number
 from racecar_sim.core.time import NS_PER_S, ceil_to_step, to_ns
 from racecar_sim.description import DEFAULT_XACRO
 from racecar_sim.msgs import Clock, String, Time
 from racecar_sim.physics import (NearWalls, check_spawn, fit_near_walls, load_preset, route_mujoco_warnings,
                                  world_spec)
+from racecar_sim.physics.builder import friction_min_rule
 from racecar_sim.physics.car_contacts import CarContacts
+from racecar_sim.physics.world_geoms import mujoco_rejected
 from racecar_sim.runtime.car import Car
 from racecar_sim.runtime.gazebo_api import GazeboApi
 from racecar_sim.sensors.robot_state import StaticTransforms
@@ -87,8 +90,8 @@ class Simulator:
             if given:
                 raise ConfigError(f"with cars=[...], give {', '.join(given)} to each Car, not to the Simulator")
         self.cars = _checked_fleet(cars)
-        for car in self.cars:
-            car.load()
+        for index, car in enumerate(self.cars):
+            car.load(self.cars[index - 1] if index else None)  # a fleet of identical cars expands the xacro once
         first = self.cars[0]
         if isinstance(world, World):
             self.world = world
@@ -102,13 +105,14 @@ class Simulator:
         spec = world_spec(self.world, self.preset, near_walls)
         spec.modelname = first.robot.name if len(self.cars) == 1 else self.world.name or "fleet"
         for car, car_spawn in zip(self.cars, self.spawns):
-            car.add_to(spec, self.preset, car_spawn)
+            car.add_to(spec, self.preset, car_spawn, rank_friction=False)
+        friction_min_rule(spec)  # once for the whole fleet: once per car costs N² (every geom of the cars before)
         try:
             self.model = spec.compile()
             if fit_near_walls(spec, self.model):
                 self.model = spec.compile()
-        except ValueError as exc:
-            raise ConfigError(f"MuJoCo rejected the model built from {first.xacro}: {exc}") from None
+        except ValueError as exc:  # one line, blaming the world file's model or else the car's xacro
+            raise mujoco_rejected(exc, self.world, first.xacro) from None
         self.spec = spec  # kept: models spawned or deleted at run time change it, and it is recompiled
         self.data = mujoco.MjData(self.model)
         self.step_ns = to_ns(self.model.opt.timestep)
@@ -275,17 +279,25 @@ class Simulator:
         muxes go idle, its sensors take the seed, and the hooks given to on_reset() run. Asked for from inside an
         event (a callback or a timer), the reset happens once that event is over, and a run_until in progress
         then goes on on the new clock, to its target time.
+
+        A pose given is checked as the constructor checks spawns (a WorldError if the car would be inside an
+        obstacle or another car, or have no ground under it; a ConfigError for a pose that is not finite numbers);
+        refused, the reset does not happen: the sim is left as it was.
         """
+        new_seed = self.seed if seed is None else check_seed(seed)
+        poses = _spawn_poses(self, spawn)  # a malformed pose is refused at once, even from inside an event
         if self._in_event:
             self.defer(lambda: self.reset(seed, spawn))
             return
-        if seed is not None:
-            self.seed = check_seed(seed)
-        poses = _spawn_poses(self, spawn)
+        seed = new_seed
+        saved = self._backup() if poses else None  # to put back if a pose is refused
         self.car.state.reset(self._qpos0)
         for index, pose in poses.items():
             self.cars[index].state.set_base_pose(pose.x, pose.y, pose.z, pose.yaw)
         mujoco.mj_forward(self.model, self.data)
+        if poses:
+            self._check_spawns(poses, saved)
+        self.seed = seed
         self.time_ns = 0
         self._divergence = None
         self._touching = set()
@@ -295,6 +307,29 @@ class Simulator:
             car.reset(self.seed)
         for hook in self._reset_hooks:
             hook()
+
+    def _backup(self) -> mujoco.MjData:
+        """The physics state copied into an MjData kept for it (made on first use, and again for a new model)."""
+        backup = getattr(self, "_reset_backup", None)
+        if backup is None or backup[0] is not self.model:
+            backup = self._reset_backup = (self.model, mujoco.MjData(self.model))
+        mujoco.mj_copyData(backup[1], self.model, self.data)
+        return backup[1]
+
+    def _check_spawns(self, poses: dict[int, Spawn], saved: mujoco.MjData) -> None:
+        """check_spawn for each car put at a pose of reset(), with the map walls near it in place; on refusal the
+        physics state (and the near walls) go back to `saved`, and the error is raised."""
+        try:
+            if self.near_walls is not None:
+                self.near_walls.refresh()
+            for index, pose in poses.items():
+                car = self.cars[index]
+                check_spawn(self.model, self.data, self.world, car.robot, car.names, pose)
+        except Exception:
+            mujoco.mj_copyData(self.data, self.model, saved)
+            if self.near_walls is not None:
+                self.near_walls.refresh()
+            raise
 
     def record(self, path: str | Path) -> McapRecorder:
         """Record every bus topic to an MCAP file (ROS 2 CDR, log time = sim time) until close()."""
@@ -417,14 +452,30 @@ def _checked_fleet(cars: Sequence[Car]) -> list[Car]:
 
 
 def _spawn_poses(sim: Simulator, spawn: Spawn | Mapping[str, Spawn] | Sequence[Spawn] | None) -> dict[int, Spawn]:
-    """reset()'s spawn argument as {car index: pose}."""
+    """reset()'s spawn argument as {car index: pose}; ConfigError for an unknown car or a pose that is not a Spawn
+    of finite numbers."""
     if spawn is None:
         return {}
     if isinstance(spawn, Spawn):
-        return {0: spawn}
-    if isinstance(spawn, Mapping):
-        return {sim.cars.index(sim.car_named(name)): pose for name, pose in spawn.items()}
-    poses = list(spawn)
-    if len(poses) > len(sim.cars):
-        raise ConfigError(f"{len(poses)} spawn poses for {len(sim.cars)} cars")
-    return dict(enumerate(poses))
+        poses = {0: spawn}
+    elif isinstance(spawn, Mapping):
+        poses = {}
+        for name, pose in spawn.items():
+            try:
+                poses[sim.cars.index(sim.car_named(name))] = pose
+            except KeyError as exc:
+                raise ConfigError(f"reset spawn: {exc.args[0]}") from None
+    elif isinstance(spawn, Sequence) and not isinstance(spawn, str):
+        if len(spawn) > len(sim.cars):
+            raise ConfigError(f"reset spawn: {len(spawn)} spawn poses for {len(sim.cars)} cars")
+        poses = dict(enumerate(spawn))
+    else:
+        raise ConfigError(f"reset spawn={spawn!r}: give a Spawn, a Spawn per car, or a mapping of car names to Spawns")
+    for index, pose in poses.items():
+        who = f"reset spawn for {sim.cars[index].model_name}"
+        if not isinstance(pose, Spawn):
+            raise ConfigError(f"{who}: {pose!r} is not a Spawn(x, y, z, yaw)")
+        for name in ("x", "y", "z", "yaw"):
+            if not is_finite_number(getattr(pose, name)):
+                raise ConfigError(f"{who}: {name} must be a finite number, got {getattr(pose, name)!r} ({pose})")
+    return poses

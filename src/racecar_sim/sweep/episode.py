@@ -101,7 +101,7 @@ def _summary_png(episode: Episode, sim: Simulator, runlog: RunLog, row: dict[str
     save_summary(path, sim.world, runlog.trajectory, scan_origin=None if origin is None else origin[:2],
                  scan_points=None if ends is None else ends[:, :2], camera_bgr=runlog.last_frame(),
                  title=f"{sim.world.name}: {episode.driver} ({params or 'defaults'}), {sim.time:.0f} s sim, "
-                       f"seed {episode.seed}", lines=lines)
+                       f"seed {episode.seed}", lines=lines, rate=runlog.trajectory_rate)
 
 
 def _json_safe(value: Any) -> Any:

@@ -7,8 +7,9 @@ is needed between the nodes.
 
 from __future__ import annotations
 
+import itertools
 import tempfile
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +17,7 @@ from racecar_sim.core.errors import ConfigError
 from racecar_sim.sweep.episode import run_episode
 from racecar_sim.sweep.spec import Episode
 
+PENDING_PER_CPU = 2  # Ray tasks in flight per CPU of the cluster: each CPU has its next episode queued
 INSTALL_HINT = 'the sweep runs on Ray: pip install -e ".[ray]" (or run it here one episode at a time with --local)'
 
 
@@ -34,7 +36,7 @@ def episode_with_files(episode: Episode) -> tuple[dict[str, Any], dict[str, byte
     return row, files
 
 
-def run_on_ray(episodes: Sequence[Episode], runs: Path, address: str | None = None,
+def run_on_ray(episodes: Iterable[Episode], runs: Path, address: str | None = None,
                num_cpus: int | None = None) -> Iterator[dict[str, Any]]:
     """Run the episodes as Ray tasks (one CPU each) and yield their rows as they complete, each episode's files
     written to `runs`/<episode.folder_name>/ first.
@@ -55,15 +57,21 @@ def run_on_ray(episodes: Sequence[Episode], runs: Path, address: str | None = No
                  configure_logging=False)
     try:
         task = ray.remote(num_cpus=1, max_retries=0)(episode_with_files)
-        pending = {task.remote(episode): episode for episode in episodes}
+        # a window of tasks in flight, the next episode made as one completes (the grid is never made whole)
+        window = max(PENDING_PER_CPU * int(ray.cluster_resources().get("CPU", 1)), 1)
+        upcoming = iter(episodes)
+        pending = {task.remote(episode): episode for episode in itertools.islice(upcoming, window)}
         while pending:
             done, _ = ray.wait(list(pending), num_returns=1)
             episode = pending.pop(done[0])
             row, files = ray.get(done[0])
+            for following in itertools.islice(upcoming, 1):
+                pending[task.remote(following)] = following
             folder = runs / episode.folder_name
             folder.mkdir(parents=True, exist_ok=True)
             for name, data in files.items():
                 (folder / name).write_bytes(data)
+            row["folder"] = f"{runs.name}/{episode.folder_name}"
             yield row
     finally:
         if started:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import shutil
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -39,17 +39,14 @@ def run_sweep(spec: SweepSpec, out: str | Path, *, local: bool = False, address:
     runs = out / RUNS
     runs.mkdir(parents=True, exist_ok=True)
     shutil.copyfile(spec.source, out / SPEC_COPY)
-    episodes = spec.episodes()
     if local:
-        rows_done = _run_here(episodes, runs)
+        rows_done = _run_here(spec.iter_episodes(), runs)
     else:
         from racecar_sim.sweep.ray_runner import run_on_ray
 
-        rows_done = run_on_ray(episodes, runs, address, num_cpus)
-    folders = {episode.index: episode.folder_name for episode in episodes}
+        rows_done = run_on_ray(spec.iter_episodes(), runs, address, num_cpus)
     rows = []
     for row in rows_done:
-        row["folder"] = f"{RUNS}/{folders[row['index']]}"
         rows.append(row)
         if on_row is not None:
             on_row(row)
@@ -57,6 +54,8 @@ def run_sweep(spec: SweepSpec, out: str | Path, *, local: bool = False, address:
     return SweepResult(out, rows, write_table(rows, spec.param_names, out))
 
 
-def _run_here(episodes: Sequence[Episode], runs: Path) -> Iterator[dict[str, Any]]:
+def _run_here(episodes: Iterable[Episode], runs: Path) -> Iterator[dict[str, Any]]:
     for episode in episodes:
-        yield run_episode(episode, runs / episode.folder_name)
+        row = run_episode(episode, runs / episode.folder_name)
+        row["folder"] = f"{RUNS}/{episode.folder_name}"
+        yield row

@@ -25,8 +25,10 @@ Parameter names are the driver's: wall_follow.yaml's or pure_pursuit.yaml's fiel
 from __future__ import annotations
 
 import itertools
+import math
 import re
 import typing
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -45,6 +47,9 @@ from racecar_sim.worlds.catalog import world_names
 FIELDS = {"duration", "worlds", "seeds", "drivers", "camera", "lidar", "noise", "physics", "profile", "record",
           "summary_png"}
 DEFAULT_DURATION = 30.0  # s of sim time per episode
+# The most episodes one sweep runs: each leaves a folder of files (a run.mcap of ~8 MB a minute without the camera)
+# and a row the table holds until the end, and is a Ray task; the grid's size is counted before anything is built.
+MAX_EPISODES = 100_000
 _CONFIGS = {"wall-follow": WallFollowConfig, "pure-pursuit": PurePursuitConfig}
 _UNSAFE = re.compile(r"[^A-Za-z0-9_.-]+")
 
@@ -56,10 +61,16 @@ class DriverGrid:
     driver: str
     params: dict[str, list[Any]] = field(default_factory=dict)
 
-    def combinations(self) -> list[dict[str, Any]]:
-        """The cartesian product of the parameter values, in the file's order (one empty dict with none)."""
+    def combinations(self) -> Iterator[dict[str, Any]]:
+        """The cartesian product of the parameter values, in the file's order (one empty dict with none), made one
+        at a time."""
         names = list(self.params)
-        return [dict(zip(names, values)) for values in itertools.product(*(self.params[n] for n in names))]
+        return (dict(zip(names, values)) for values in itertools.product(*(self.params[n] for n in names)))
+
+    @property
+    def size(self) -> int:
+        """How many combinations there are (counted, not made)."""
+        return math.prod(len(values) for values in self.params.values())
 
 
 @dataclass(frozen=True)
@@ -104,16 +115,25 @@ class SweepSpec:
 
     source: str
     worlds: list[str]
-    seeds: list[int]
+    seeds: Sequence[int]  # a list, or the range of `seeds: N`
     drivers: list[DriverGrid]
     settings: RunSettings
 
+    @property
+    def size(self) -> int:
+        """How many episodes the grid holds (counted, not made)."""
+        return len(self.worlds) * sum(grid.size for grid in self.drivers) * len(self.seeds)
+
+    def iter_episodes(self) -> Iterator[Episode]:
+        """Every world x driver x parameter combination x seed, numbered from 0, made one at a time."""
+        cells = ((world, grid.driver, params, seed) for world in self.worlds for grid in self.drivers
+                 for params in grid.combinations() for seed in self.seeds)
+        return (Episode(i, world, driver, params, seed, self.settings)
+                for i, (world, driver, params, seed) in enumerate(cells))
+
     def episodes(self) -> list[Episode]:
-        """Every world x driver x parameter combination x seed, numbered from 0."""
-        cells = [(world, grid.driver, params, seed) for world in self.worlds for grid in self.drivers
-                 for params in grid.combinations() for seed in self.seeds]
-        return [Episode(i, world, driver, params, seed, self.settings)
-                for i, (world, driver, params, seed) in enumerate(cells)]
+        """Every episode, as a list (iter_episodes makes them one at a time)."""
+        return list(self.iter_episodes())
 
     @property
     def param_names(self) -> list[str]:
@@ -149,16 +169,17 @@ def load_sweep(path: str | Path) -> SweepSpec:
         ("camera", False), ("lidar", True), ("noise", True), ("record", True), ("summary_png", False))}
     physics = _choice(data.get("physics", "default"), preset_names(), where("physics"))
     profile = _choice(data.get("profile", "seed"), profile_names(), where("profile"))
-    drivers = _drivers(data["drivers"], path)
+    worlds = _worlds(data["worlds"], path)
+    seeds = _seeds(data["seeds"], where("seeds"))
+    drivers = _drivers(data["drivers"], path, len(worlds) * len(seeds))
     if not flags["lidar"] and any(grid.driver == "wall-follow" for grid in drivers):
         raise ConfigError(f"{where('lidar')}: wall-follow steers by the lidar: set lidar: true or drop wall-follow")
-    worlds = _worlds(data["worlds"], path)
     pathless = [w for w in worlds if track_file(w) is None]
     for k, grid in enumerate(drivers):
         if grid.driver == "pure-pursuit" and "path" not in grid.params and pathless:
             raise ConfigError(f"{path}: drivers[{k}].params.path: pure-pursuit needs a path (a waypoint CSV) on "
                               f"{pathless[0]!r}, which is not a track .csv")
-    return SweepSpec(str(path), worlds, _seeds(data["seeds"], where("seeds")), drivers,
+    return SweepSpec(str(path), worlds, seeds, drivers,
                      RunSettings(duration, physics=physics, profile=profile, **flags))
 
 
@@ -197,11 +218,13 @@ def _worlds(value: object, path: Path) -> list[str]:
     return worlds
 
 
-def _seeds(value: object, where: str) -> list[int]:
+def _seeds(value: object, where: str) -> Sequence[int]:
     if isinstance(value, int) and not isinstance(value, bool):
         if value < 1:
             raise ConfigError(f"{where}: a count of seeds must be 1 or more, got {value}")
-        return list(range(value))
+        if value > MAX_EPISODES:
+            raise ConfigError(f"{where}: {value} seeds are more than the {MAX_EPISODES} episodes a sweep runs")
+        return range(value)  # 0 .. value - 1, made as they are used
     seeds = _as_list(value, where)
     for seed in seeds:
         if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
@@ -211,9 +234,12 @@ def _seeds(value: object, where: str) -> list[int]:
     return seeds
 
 
-def _drivers(value: object, path: Path) -> list[DriverGrid]:
+def _drivers(value: object, path: Path, per_cell: int) -> list[DriverGrid]:
+    """The drivers' grids, their size checked (times `per_cell`: worlds x seeds) before any value is."""
     grids = []
-    for k, entry in enumerate(_as_list(value, f"{path}: drivers")):
+    entries = _as_list(value, f"{path}: drivers")
+    total = 0
+    for k, entry in enumerate(entries):
         where = f"{path}: drivers[{k}]"
         if isinstance(entry, str):
             entry = {"driver": entry}
@@ -236,6 +262,12 @@ def _drivers(value: object, path: Path) -> list[DriverGrid]:
                 raise ConfigError(f"{where}.params: {driver} has no parameter {name!r} (it takes: {', '.join(known)})")
             grid[name] = _values(driver, name, values, path, f"{where}.params.{name}")
         checked = DriverGrid(driver, grid)
+        total += checked.size
+        if total * per_cell > MAX_EPISODES:
+            sizes = " + ".join(f"{g.size}" for g in [*grids, checked])
+            raise ConfigError(f"{where}.params: the grid is {total * per_cell} episodes (worlds x seeds "
+                              f"{per_cell} x driver combinations {sizes}{' + ...' if k + 1 < len(entries) else ''}), "
+                              f"more than the {MAX_EPISODES} a sweep runs: sweep fewer values")
         for combination in checked.combinations():
             _check_values(driver, combination, where)
         grids.append(checked)

@@ -11,7 +11,7 @@ import yaml
 
 from racecar_sim.core.errors import WorldError
 from racecar_sim.worlds.sdf import load_sdf
-from racecar_sim.worlds.world import BUILTIN_DATA, Spawn, World
+from racecar_sim.worlds.world import BUILTIN_DATA, MAX_COORDINATE, Spawn, World
 
 DATA = BUILTIN_DATA
 BUILTIN_WORLDS: dict[str, dict] = yaml.safe_load((DATA / "worlds.yaml").read_text())
@@ -49,8 +49,9 @@ def load_world(name_or_path: str | Path, spawn: Spawn | None = None, model_path:
         path = Path(name_or_path)
         if not path.exists():
             raise WorldError(f"{key}: no such world file, and not a built-in world ({', '.join(BUILTIN_WORLDS)})")
-        if not (wall_height > 0 and wall_height < float("inf")):
-            raise WorldError(f"{key}: wall height must be a positive number of metres, got {wall_height}")
+        if not (wall_height > 0 and wall_height <= MAX_COORDINATE):
+            raise WorldError(f"{key}: wall height (--wall-height) must be a positive number of metres up to "
+                             f"{MAX_COORDINATE:g} (the largest world coordinate), got {wall_height:g}")
         suffix = path.suffix.lower()
         if suffix in MAP_SUFFIXES:
             from racecar_sim.worlds.occupancy_map import load_map
@@ -64,4 +65,5 @@ def load_world(name_or_path: str | Path, spawn: Spawn | None = None, model_path:
             world = load_sdf(path, model_path)
     if spawn is not None:
         world.spawn = spawn
+    world.check_extent()
     return world

@@ -18,7 +18,7 @@ import numpy as np
 
 from racecar_sim.core.errors import RacecarSimError, WorldError
 from racecar_sim.worlds.walls import border_walls, offset_polyline, simplify
-from racecar_sim.worlds.world import Spawn, World, WorldBody, WorldGeom
+from racecar_sim.worlds.world import MAX_COORDINATE, Spawn, World, WorldBody, WorldGeom
 
 COLUMNS = ("x", "y", "w_right", "w_left")
 BORDER_TOLERANCE = 0.01  # m, a simplified border stays this close to the offset centerline
@@ -86,6 +86,10 @@ def read_centerline(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, lis
     values = table.numbers(list(zip(indices, COLUMNS))).reshape(-1, 4)
     rows = list(table.lines)
     for row, line in zip(values, rows):
+        for name, value in zip(COLUMNS, row):
+            if abs(value) > MAX_COORDINATE:
+                raise table.fail(line, f"{name}: {value:g} m is beyond the largest world coordinate "
+                                       f"({MAX_COORDINATE:g} m)")
         for name, value in zip(COLUMNS[2:], row[2:]):
             if value <= 0:
                 raise table.fail(line, f"{name}: track width must be positive, got {value:g}")

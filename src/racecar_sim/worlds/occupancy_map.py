@@ -16,10 +16,12 @@ import numpy as np
 import yaml
 from PIL import Image, UnidentifiedImageError
 
-from racecar_sim.core.errors import WorldError
+from racecar_sim.core.errors import ConfigError, WorldError
+from racecar_sim.core.tables import finite_number
 from racecar_sim.core.transforms import quat_from_axis_angle, quat_rotate
+from racecar_sim.worlds.images import open_image
 from racecar_sim.worlds.walls import box_geoms, cell_rectangles
-from racecar_sim.worlds.world import Spawn, World, WorldBody, WorldGeom
+from racecar_sim.worlds.world import MAX_COORDINATE, Spawn, World, WorldBody, WorldGeom
 
 MODES = ("trinary", "scale", "raw")
 DEFAULTS = {"negate": 0, "occupied_thresh": 0.65, "free_thresh": 0.196, "mode": "trinary"}  # map_saver's values
@@ -35,7 +37,7 @@ def load_map(path: str | Path, wall_height: float, spawn: Spawn | None = None) -
 
     path = Path(path)
     meta = _read_yaml(path)
-    grey, alpha = _read_image(path, meta["image"])
+    grey, alpha = _read_image(path, meta)
     occupied = occupied_cells(grey, alpha, meta)
     ox, oy, yaw = meta["origin"]
     world = load_world("empty")
@@ -103,7 +105,7 @@ def _read_yaml(path: Path) -> dict[str, Any]:
     origin = meta.get("origin")
     if not isinstance(origin, list) or len(origin) != 3 or not all(_is_finite(v) for v in origin):
         raise _fail(path, "origin", f"must be [x, y, yaw], three finite numbers, got {origin!r}")
-    meta["origin"] = tuple(float(v) for v in origin)
+    meta["origin"] = tuple(finite_number(v, "origin") for v in origin)
     for key in ("occupied_thresh", "free_thresh"):
         meta[key] = _number(path, meta, key)
         if not 0.0 <= meta[key] <= 1.0:
@@ -118,29 +120,48 @@ def _read_yaml(path: Path) -> dict[str, Any]:
 
 
 def _is_finite(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    """Whether a YAML value is a finite number: PyYAML (YAML 1.1) reads `5e-2` as a string, where map_server
+    (yaml-cpp) reads 0.05, so such a string counts (core.tables.finite_number)."""
+    try:
+        finite_number(value, "")
+    except ConfigError:
+        return False
+    return True
 
 
 def _number(path: Path, meta: dict[str, Any], key: str) -> float:
-    """A finite number from the YAML, or a WorldError naming the field."""
+    """A finite number from the YAML (a string such as `5e-2` too, as map_server reads it), or a WorldError naming
+    the field."""
     if key not in meta:
         raise _fail(path, key, "missing")
     if not _is_finite(meta[key]):
         raise _fail(path, key, f"must be a finite number, got {meta[key]!r}")
-    return float(meta[key])
+    return finite_number(meta[key], key)
 
 
-def _read_image(path: Path, image: str) -> tuple[np.ndarray, np.ndarray | None]:
-    """Grey levels (rows, cols) on map_server's 0..255 scale and the alpha channel if any; row 0 is the top."""
-    file = (path.parent / image).resolve()
+def _read_image(path: Path, meta: dict[str, Any]) -> tuple[np.ndarray, np.ndarray | None]:
+    """Grey levels (rows, cols) on map_server's 0..255 scale and the alpha channel if any; row 0 is the top. The
+    image's size (MAX_IMAGE_PIXELS) and the map's extent (MAX_COORDINATE) are checked before it is decoded."""
+    file = (path.parent / meta["image"]).resolve()
     if not file.is_file():
         raise _fail(path, "image", f"no such file {file}")
     try:
-        with Image.open(file) as img:
+        with open_image(file, lambda message: _fail(path, "image", message), "map") as img:
+            _check_extent(path, meta, *img.size)
             img.load()
             return _grey_levels(img)
     except (OSError, UnidentifiedImageError, ValueError) as exc:
         raise _fail(path, "image", f"cannot read {file}: {' '.join(str(exc).split())}") from None
+
+
+def _check_extent(path: Path, meta: dict[str, Any], width: int, height: int) -> None:
+    """WorldError unless every corner of a map of width x height cells lies within MAX_COORDINATE of the origin."""
+    ox, oy, _ = meta["origin"]
+    reach = math.hypot(ox, oy) + meta["resolution"] * math.hypot(width, height)
+    if not reach <= MAX_COORDINATE:
+        raise _fail(path, "resolution", f"{width} x {height} cells of {meta['resolution']:g} m from origin "
+                                        f"[{ox:g}, {oy:g}] reach {reach:.3g} m from the world's origin, beyond the "
+                                        f"largest world coordinate ({MAX_COORDINATE:g} m)")
 
 
 def _grey_levels(img: Image.Image) -> tuple[np.ndarray, np.ndarray | None]:

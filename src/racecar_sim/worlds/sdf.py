@@ -46,6 +46,7 @@ _ODE_DEFAULTS = {"solver/type": "quick", "solver/sor": 1.3, "solver/min_step_siz
                  "solver/friction_model": "pyramid_model", "solver/island_threads": 0,
                  "solver/thread_position_correction": 0, "constraints/cfm": 0.0, "constraints/erp": 0.2,
                  "constraints/contact_max_correcting_vel": 100.0, "constraints/contact_surface_layer": 0.001}
+MAX_NESTING = 64  # models within models (nested <model>s and <include>s)
 _PHYSICS_KNOWN = {"max_step_size", "real_time_factor", "real_time_update_rate", "gravity", "ode", "max_contacts",
                   "magnetic_field"}
 
@@ -77,12 +78,22 @@ def _inertial(el: ET.Element, body: WorldBody, ctx: SdfContext, where: str) -> N
     com, frame = pose_or_identity(el, ctx, f"{where} <inertial>")
     rot = quat_to_matrix(frame)
     tensor = rot @ tensor @ rot.T  # into the link frame, where MuJoCo's fullinertia is given
+    a, b, c = np.linalg.eigvalsh(tensor)  # the principal moments, ascending
+    given = ", ".join(f"{k} {values[k]:g}" for k in ("ixx", "iyy", "izz", "ixy", "ixz", "iyz"))
+    if not a > 0:
+        raise ctx.error(f"{where} <inertial><inertia>: a body's inertia must be positive definite, but its principal "
+                        f"moments are {a:g}, {b:g}, {c:g} ({given})")
+    if a + b < c * (1.0 - 1e-9):
+        raise ctx.error(f"{where} <inertial><inertia>: principal moments {a:g}, {b:g}, {c:g} break the triangle "
+                        f"inequality (the two smaller must add up to the largest, as for any rigid body) ({given})")
     body.com = com
     body.inertia = (tensor[0, 0], tensor[1, 1], tensor[2, 2], tensor[0, 1], tensor[0, 2], tensor[1, 2])
 
 
 def _link(el: ET.Element, model: str, static: bool, model_pose: Pose, ctx: SdfContext) -> WorldBody:
     name = f"{model}::{el.get('name', 'link')}"
+    ctx.claim(("link", name), f"model '{model}' has two links named '{el.get('name', 'link')}' (MuJoCo and Gazebo "
+                              "take each name once)")
     ctx.warn_unknown(el, _LINK_KNOWN, f"link {name}")
     if not flag(el, "gravity", True):
         ctx.warn("gravity>false</gravity", f"link {name}", "is not supported: gravity acts on every body")
@@ -93,6 +104,7 @@ def _link(el: ET.Element, model: str, static: bool, model_pose: Pose, ctx: SdfCo
         _inertial(inertial, body, ctx, name)
     for shape in el.findall("collision"):
         where = f"{name}/{shape.get('name', 'collision')}"
+        _claim_shape(ctx, name, where)
         ctx.warn_unknown(shape, _COLLISION_KNOWN, where)
         mu = number(shape, "surface/friction/ode/mu", 1.0, ctx, f"{where} <surface>")
         mu2 = number(shape, "surface/friction/ode/mu2", mu, ctx, f"{where} <surface>")
@@ -106,6 +118,7 @@ def _link(el: ET.Element, model: str, static: bool, model_pose: Pose, ctx: SdfCo
             body.geoms.append(geom)
     for shape in el.findall("visual"):
         where = f"{name}/{shape.get('name', 'visual')}"
+        _claim_shape(ctx, name, where)
         ctx.warn_unknown(shape, _VISUAL_KNOWN, where)
         rgba = rgba_of(shape.find("material"), ctx, where)
         for geom in shapes(shape, False, ctx, where):
@@ -115,9 +128,19 @@ def _link(el: ET.Element, model: str, static: bool, model_pose: Pose, ctx: SdfCo
     return body
 
 
+def _claim_shape(ctx: SdfContext, link: str, where: str) -> None:
+    """Take the name of a <collision> or <visual>: both become MuJoCo geoms, which take each name once."""
+    ctx.claim(("shape", where), f"link '{link}' has two <collision>/<visual> elements named "
+                                f"'{where.rpartition('/')[2]}' (each needs a name of its own)")
+
+
 def _model(el: ET.Element, world: World, ctx: SdfContext, placed: Pose, name: str,
            static: bool | None = None) -> None:
     """Add a <model> whose frame is at `placed` in the world."""
+    if name.count("::") >= MAX_NESTING:
+        raise ctx.error(f"model {name.split('::')[0]}: models nested more than {MAX_NESTING} deep")
+    ctx.claim(("model", name), f"two models named '{name}': Gazebo refuses a repeated model name too (give each "
+                               "its own name, an <include> its own <name>)")
     ctx.warn_unknown(el, _MODEL_KNOWN, f"model {name}")
     static = flag(el, "static", False) if static is None else static
     for child in el:
@@ -164,7 +187,7 @@ def _include(el: ET.Element, world: World, ctx: SdfContext, parent: Pose | None 
     path = folder if folder.is_file() else folder / "model.sdf"
     if not path.is_file():
         raise ctx.error(f"<include> {uri}: {path} does not exist")
-    inner = ctx.inside(path)
+    inner = ctx.inside(path, uri)
     root = _parse(path)
     model, light = root.find("model"), root.find("light")
     target = model if model is not None else light

@@ -13,11 +13,11 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
 
 from racecar_sim.core.errors import WorldError
 from racecar_sim.core.ros_packages import gazebo_model_dirs
 from racecar_sim.core.transforms import quat_from_rpy, quat_mul
+from racecar_sim.worlds.images import open_image
 from racecar_sim.worlds.materials import gazebo_material_rgba
 from racecar_sim.worlds.mesh_surface import surface_pieces
 from racecar_sim.worlds.meshes import MeshPart, convex_pieces, load_mesh, textured_box
@@ -31,16 +31,38 @@ _MATERIAL_KNOWN = {"script", "ambient", "diffuse", "specular", "emissive", "pbr"
 
 
 class SdfContext:
-    """Where we are: the SDF file (for messages and relative URIs) and the folders that hold model:// models."""
+    """Where we are: the SDF file (for messages and relative URIs) and the folders that hold model:// models.
 
-    def __init__(self, source: Path, model_path: list[Path], warned: set | None = None) -> None:
+    `includes`: the chain of <include>s that led here from the world file `root`, (uri, file) each; `names`: the
+    full names of the models, links, collisions and visuals read so far (shared by every file of one world), as
+    MuJoCo and Gazebo take no name twice.
+    """
+
+    def __init__(self, source: Path, model_path: list[Path], warned: set | None = None,
+                 includes: tuple[tuple[str, Path], ...] = (), names: set | None = None,
+                 root: Path | None = None) -> None:
         self.source = source
         self.model_path = model_path
         self.warned: set = set() if warned is None else warned
+        self.includes = includes
+        self.names: set = set() if names is None else names
+        self.root = source if root is None else root
 
-    def inside(self, source: Path) -> SdfContext:
-        """The context for an included file: same search path, one shared set of warnings."""
-        return SdfContext(source, self.model_path, self.warned)
+    def inside(self, source: Path, uri: str = "") -> SdfContext:
+        """The context for a file included by `uri`: same search path, one shared set of warnings and of names. An
+        include that leads back to a file on its own chain (a model that includes itself, A includes B includes A)
+        is a WorldError naming the world file and the URIs."""
+        chain = (*self.includes, (uri, source))
+        if source.resolve() in {self.root.resolve(), *(file.resolve() for _, file in self.includes)}:
+            raise WorldError(f"{self.root}: <include> loop: {' -> '.join(u for u, _ in chain)} ({source} is included "
+                             "again inside itself)")
+        return SdfContext(source, self.model_path, self.warned, chain, self.names, self.root)
+
+    def claim(self, key: tuple[str, str], message: str) -> None:
+        """Take a name (kind, full name) of a model, link or shape; WorldError(message) if it is taken already."""
+        if key in self.names:
+            raise self.error(message)
+        self.names.add(key)
 
     def error(self, message: str) -> WorldError:
         return WorldError(f"{self.source}: {message}")
@@ -227,6 +249,12 @@ def _collision_pieces(parts: list[MeshPart], static: bool, uri: str, ctx: SdfCon
         else:
             part_pieces, part_convex = convex_pieces(part.mesh)
             convex = convex and part_convex
+            for piece in part_pieces:
+                if is_flat(piece.vertices):
+                    raise ctx.error(f"{where} <mesh><uri>{uri}</uri>: a free model's collision mesh collides as the "
+                                    f"convex hull of each connected piece, and one piece is flat (triangles: "
+                                    f"{len(piece.faces)}, vertices: {len(piece.vertices)}): make the model <static> "
+                                    "(it then collides as its faces) or give the mesh thickness")
         pieces += part_pieces
     if flat:
         ctx.warn(f"mesh><uri>{uri}</uri", where, f"is not convex: as in Gazebo, it collides as its faces where it is "
@@ -235,6 +263,15 @@ def _collision_pieces(parts: list[MeshPart], static: bool, uri: str, ctx: SdfCon
         ctx.warn(f"mesh><uri>{uri}</uri", where, "is not convex: it collides as the convex hull of each of its "
                  "connected pieces")
     return pieces
+
+
+def is_flat(vertices: np.ndarray, thinness: float = 1e-6) -> bool:
+    """Whether points (n, 3) have no convex hull with volume: fewer than 4, or all within `thinness` x their size
+    of one plane (MuJoCo refuses the hull of coplanar points; qhull warns from about 1e-8)."""
+    if len(vertices) < 4:
+        return True
+    spread = np.linalg.svd(vertices - vertices.mean(axis=0), compute_uv=False)
+    return not spread[2] > thinness * spread[0]
 
 
 def rgba_of(material: ET.Element | None, ctx: SdfContext, where: str) -> tuple[float, float, float, float]:
@@ -262,7 +299,7 @@ def albedo_map(material: ET.Element | None, ctx: SdfContext, where: str) -> np.n
         return None
     path = resolve_uri(text, ctx, f"{where} <albedo_map>")
     try:
-        with Image.open(path) as image:
+        with open_image(path, lambda message: ctx.error(f"{where} <albedo_map>: {message}"), "texture") as image:
             return np.asarray(image.convert("RGBA"))
     except (OSError, ValueError) as exc:
         raise ctx.error(f"{where} <albedo_map>{text.strip()}</albedo_map>: cannot read image {path}: {exc}") from None

@@ -2,12 +2,18 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from racecar_sim.core.errors import WorldError
+
 BUILTIN_DATA = Path(__file__).resolve().parent / "data"  # the built-in worlds' SDF files
+# m: every point of a world lies within this of the origin. Here a float64 position is good to 1.2e-7 m, about a
+# tenth of MuJoCo's collision tolerance (ccd_tolerance, 1e-6 m); much farther, its contacts become unreliable.
+MAX_COORDINATE = 1e9
 
 
 @dataclass
@@ -121,6 +127,23 @@ class World:
             return f"{self.name} ({path.name})"
         return self.source
 
+    def check_extent(self) -> None:
+        """WorldError naming the model if any geom or light lies beyond MAX_COORDINATE from the origin (or is not
+        finite): checked before the model, the lidar's grid or a picture is built from it. Planes are unbounded
+        anyway; their drawn size is not a coordinate."""
+        for body in self.bodies:
+            base = math.hypot(*body.pos)
+            for geom in body.geoms:
+                reach = base + math.hypot(*geom.pos) + geom_radius(geom)
+                if not reach <= MAX_COORDINATE:
+                    raise WorldError(f"{self.label}: {geom.name} reaches {reach:.3g} m from the origin, beyond the "
+                                     f"largest world coordinate ({MAX_COORDINATE:g} m)")
+        for light in self.lights:
+            reach = math.hypot(*light.pos)
+            if not reach <= MAX_COORDINATE:
+                raise WorldError(f"{self.label}: light {light.name} is {reach:.3g} m from the origin, beyond the "
+                                 f"largest world coordinate ({MAX_COORDINATE:g} m)")
+
     def cover_ground(self, points: np.ndarray, margin: float = 5.0) -> None:
         """Grow the ground planes to reach `margin` beyond every xy point given (a plane collides everywhere in
         MuJoCo, but is drawn only over its size)."""
@@ -135,3 +158,23 @@ class World:
             for geom in body.geoms:
                 if collides is None or geom.collides == collides:
                     yield body, geom
+
+
+def geom_radius(geom: WorldGeom) -> float:
+    """How far the geom reaches from its origin (a bound; 0 for a plane, which is unbounded anyway)."""
+    if geom.mesh is not None:
+        vertices = geom.mesh.vertices
+        scale = float(np.abs(vertices).max(initial=0.0))  # scaled: 1e300 squared must not overflow
+        if not 0.0 < scale < math.inf:
+            return scale
+        return scale * math.sqrt(float(((vertices / scale) ** 2).sum(axis=1).max()))
+    size = geom.size
+    if geom.kind == "box":
+        return 0.5 * math.hypot(*size[:3])
+    if geom.kind == "cylinder":
+        return math.hypot(size[0], 0.5 * size[1])
+    if geom.kind == "capsule":
+        return size[0] + 0.5 * size[1]
+    if geom.kind in ("sphere", "ellipsoid"):
+        return max(size)
+    return 0.0

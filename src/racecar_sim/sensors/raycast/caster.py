@@ -68,7 +68,7 @@ class RayCaster:
         if walls is not None:
             self.static = Footprints.join([self.static, boxes_footprints(walls.pos, walls.rotations(), walls.half)])
         self.grid = Grid(self.static, fan, cell_size)
-        self.compiled = bool(self.grid.cells)  # walls to cast: the compiled kernels (numba) are in use
+        self.compiled = self.grid.has_items  # walls to cast: the compiled kernels (numba) are in use
         moving = geoms[~static & ~own]
         bounded = np.isin(model.geom_type[moving], _ALWAYS_BOUNDED)
         self.moving_bounded, self.moving_other = moving[bounded], moving[~bounded]
@@ -128,7 +128,7 @@ class RayCaster:
     def level_walls(self) -> FlatWalls | None:
         """What a compiled caller needs to cast cast()'s common case itself (kernels.cast_level on the walls of the
         origin's cell; anything it refuses goes to cast()): the walls-only cells, or None when no scan of this world
-        can take that path (free bodies to see, a geom that is nowhere a prism, no walls)."""
+        can take that path (free bodies to see, a geom that is nowhere a prism, no walls, cells strewn too far)."""
         if self._has_moving or self.static.not_prism_like or not self.compiled:
             return None
         return self.grid.flat_walls()

@@ -1,5 +1,11 @@
 """A uniform grid over the static footprints: each cell holds every item within range_max of any of its
-points, copied into contiguous tables, so one dictionary look-up gives a scan all it may need."""
+points, copied into contiguous tables, so one dictionary look-up gives a scan all it may need.
+
+An item that would be registered in more than LONG_CELLS cells (a wall kilometres long, the edge of a large ground
+box, a huge bounding cylinder) is *long*: it is registered in no cell of its own, but joins the cells other items
+made that lie within its reach, and the cell of every point no other item is near (`Grid.empty`). So the grid's
+memory and build time grow with the number of items, never with their size; a scan sees the same items either way.
+"""
 
 from __future__ import annotations
 
@@ -11,7 +17,7 @@ import numpy as np
 
 from racecar_sim.sensors.raycast.fan import Fan
 from racecar_sim.sensors.raycast.planar import Walls
-from racecar_sim.sensors.raycast.scene import Footprints, empty_circles, empty_segments
+from racecar_sim.sensors.raycast.scene import Footprints
 
 
 def split_by_band(segments: np.ndarray, circles: np.ndarray, lo: float,
@@ -68,6 +74,24 @@ class Cell:
 
 
 _NO_CIRCLES = np.zeros((3, 0))
+LONG_CELLS = 256  # an item registered in more cells than this is long (a 230 m wall in 5 m cells; the tunnel's: 155)
+FLAT_CELLS = 1 << 22  # FlatWalls' look-up table holds at most this many cells (32 MB); a sparser grid has none
+
+
+def _merged(items: np.ndarray | None, long: np.ndarray | None) -> np.ndarray:
+    """A cell's items and the long items near it, in the tables' order (as if all had been registered)."""
+    if long is None:
+        return items if items is not None else np.zeros(0, np.intp)
+    return long if items is None else np.sort(np.concatenate([items, long]))
+
+
+def _segment_distances(points: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """Distance (len(points), n) from each point (rows x, y) to each segment (columns x0, y0, x1, y1)."""
+    x0, y0, x1, y1 = ends
+    ex, ey = x1 - x0, y1 - y0
+    px, py = points[:, :1] - x0, points[:, 1:] - y0
+    along = np.clip((px * ex + py * ey) / np.maximum(ex * ex + ey * ey, 1e-300), 0.0, 1.0)
+    return np.hypot(px - along * ex, py - along * ey)
 
 
 def _segment_boxes(segments: np.ndarray) -> np.ndarray:
@@ -82,45 +106,84 @@ def _circle_boxes(circles: np.ndarray) -> np.ndarray:
 
 class Grid:
     """Square cells of side `size` (m); items are registered in every cell their box, grown by `reach`,
-    overlaps."""
+    overlaps (long items: see the module's doc)."""
 
     def __init__(self, footprints: Footprints, fan: Fan, size: float | None = None) -> None:
         reach = fan.range_max
         self.size = size or max(reach / 2.0, 1.0)
         self.floors = np.ascontiguousarray(footprints.floors, dtype=float)
-        self._flat: FlatWalls | None = None
-        self.empty = Cell(empty_segments(), empty_circles(), empty_circles(), fan)
+        self._flat: FlatWalls | bool | None = None  # False: none (too sparse)
         tables = (footprints.segments, footprints.circles, footprints.bounds)
         boxes = (_segment_boxes(footprints.segments), _circle_boxes(footprints.circles),
                  _circle_boxes(footprints.bounds))
-        per_table = [self._register(box, reach) for box in boxes]
+        per_table, long = zip(*(self._register(box, reach) for box in boxes))
+        segments, circles, bounds = (table[:, items] for table, items in zip(tables, long))
+        self.empty = Cell(segments, circles, bounds, fan)
         keys = set().union(*(cells.keys() for cells in per_table))
-        self.cells = {key: Cell(*(table[:, cells.get(key, np.zeros(0, np.intp))]
-                                  for table, cells in zip(tables, per_table)), fan,
-                                ((key[0] + 0.5) * self.size, (key[1] + 0.5) * self.size)) for key in keys}
+        near_long = self._near_long(keys, tables, long, reach)
+        self.cells: dict[tuple[int, int], Cell] = {}
+        for key in keys:
+            segments, circles, bounds = (table[:, _merged(cells.get(key), near.get(key))]
+                                         for table, cells, near in zip(tables, per_table, near_long))
+            self.cells[key] = Cell(segments, circles, bounds, fan, ((key[0] + 0.5) * self.size,
+                                                                     (key[1] + 0.5) * self.size))
 
-    def _register(self, boxes: np.ndarray, reach: float) -> dict[tuple[int, int], np.ndarray]:
-        lo = np.floor((boxes[:2] - reach) / self.size).astype(np.int64)
-        hi = np.floor((boxes[2:] + reach) / self.size).astype(np.int64)
+    @property
+    def has_items(self) -> bool:
+        """Whether the grid holds anything: a cell of its own, or long items."""
+        return bool(self.cells) or any(table.shape[1] for table in (self.empty.segments, self.empty.circles,
+                                                                    self.empty.bounds))
+
+    def _register(self, boxes: np.ndarray, reach: float) -> tuple[dict[tuple[int, int], np.ndarray], np.ndarray]:
+        """The items (columns of `boxes`) of each cell, and the long items (registered in no cell)."""
+        lo = np.floor((boxes[:2] - reach) / self.size)
+        hi = np.floor((boxes[2:] + reach) / self.size)
+        long = np.flatnonzero((hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) > LONG_CELLS)  # floats: no overflow
+        short = np.setdiff1d(np.arange(boxes.shape[1]), long)
+        lo, hi = lo[:, short].astype(np.int64), hi[:, short].astype(np.int64)
         nx, ny = hi[0] - lo[0] + 1, hi[1] - lo[1] + 1
         counts = nx * ny
-        item = np.repeat(np.arange(boxes.shape[1]), counts)
+        item = np.repeat(short, counts)
         k = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)  # index within the item's block
         ix = np.repeat(lo[0], counts) + k % np.repeat(nx, counts)
         iy = np.repeat(lo[1], counts) + k // np.repeat(nx, counts)
         order = np.lexsort((item, iy, ix))
         ix, iy, item = ix[order], iy[order], item[order]
         if len(ix) == 0:
-            return {}
+            return {}, long
         starts = np.flatnonzero(np.r_[True, (np.diff(ix) != 0) | (np.diff(iy) != 0)])
         ends = np.r_[starts[1:], len(ix)]
-        return {(int(ix[s]), int(iy[s])): item[s:e] for s, e in zip(starts, ends)}
+        return {(int(ix[s]), int(iy[s])): item[s:e] for s, e in zip(starts, ends)}, long
 
-    def flat_walls(self) -> FlatWalls:
-        """The walls-only cells as arrays for a compiled caller (kernels' tables, concatenated), built once."""
+    def _near_long(self, keys: set[tuple[int, int]], tables: tuple[np.ndarray, ...], long: tuple[np.ndarray, ...],
+                   reach: float) -> list[dict[tuple[int, int], np.ndarray]]:
+        """Per table, the long items within reach of each cell in `keys` (of any point of it)."""
+        found: list[dict[tuple[int, int], np.ndarray]] = [{}, {}, {}]
+        if not keys or not any(len(items) for items in long):
+            return found
+        ordered = sorted(keys)
+        centres = (np.array(ordered, dtype=float) + 0.5) * self.size
+        room = (reach + self.size * math.sqrt(0.5)) * (1.0 + 1e-9)  # from a cell's centre: its farthest point's reach
+        for k, (table, items) in enumerate(zip(tables, long)):
+            step = max(1, (1 << 20) // max(len(items), 1))  # cells per block: the distance table stays small
+            for first in range(0, len(ordered) if len(items) else 0, step):
+                block = centres[first:first + step]
+                if k == 0:
+                    distance = _segment_distances(block, table[:4, items])
+                else:
+                    gap = np.hypot(block[:, :1] - table[0, items], block[:, 1:] - table[1, items])
+                    distance = gap - table[2, items]
+                for key, near in zip(ordered[first:first + step], distance <= room):
+                    if near.any():
+                        found[k][key] = items[near]
+        return found
+
+    def flat_walls(self) -> FlatWalls | None:
+        """The walls-only cells as arrays for a compiled caller (kernels' tables, concatenated), built once; None
+        where their look-up table would be too large (cells strewn kilometres apart: more than FLAT_CELLS)."""
         if self._flat is None:
             self._flat = FlatWalls.of(self)
-        return self._flat
+        return self._flat if isinstance(self._flat, FlatWalls) else None
 
     def cell(self, x: float, y: float) -> Cell:
         """The items near the point (x, y)."""
@@ -144,7 +207,8 @@ class FlatWalls:
     dense: bool = False
 
     @classmethod
-    def of(cls, grid: Grid) -> FlatWalls:
+    def of(cls, grid: Grid) -> FlatWalls | bool:
+        """The grid's walls-only cells; False if their look-up table would hold more than FLAT_CELLS cells."""
         from racecar_sim.sensors.raycast.dense import DENSE_WALLS, dense_order, dense_table
         from racecar_sim.sensors.raycast.kernels import WALL_ROWS
 
@@ -152,7 +216,10 @@ class FlatWalls:
         if not keys:
             return cls(grid.floors, grid.size, 0, 0, np.full((1, 1), -1, np.int64), np.zeros(1, np.int64), np.zeros((WALL_ROWS, 0)))
         x0, y0 = min(k[0] for k in keys), min(k[1] for k in keys)
-        ids = np.full((max(k[0] for k in keys) - x0 + 1, max(k[1] for k in keys) - y0 + 1), -1, np.int64)
+        shape = (max(k[0] for k in keys) - x0 + 1, max(k[1] for k in keys) - y0 + 1)
+        if shape[0] * shape[1] > FLAT_CELLS:
+            return False
+        ids = np.full(shape, -1, np.int64)
         dense = max(grid.cells[key].segments.shape[1] for key in keys) >= DENSE_WALLS
         tables = []
         for number, key in enumerate(keys):

@@ -74,7 +74,8 @@ def circle_intervals(frame: ScanFrame, circles: np.ndarray) -> tuple[np.ndarray,
     c = frame.to_plane @ (circles[:2] - frame.origin[:2, None])
     distance = np.hypot(c[0], c[1])
     radius = circles[2] * frame.stretch * (1.0 + 1e-9) + 1e-12
-    half = np.arcsin(np.minimum(radius / np.maximum(distance, 1e-300), 1.0))
+    # min(radius, distance): no overflow from a huge circle around the origin (inside it, `half` is not used)
+    half = np.arcsin(np.minimum(np.minimum(radius, distance) / np.maximum(distance, 1e-300), 1.0))
     start = np.mod(np.arctan2(c[1], c[0]) - half - fan.angle_min, 2.0 * math.pi) * fan.inverse_step
     inside = distance <= radius
     lo = np.where(inside, 0.0, start)

@@ -1,0 +1,25 @@
+"""What a node needs of the bus, as a protocol: the Bus itself, and a car's scoped view of it, both provide it."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any, Protocol
+
+
+class BusPort(Protocol):
+    """Publish, subscribe, count unheard messages, offer and call services."""
+
+    def publish(self, topic: str, msg: Any) -> None: ...
+
+    def subscribe(self, topic: str, callback: Callable[[Any], None], msgtype: type | None = None,
+                  feeds: Mapping[str, type] | None = None) -> Any: ...
+
+    def has_listeners(self, topic: str) -> bool: ...
+
+    def tally(self, topic: str, msgtype: type) -> None: ...
+
+    def latch(self, topic: str) -> None: ...
+
+    def advertise_service(self, name: str, handler: Callable[[Any], Any]) -> None: ...
+
+    def call(self, name: str, request: Any) -> Any: ...

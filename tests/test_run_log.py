@@ -1,0 +1,64 @@
+"""RunLog's memory stays flat in a long run: distance, mean speed and min clearance are running totals over every
+message (the same figures as summing the whole path), and the path kept for summary.png is thinned to at most
+TRAJECTORY_ROWS rows, its rate (trajectory_rate) halving each time, which the summary's 10 s marks follow."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+
+from racecar_sim.bus import Bus
+from racecar_sim.msgs import (Header, Odometry, Point, Pose, PoseWithCovariance, Quaternion, Twist, TwistWithCovariance,
+                              Vector3)
+from racecar_sim.runtime.run_log import ODOMETRY_RATE, TRAJECTORY_ROWS, RunLog
+from racecar_sim.worlds import load_world
+
+PERIOD_NS = round(1e9 / ODOMETRY_RATE)
+
+
+def drive(count: int) -> tuple[RunLog, list[tuple[float, float, float]]]:
+    """A RunLog fed `count` odometry messages of a car circling at a changing speed; the rows it was sent."""
+    bus = Bus()
+    log = RunLog(bus, None, None, odom_topic="/vesc/odom")
+    rows = []
+    for i in range(count):
+        a = 0.001 * i
+        x, y, vx, vy = 5.0 * math.cos(a), 5.0 * math.sin(a), -math.sin(a) * (1 + 0.001 * (i % 500)), math.cos(a)
+        bus.publish("/vesc/odom", Odometry(Header.at(i * PERIOD_NS, "map"), "odom",
+                                           PoseWithCovariance(Pose(Point(x, y, 0.0), Quaternion(0.0, 0.0, 0.0, 1.0))),
+                                           TwistWithCovariance(Twist(Vector3(vx, vy, 0.0), Vector3()))))
+        rows.append((x, y, math.hypot(vx, vy)))
+    return log, rows
+
+
+def test_a_long_run_keeps_a_bounded_path_and_the_exact_figures():
+    count = 3 * TRAJECTORY_ROWS + 7  # the path fills up twice: every 4th message is kept
+    log, rows = drive(count)
+    distance = 0.0
+    for (x0, y0, _), (x1, y1, _) in itertools.pairwise(rows):
+        distance += math.hypot(x1 - x0, y1 - y0)
+    assert log.distance == distance  # summed over every message, in order: the figure the whole path gave
+    assert log.mean_speed == distance / ((count - 1) * PERIOD_NS / 1e9)
+    traj = log.trajectory
+    assert len(traj) <= TRAJECTORY_ROWS + 1
+    assert log.trajectory_rate == ODOMETRY_RATE / 4
+    np.testing.assert_array_equal(traj[:-1], np.array(rows[::4]))
+    np.testing.assert_array_equal(traj[-1], rows[-1])  # the path ends where the car did
+
+
+def test_a_short_run_keeps_every_row():
+    log, rows = drive(1200)  # the main job's 60 s
+    np.testing.assert_array_equal(log.trajectory, np.array(rows))
+    assert log.trajectory_rate == ODOMETRY_RATE
+
+
+def test_the_summary_marks_every_10_s_of_a_thinned_path():
+    from racecar_sim.plots.summary import summary_figure
+
+    count = TRAJECTORY_ROWS + 1  # 819.2 s: every other message kept
+    log, _ = drive(count)
+    _, ax = summary_figure(load_world("empty"), log.trajectory, rate=log.trajectory_rate)
+    marks = [text.get_text() for text in ax.texts if text.get_text().endswith(" s")]
+    assert marks == [f"{t} s" for t in range(10, 819, 10)]
