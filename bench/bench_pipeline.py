@@ -26,7 +26,7 @@ import mujoco
 import numpy as np
 
 from racecar_sim.bus import Bus
-from racecar_sim.core.scheduler import Scheduler
+from racecar_sim.runtime.scheduler import Scheduler
 from racecar_sim.drivers import WallFollower
 from racecar_sim.runtime import Simulator
 from racecar_sim.runtime.driving import attach_driver

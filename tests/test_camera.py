@@ -25,7 +25,7 @@ from racecar_sim.core.transforms import compose, quat_from_axis_angle, quat_from
 from racecar_sim.description import load_robot
 from racecar_sim.description.kinematics import link_pose
 from racecar_sim.sensors.camera import CameraSpec, camera_spec
-from racecar_sim.sensors.gl import library_present, shared_context
+from racecar_sim.render.gl import library_present, shared_context
 from racecar_sim.worlds import Spawn
 from racecar_sim.worlds.catalog import DATA
 
@@ -311,7 +311,7 @@ def test_flat_sky_only_where_painting_it_is_exact():
     import mujoco
 
     from racecar_sim.physics.world_geoms import VISUAL_GROUP
-    from racecar_sim.sensors.render import flat_sky
+    from racecar_sim.render.offscreen import flat_sky
 
     def model(sky_top, sky_bottom, alpha=1.0, material_alpha=1.0, skybox=True):
         spec = mujoco.MjSpec()
@@ -424,7 +424,7 @@ def _python(code: str, env: dict[str, str]) -> str:
 
 def _gl_error(env: dict[str, str]) -> str:
     return _python("from racecar_sim.core.errors import RenderingError\n"
-                   "from racecar_sim.sensors.gl import create_context\n"
+                   "from racecar_sim.render.gl import create_context\n"
                    "try:\n    create_context()\nexcept RenderingError as exc:\n    print(exc)\nelse:\n    print('OK')\n",
                    env)
 

@@ -20,7 +20,7 @@ from racecar_sim.envs.spaces import (
     steering_from_hinges,
     to_command,
 )
-from racecar_sim.sensors.gl import shared_context
+from racecar_sim.render.gl import shared_context
 from racecar_sim.worlds import world_names
 
 try:

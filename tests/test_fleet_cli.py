@@ -20,7 +20,7 @@ from test_viewer import display, find_window, hold, needs_x, x_env, xdotool  # n
 
 from racecar_sim import Car, Simulator, Spawn
 from racecar_sim.cli.run import fleet_spawns
-from racecar_sim.live.foxglove_bridge import FoxgloveBridge
+from racecar_sim.bridges.foxglove.bridge import FoxgloveBridge
 from racecar_sim.plots.summary import DPI, FIGSIZE, SIDE, WIDE, fleet_color, save_summary, summary_figure
 from racecar_sim.worlds import load_world
 

@@ -25,8 +25,8 @@ from websockets.sync.client import connect
 from racecar_sim import Simulator
 from racecar_sim.bus import Bus
 from racecar_sim.core.errors import ConfigError, RacecarSimError
-from racecar_sim.live import foxglove_bridge
-from racecar_sim.live.foxglove_bridge import FoxgloveBridge
+from racecar_sim.bridges.foxglove import bridge as foxglove_bridge
+from racecar_sim.bridges.foxglove.bridge import FoxgloveBridge
 from racecar_sim.msgs import String, deserialize
 
 SUBPROTOCOL = "foxglove.sdk.v1"

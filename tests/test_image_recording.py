@@ -26,7 +26,7 @@ from racecar_sim.recording.images import (
 )
 from racecar_sim.recording.run_recording import RunRecording
 from racecar_sim.recording.writer_thread import WriterThread
-from racecar_sim.sensors.gl import shared_context
+from racecar_sim.render.gl import shared_context
 
 IMAGE = "/camera/zed/rgb/image_rect_color"
 COMPRESSED = IMAGE + "/compressed"

@@ -15,7 +15,7 @@ from ros_package_helpers import (
 
 from racecar_sim import Simulator
 from racecar_sim.core.errors import ConfigError
-from racecar_sim.core.ros_packages import (
+from racecar_sim.description.ros_packages import (
     SHIPPED_ROOTS,
     PackageNotFound,
     add_package_path,

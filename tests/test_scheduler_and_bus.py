@@ -8,7 +8,7 @@ from fractions import Fraction
 import pytest
 
 from racecar_sim.bus import Bus
-from racecar_sim.core.scheduler import Scheduler
+from racecar_sim.runtime.scheduler import Scheduler
 from racecar_sim.msgs import String
 
 STEP_NS = 1_000_000  # 1 ms physics step

@@ -131,7 +131,7 @@ def test_a_missing_osmesa_breaks_mujoco_but_not_the_simulator():
         import racecar_sim
         from racecar_sim import Simulator
         from racecar_sim.core.errors import RenderingError
-        from racecar_sim.sensors.gl import create_context
+        from racecar_sim.render.gl import create_context
         sim = Simulator(world="empty", camera=False, sensor_noise=False)
         sim.run_until(0.05)
         try:
@@ -148,7 +148,7 @@ def test_a_missing_osmesa_gives_the_camera_error_not_a_traceback():
     out = _json("""
         import json
         from racecar_sim.core.errors import RenderingError
-        from racecar_sim.sensors.gl import create_context
+        from racecar_sim.render.gl import create_context
         try:
             create_context()
         except RenderingError as exc:

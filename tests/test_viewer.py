@@ -209,7 +209,7 @@ CAMERA_AND_VIEWER = """
 import hashlib, json, os
 from racecar_sim import Simulator
 from racecar_sim.drivers import ConstantCommand
-from racecar_sim.live.viewer import CarViewer
+from racecar_sim.viz.viewer import CarViewer
 
 sim = Simulator(world="walker", camera=True)
 frames, variety = [], []

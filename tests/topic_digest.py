@@ -47,7 +47,7 @@ def renderer() -> str:
     try:
         from racecar_sim.render.gl import shared_context
     except ImportError:  # the checkout before GL moved out of sensors/
-        from racecar_sim.sensors.gl import shared_context  # type: ignore[no-redef]
+        from racecar_sim.render.gl import shared_context  # type: ignore[no-redef]
     try:
         gl = shared_context()
     except RenderingError:

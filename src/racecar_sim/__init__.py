@@ -28,7 +28,7 @@ def __getattr__(name: str) -> Any:
     if module is None:
         raise AttributeError(f"module 'racecar_sim' has no attribute {name!r}")
     if module == "racecar_sim.runtime":
-        from racecar_sim.sensors.gl import guard_mujoco_import
+        from racecar_sim.render.gl import guard_mujoco_import
 
         guard_mujoco_import()  # the runtime imports mujoco: a MUJOCO_GL backend without its library must not break it
     value = getattr(importlib.import_module(module), name)

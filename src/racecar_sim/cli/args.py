@@ -10,7 +10,7 @@ import re
 from pathlib import Path
 
 from racecar_sim.core.errors import ConfigError
-from racecar_sim.core.ros_packages import add_model_path, add_package_path
+from racecar_sim.description.ros_packages import add_model_path, add_package_path
 from racecar_sim.worlds import DEFAULT_WALL_HEIGHT, Spawn
 from racecar_sim.worlds.world import MAX_COORDINATE
 

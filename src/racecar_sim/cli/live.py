@@ -13,8 +13,8 @@ from racecar_sim.core.names import TELEOP
 from racecar_sim.msgs import LaserScan
 
 if TYPE_CHECKING:
-    from racecar_sim.live.foxglove_bridge import FoxgloveBridge
-    from racecar_sim.live.viewer import CarViewer
+    from racecar_sim.bridges.foxglove.bridge import FoxgloveBridge
+    from racecar_sim.viz.viewer import CarViewer
     from racecar_sim.runtime import Simulator
 
 FOXGLOVE_PORT = 8765  # foxglove_bridge's default
@@ -62,13 +62,13 @@ class LiveViews:
         self._scans: dict[int, LaserScan] = {}
         self._next_sync = 0.0
         if foxglove_port is not None:
-            from racecar_sim.live.foxglove_bridge import FoxgloveBridge
+            from racecar_sim.bridges.foxglove.bridge import FoxgloveBridge
 
             self.bridge = FoxgloveBridge(sim.bus, lambda: sim.time_ns, port=foxglove_port)
             print(f"racecar-sim: Foxglove WebSocket on ws://127.0.0.1:{self.bridge.port} "
                   f"(Foxglove, or Lichtblick >= 1.22: Open connection > Foxglove WebSocket)", file=sys.stderr)
         if viewer:
-            from racecar_sim.live.viewer import CarViewer
+            from racecar_sim.viz.viewer import CarViewer
 
             self.viewer = CarViewer.open(sim.model, sim.data, [car.names.mj(car.robot.root) for car in sim.cars])
             if self.viewer is not None:
@@ -117,7 +117,7 @@ class LiveViews:
         a second)."""
         if self.viewer is None:
             return
-        from racecar_sim.live.viewer import FOLLOW_KEY
+        from racecar_sim.viz.viewer import FOLLOW_KEY
 
         for key in self.viewer.poll_keys():
             if key == FOLLOW_KEY and len(self.sim.cars) > 1:  # with one car it is just another key: stop

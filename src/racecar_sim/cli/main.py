@@ -12,7 +12,7 @@ from types import ModuleType
 
 from racecar_sim import __version__
 from racecar_sim.core.errors import RacecarSimError
-from racecar_sim.sensors.gl import guard_mujoco_import, mujoco_gl_disabled
+from racecar_sim.render.gl import guard_mujoco_import, mujoco_gl_disabled
 
 # the module of each subcommand, in --help's order; only the one being run is imported (start-up time)
 SUBCOMMANDS = {"run": "run", "teleop": "teleop", "launch": "launch", "describe": "describe", "bench": "bench",

@@ -36,7 +36,7 @@ from racecar_sim.bus import Bus
 from racecar_sim.control.controller_state import ControllerStatePublisher
 from racecar_sim.control.controllers import JOINT_STATE, POSITION, VELOCITY, ControllerConfig, JointController
 from racecar_sim.core.names import CarNames
-from racecar_sim.core.scheduler import Scheduler
+from racecar_sim.nodes import Timers
 from racecar_sim.description.urdf import Robot
 from racecar_sim.msgs import ControllerState, HardwareInterfaceResources
 from racecar_sim.msgs.controller_manager_msgs import (
@@ -54,7 +54,7 @@ from racecar_sim.msgs.controller_manager_msgs import (
 from racecar_sim.physics.state import CarState
 
 if TYPE_CHECKING:
-    from racecar_sim.sensors.joint_states import JointStatePublisher
+    from racecar_sim.control.joint_state_controller import JointStatePublisher
 
 log = logging.getLogger("racecar_sim.controller_manager")
 
@@ -91,7 +91,7 @@ class _Muted:
 class ControllerManager:
     """The controller_manager of one car (ros_control's, under `<namespace>/controller_manager`)."""
 
-    def __init__(self, bus: Bus, scheduler: Scheduler, state: CarState, config: ControllerConfig, robot: Robot,
+    def __init__(self, bus: Bus, scheduler: Timers, state: CarState, config: ControllerConfig, robot: Robot,
                  joint_states: JointStatePublisher, names: CarNames = CarNames()) -> None:
         self.bus, self.state, self.config, self.joint_states = bus, state, config, joint_states
         self.namespace = names.topic(f"{config.namespace}/controller_manager")

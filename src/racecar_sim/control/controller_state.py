@@ -23,7 +23,7 @@ import numpy as np
 from racecar_sim.bus import Bus
 from racecar_sim.control.controllers import VELOCITY, ControllerConfig, JointController
 from racecar_sim.core.names import CarNames
-from racecar_sim.core.scheduler import Scheduler
+from racecar_sim.nodes import Timers
 from racecar_sim.msgs import Header, JointControllerState
 from racecar_sim.physics.state import CarState
 
@@ -43,7 +43,7 @@ class _Controller:
 class ControllerStatePublisher:
     """Publishes each running joint controller's JointControllerState at 100 Hz of sim time, while someone listens."""
 
-    def __init__(self, bus: Bus, scheduler: Scheduler, state: CarState, config: ControllerConfig,
+    def __init__(self, bus: Bus, scheduler: Timers, state: CarState, config: ControllerConfig,
                  running: Callable[[str], bool], names: CarNames = CarNames()) -> None:
         self.bus, self.state, self.running = bus, state, running
         self.controllers = [_Controller(c, names.topic(f"{c.namespace}/{c.name}/state"),

@@ -23,7 +23,7 @@ from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.time import to_ns
 from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header, String
-from racecar_sim.core.scheduler import Scheduler, Timeout
+from racecar_sim.nodes import Restartable, Timers
 from racecar_sim.core.tables import finite_number
 from racecar_sim.core.throttle import ThrottledWarning, is_finite_number
 
@@ -130,7 +130,7 @@ def load_mux_inputs(path: Path) -> tuple[list[MuxInput], str]:
 class AckermannCmdMux:
     """One ackermann_cmd_mux nodelet under `namespace` (e.g. /vesc/low_level/ackermann_cmd_mux)."""
 
-    def __init__(self, bus: Bus, scheduler: Scheduler, now: Callable[[], int], namespace: str,
+    def __init__(self, bus: Bus, scheduler: Timers, now: Callable[[], int], namespace: str,
                  inputs: list[MuxInput], output: str = "output") -> None:
         self.bus, self.scheduler, self.now = bus, scheduler, now
         self.warn = ThrottledWarning(log, now)
@@ -139,7 +139,7 @@ class AckermannCmdMux:
         self.active_topic = f"{namespace}/active"
         self.holder: MuxInput | None = None
         self.last_forwarded: MuxInput | None = None  # whose command went out last (it still drives downstream)
-        self._timers: dict[str, Timeout] = {}  # per input, restarted by each of its commands
+        self._timers: dict[str, Restartable] = {}  # per input, restarted by each of its commands
         bus.latch(self.active_topic)
         bus.publish(self.active_topic, String("idle"))
         for inp in inputs:
@@ -149,7 +149,7 @@ class AckermannCmdMux:
             bus.subscribe(topic, partial(self._on_command, inp, (topic, to_ns(inp.timeout), timer)),
                           AckermannDriveStamped)
 
-    def _on_command(self, inp: MuxInput, plan: tuple[str, int, Timeout], msg: AckermannDriveStamped) -> None:
+    def _on_command(self, inp: MuxInput, plan: tuple[str, int, Restartable], msg: AckermannDriveStamped) -> None:
         topic, timeout_ns, timer = plan  # worked out once per input
         if not accept_command(topic, msg, self.warn):
             return
@@ -181,7 +181,7 @@ class CommandChain:
     `config`: the wiring as a YAML file (mux.yaml) or the same as a mapping (a launch file's nodes; its mux files
     absolute paths, `source` naming where it came from, `default_command` optional)."""
 
-    def __init__(self, bus: Bus, scheduler: Scheduler, now: Callable[[], int], config: Path | Mapping = MUX_WIRING,
+    def __init__(self, bus: Bus, scheduler: Timers, now: Callable[[], int], config: Path | Mapping = MUX_WIRING,
                  names: CarNames = CarNames()) -> None:
         try:
             if isinstance(config, Mapping):

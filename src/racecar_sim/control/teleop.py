@@ -9,7 +9,7 @@ from pathlib import Path
 
 from racecar_sim.bus import Bus
 from racecar_sim.core.errors import ConfigError
-from racecar_sim.core.scheduler import Scheduler
+from racecar_sim.nodes import Timers
 from racecar_sim.core.tables import finite_number, load_record
 from racecar_sim.core.time import to_ns
 from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header
@@ -55,7 +55,7 @@ class KeyboardTeleop:
     keyboard's auto-repeat delay; releasing it stops the car `hold` + 0.2 s (the mux timeout) later.
     """
 
-    def __init__(self, bus: Bus, scheduler: Scheduler, now: Callable[[], int], speed: float | None = None,
+    def __init__(self, bus: Bus, scheduler: Timers, now: Callable[[], int], speed: float | None = None,
                  turn: float | None = None, hold: float | None = None, config: TeleopConfig | None = None,
                  topic: str = TELEOP) -> None:
         self.config = config or load_teleop_config()

@@ -13,7 +13,7 @@ import xacro
 import xacro.substitution_args as substitution_args
 
 from racecar_sim.core.errors import DescriptionError, RacecarSimError
-from racecar_sim.core.ros_packages import SHIPPED_ROOTS, PackageNotFound, find_package
+from racecar_sim.description.ros_packages import SHIPPED_ROOTS, PackageNotFound, find_package
 from racecar_sim.description.urdf import Robot, parse_urdf
 
 _DATA = Path(str(resources.files("racecar_sim.description") / "data"))

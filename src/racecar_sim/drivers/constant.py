@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from racecar_sim.bus import Bus
 from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header
-from racecar_sim.core.scheduler import Scheduler
+from racecar_sim.nodes import Timers
 
 NAVIGATION = "/vesc/ackermann_cmd_mux/input/navigation"
 
@@ -12,7 +12,7 @@ NAVIGATION = "/vesc/ackermann_cmd_mux/input/navigation"
 class ConstantCommand:
     """Publishes speed/steering_angle at `rate` Hz on `topic` (the navigation input by default)."""
 
-    def __init__(self, bus: Bus, scheduler: Scheduler, speed: float, steering_angle: float, rate: float = 20.0,
+    def __init__(self, bus: Bus, scheduler: Timers, speed: float, steering_angle: float, rate: float = 20.0,
                  topic: str = NAVIGATION) -> None:
         self.bus, self.topic = bus, topic
         self.drive = AckermannDrive(steering_angle=steering_angle, speed=speed)

@@ -7,8 +7,8 @@ import math
 import mujoco
 import numpy as np
 
-from racecar_sim.sensors.gl import shared_context
-from racecar_sim.sensors.render import GLScene, visual_only_option
+from racecar_sim.render.gl import shared_context
+from racecar_sim.render.offscreen import GLScene, visual_only_option
 
 DISTANCE = 2.5  # m behind the car
 ELEVATION = -20.0  # deg, looking down

@@ -40,7 +40,7 @@ class EnvView:
             return self._chase.frame()
         if self.render_mode == "human":
             if self._viewer is None:
-                from racecar_sim.live.viewer import CarViewer
+                from racecar_sim.viz.viewer import CarViewer
 
                 roots = [car.names.mj(car.robot.root) for car in self.sim.cars]
                 self._viewer = CarViewer.open(self.sim.model, self.sim.data, roots) or False

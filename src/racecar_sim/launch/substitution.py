@@ -59,7 +59,7 @@ def convert_value(text: str, kind: str = "auto") -> Any:
 
 
 def _find_package(name: str) -> Path:
-    from racecar_sim.core.ros_packages import (
+    from racecar_sim.description.ros_packages import (
         find_package,  # helper module of the package path (ROS_PACKAGE_PATH)
     )
 

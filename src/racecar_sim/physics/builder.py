@@ -16,7 +16,7 @@ import numpy as np
 
 from racecar_sim.core.errors import ConfigError, DescriptionError, WorldError
 from racecar_sim.core.names import CarNames
-from racecar_sim.core.ros_packages import PackageNotFound, resolve_uri
+from racecar_sim.description.ros_packages import PackageNotFound, resolve_uri
 from racecar_sim.core.transforms import quat_from_axis_angle, quat_from_rpy
 from racecar_sim.description.urdf import Link, Robot, Shape
 from racecar_sim.physics.contact import solref_solimp

@@ -33,7 +33,7 @@ from racecar_sim.control.profiles import Profile, load_profile
 from racecar_sim.control.servo import ServoCommands
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import ODOM_RELAY, CarNames
-from racecar_sim.core.scheduler import Scheduler, Task, Timeout
+from racecar_sim.runtime.scheduler import Scheduler, Task, Timeout
 from racecar_sim.description import (
     DEFAULT_XACRO,
     Robot,
@@ -43,7 +43,7 @@ from racecar_sim.description import (
 )
 from racecar_sim.physics import PhysicsPreset, add_car
 from racecar_sim.physics.state import CarState
-from racecar_sim.sensors.joint_states import JointStatePublisher
+from racecar_sim.control.joint_state_controller import JointStatePublisher
 from racecar_sim.sensors.odometry import FRAMES, OdometryPublisher
 from racecar_sim.sensors.robot_state import RobotStatePublisher, StaticTransforms
 from racecar_sim.worlds import Spawn

@@ -19,7 +19,7 @@ from racecar_sim.bus import Bus, Subscription
 from racecar_sim.core.errors import ConfigError, PhysicsError
 from racecar_sim.core.names import CLOCK
 from racecar_sim.core.rng import check_seed
-from racecar_sim.core.scheduler import Scheduler
+from racecar_sim.runtime.scheduler import Scheduler
 from racecar_sim.core.throttle import is_finite_number
 from racecar_sim.core.time import NS_PER_S, ceil_to_step, to_ns
 from racecar_sim.description import DEFAULT_XACRO

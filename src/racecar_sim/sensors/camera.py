@@ -23,12 +23,12 @@ from racecar_sim.bus import Bus
 from racecar_sim.core.errors import DescriptionError, RenderingError
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.rng import NoiseTable
-from racecar_sim.core.scheduler import Scheduler
+from racecar_sim.nodes import Timers
 from racecar_sim.core.transforms import quat_from_rpy, quat_mul
 from racecar_sim.description.urdf import Robot
 from racecar_sim.msgs import Header, Image
 from racecar_sim.sensors.camera_spec import CameraSpec
-from racecar_sim.sensors.render import OffscreenCamera
+from racecar_sim.render.offscreen import OffscreenCamera
 
 __all__ = ["CameraPublisher", "CameraSpec", "RenderingError", "add_camera", "add_noise", "camera_spec", "set_clip"]
 
@@ -103,7 +103,7 @@ class CameraPublisher:
     `frames_rendered` (how many frames were drawn: none while nobody listens).
     """
 
-    def __init__(self, bus: Bus, scheduler: Scheduler, model: mujoco.MjModel, data: mujoco.MjData, robot: Robot,
+    def __init__(self, bus: Bus, scheduler: Timers, model: mujoco.MjModel, data: mujoco.MjData, robot: Robot,
                  seed: int, noise: bool = True, names: CarNames = CarNames()) -> None:
         self.spec = camera_spec(robot, names)
         self.noise_stream = names.noise_prefix + NOISE_STREAM

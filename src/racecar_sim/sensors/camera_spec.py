@@ -63,8 +63,9 @@ class CameraSpec:
         return 3 * self.width
 
     @classmethod
-    def from_sensor(cls, sensor: Sensor) -> CameraSpec:
-        """Read a `<sensor type="camera">`; a missing or invalid field raises DescriptionError naming it."""
+    def from_sensor(cls, sensor: Sensor, default_format: str | None = None) -> CameraSpec:
+        """Read a `<sensor type="camera">` (or "depth"); a missing or invalid field raises DescriptionError naming it.
+        `default_format`: the image format when the block gives none (depth blocks often leave it out)."""
         where = f"camera sensor '{sensor.name}' on link {sensor.link}"
         el = sensor.element
         camera = el.find("camera")
@@ -76,7 +77,8 @@ class CameraSpec:
         if not 0 < hfov < math.pi:
             raise DescriptionError(f"{where}: <horizontal_fov> {hfov} must be in (0, pi) rad")
         width, height = (_integer(camera, f"image/{k}", where) for k in ("width", "height"))
-        fmt = _text(camera, "image/format", where)
+        fmt = _text(camera, "image/format", where) if default_format is None or camera.find("image/format") is not None \
+            else default_format
         if fmt not in ENCODINGS:
             raise DescriptionError(f"{where}: <image/format> '{fmt}' is not one of {', '.join(ENCODINGS)}")
         near, far = sensor_number(camera, "clip/near", where), sensor_number(camera, "clip/far", where)

@@ -17,7 +17,7 @@ from racecar_sim.bus import Bus
 from racecar_sim.core.errors import DescriptionError
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.rng import NoiseTable
-from racecar_sim.core.scheduler import Scheduler
+from racecar_sim.nodes import Timers
 from racecar_sim.core.transforms import quat_from_rpy, quat_to_matrix
 from racecar_sim.description.urdf import Robot
 from racecar_sim.msgs import Header, LaserScan
@@ -47,7 +47,7 @@ class LidarPublisher:
     every scan a MuJoCo 3-D cast (the reference; "auto" gives the same ranges, faster).
     """
 
-    def __init__(self, bus: Bus, scheduler: Scheduler, model: mujoco.MjModel, data: mujoco.MjData, robot: Robot,
+    def __init__(self, bus: Bus, scheduler: Timers, model: mujoco.MjModel, data: mujoco.MjData, robot: Robot,
                  seed: int, noise: bool = True, topic: str | None = None, mode: str = "auto",
                  names: CarNames = CarNames()) -> None:
         self.spec = spec = laser_spec(robot, names)

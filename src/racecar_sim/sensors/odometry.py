@@ -19,7 +19,7 @@ from racecar_sim.core.names import ODOM, ODOM_RELAY, TF, CarNames
 from racecar_sim.msgs import (Header, Odometry, Point, Pose, PoseWithCovariance, Quaternion, TFMessage, Transform,
                               TransformStamped, Twist, TwistWithCovariance, Vector3)
 from racecar_sim.physics.state import CarState
-from racecar_sim.core.scheduler import Scheduler
+from racecar_sim.nodes import Timers
 
 FRAMES = {"original": ("map", "odom"), "ros": ("odom", "base_link")}
 
@@ -27,7 +27,7 @@ FRAMES = {"original": ("map", "odom"), "ros": ("odom", "base_link")}
 class OdometryPublisher:
     """The odometry node; `rate` 20 Hz as the original timer."""
 
-    def __init__(self, bus: Bus, scheduler: Scheduler, state: CarState, mode: str = "original", rate: float = 20.0,
+    def __init__(self, bus: Bus, scheduler: Timers, state: CarState, mode: str = "original", rate: float = 20.0,
                  topic: str = ODOM, relay_topic: str | None = ODOM_RELAY, names: CarNames = CarNames()) -> None:
         if mode not in FRAMES:
             raise ConfigError(f"odometry mode {mode!r} is not one of {', '.join(FRAMES)}")

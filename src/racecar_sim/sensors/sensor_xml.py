@@ -24,3 +24,17 @@ def sensor_number(el: ET.Element, path: str, where: str, default: float | None =
         kind = "a whole number" if integer else "a finite number"
         raise DescriptionError(f"{where}: <{el.tag}><{path}> '{text.strip()}' is not {kind}")
     return value
+
+
+def plugin_number(params: dict[str, str], tag: str, where: str, default: float) -> float:
+    """The finite number a gazebo_ros plugin parameter (<updateRateHZ>, <gaussianNoise>) holds; `default` when absent."""
+    text = params.get(tag, "").strip()
+    if not text:
+        return default
+    try:
+        value = float(text)
+    except ValueError:
+        raise DescriptionError(f"{where}: <{tag}> '{text}' is not a number") from None
+    if not math.isfinite(value):
+        raise DescriptionError(f"{where}: <{tag}> '{text}' is not a finite number")
+    return value

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from racecar_sim.core.errors import WorldError
-from racecar_sim.core.ros_packages import gazebo_model_dirs
+from racecar_sim.description.ros_packages import gazebo_model_dirs
 from racecar_sim.core.transforms import quat_from_rpy, quat_mul
 from racecar_sim.worlds.images import open_image
 from racecar_sim.worlds.materials import gazebo_material_rgba

@@ -17,7 +17,7 @@ from racecar_sim.bridges.ros1.environment import (
 )
 from racecar_sim.bridges.ros1.master import Master
 from racecar_sim.core.errors import ConfigError
-from racecar_sim.core.ros_packages import find_package
+from racecar_sim.description.ros_packages import find_package
 
 _SKIPPED = {".git", "build", "devel", "node_modules", "__pycache__"}
 STOP_TIMEOUT = 5.0  # s a node has to exit after SIGINT before it is killed

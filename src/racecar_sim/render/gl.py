@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from typing import Any, TypeVar
 
 from racecar_sim.core.errors import RenderingError
-from racecar_sim.sensors.egl_probe import egl_problem
+from racecar_sim.render.egl_probe import egl_problem
 
 T = TypeVar("T")
 BACKENDS = ("egl", "osmesa")

@@ -19,7 +19,7 @@ import numpy as np
 
 from racecar_sim.core.errors import RenderingError
 from racecar_sim.physics.world_geoms import VISUAL_GROUP
-from racecar_sim.sensors.gl import HeadlessGL, shared_context
+from racecar_sim.render.gl import HeadlessGL, shared_context
 
 _OFF = (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION, mujoco.mjtRndFlag.mjRND_HAZE)
 _SKYBOX = mujoco.mjtRndFlag.mjRND_SKYBOX
@@ -72,6 +72,7 @@ class GLScene:
         self.rect = mujoco.MjrRect(0, 0, width, height)
         self.rgb = np.empty((height, width, 3), dtype=np.uint8)
         self.rgba = np.empty((height, width, 4), dtype=np.uint8)
+        self.depth: np.ndarray | None = None  # made by the first depth drawing
         self.sky = flat_sky(model)
         try:
             self.context: mujoco.MjrContext | None = gl.call(mujoco.MjrContext, model,
@@ -91,6 +92,23 @@ class GLScene:
         if self.context is None:
             raise RuntimeError("drawing after close()")
         return self.gl.submit(self._draw_rgba)
+
+    def draw_depth_later(self) -> Future[tuple[np.ndarray, np.ndarray, float, float]]:
+        """Draw the scene as it is now posed (the skybox drawn); the future's result is the RGB buffer, the depth
+        buffer (float32 in [0, 1], GL rows) and the near and far clip distances in metres it was drawn with."""
+        if self.context is None:
+            raise RuntimeError("drawing after close()")
+        near, far = self.scene.camera[0].frustum_near, self.scene.camera[0].frustum_far
+        return self.gl.submit(self._draw_depth, near, far)
+
+    def _draw_depth(self, near: float, far: float) -> tuple[np.ndarray, np.ndarray, float, float]:
+        if self.depth is None:
+            self.depth = np.empty(self.rgb.shape[:2], dtype=np.float32)
+        self.scene.flags[_SKYBOX] = 1
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self.context)
+        mujoco.mjr_render(self.rect, self.scene, self.context)
+        mujoco.mjr_readPixels(self.rgb, self.depth, self.rect, self.context)
+        return self.rgb, self.depth, near, far
 
     def _draw(self) -> np.ndarray:
         self.scene.flags[_SKYBOX] = 1
@@ -159,6 +177,11 @@ class OffscreenCamera:
     def render_later(self) -> Future[np.ndarray]:
         """Pose the scene at the current state now, and draw it on the GL context's thread: the future's result is
         render()'s. Nothing may render or pose this camera again before that result is taken."""
+        self._pose_scene()
+        assert self.target is not None
+        return self.target.draw_rgba_later()
+
+    def _pose_scene(self) -> None:
         if self.target is None:
             raise RuntimeError("render() after close()")
         pose = self._pose
@@ -172,7 +195,12 @@ class OffscreenCamera:
                                mujoco.mjtCatBit.mjCAT_STATIC | mujoco.mjtCatBit.mjCAT_DYNAMIC, scene)
         for flag in _OFF:
             scene.flags[flag] = 0
-        return self.target.draw_rgba_later()
+
+    def render_depth_later(self) -> Future[tuple[np.ndarray, np.ndarray, float, float]]:
+        """As render_later(), drawing the skybox and reading colour and depth: GLScene.draw_depth_later()'s result."""
+        self._pose_scene()
+        assert self.target is not None
+        return self.target.draw_depth_later()
 
     def close(self) -> None:
         """Free the GL objects of this camera (the shared GL context stays for the next camera)."""
