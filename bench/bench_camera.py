@@ -23,7 +23,7 @@ from racecar_sim.sensors.camera import CameraPublisher
 
 def _fps(sim: Simulator, frames: int, work: Callable[[int], object]) -> float:
     """Frames per wall second of `work(stamp)`, the car moving one camera period between frames."""
-    period = 1 / sim.camera.spec.rate_hz
+    period = 1 / sim.car.camera.spec.rate_hz
     wall = 0.0
     for _ in range(frames):
         sim.run_for(period)
@@ -54,10 +54,10 @@ def _draw(camera: CameraPublisher) -> Callable[[int], None]:
 
 def measure(world: str, frames: int) -> tuple[str, dict[str, float]]:
     sim = Simulator(world=world, lidar=False)
-    if sim.camera is None:
+    if sim.car.camera is None:
         raise SystemExit("the camera could not start (see the error above)")
     ConstantCommand(sim.bus, sim.scheduler, 1.0, 0.2)
-    camera = sim.camera
+    camera = sim.car.camera
     camera._task.cancel()  # the bench calls the camera itself
     camera.renderer.render()  # warm up: shaders, textures
     rows = {"draw": _fps(sim, frames, _draw(camera)),

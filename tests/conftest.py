@@ -35,9 +35,9 @@ def laser_pose(sim: Simulator) -> tuple[np.ndarray, np.ndarray]:
     from racecar_sim.core.transforms import compose, quat_from_rpy
     from racecar_sim.description.kinematics import link_pose
 
-    ray = sim.robot.sensor("ray")
-    pos, quat = compose(*link_pose(sim.robot, ray.link), np.array(ray.pose.xyz), quat_from_rpy(ray.pose.rpy))
-    return compose(*sim.state.base_pose(), pos, quat)
+    ray = sim.car.robot.sensor("ray")
+    pos, quat = compose(*link_pose(sim.car.robot, ray.link), np.array(ray.pose.xyz), quat_from_rpy(ray.pose.rpy))
+    return compose(*sim.car.state.base_pose(), pos, quat)
 
 
 def positions(odom: list, after: float = 0.0) -> np.ndarray:

@@ -75,11 +75,11 @@ def test_car_lands_on_the_ground_and_drives_two_metres(name):
     sim = Simulator(world=name)
     ConstantCommand(sim.bus, sim.scheduler, 1.0, 0.0)
     sim.run_until(1.0)
-    (x0, y0, z0), _ = sim.state.base_pose()
+    (x0, y0, z0), _ = sim.car.state.base_pose()
     ground = GROUND_Z.get(name, 0.0)
     assert z0 == pytest.approx(ground, abs=0.005), "base_link sits on the ground after the 5 cm drop"
     sim.run_until(5.0)  # 4 s at 1 m/s; in `cones` the car pushes the first cones out of its way
-    (x, y, z), _ = sim.state.base_pose()
+    (x, y, z), _ = sim.car.state.base_pose()
     assert x - x0 > 2.0, f"{name}: the car is stuck"
     assert z > ground - 0.01, f"{name}: the car fell through the ground"
     assert abs(y - y0) < 0.5

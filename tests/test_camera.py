@@ -53,7 +53,7 @@ def stamp_ns(msg) -> int:
 def camera_sim(world: str = "empty", seed: int = 0, noise: bool = True, **kwargs) -> Simulator:
     """A simulator with the camera on and the lidar off (not under test here)."""
     sim = Simulator(world=world, seed=seed, lidar=False, camera=True, sensor_noise=noise, **kwargs)
-    assert sim.camera is not None, "the camera did not start although a GL context exists"
+    assert sim.car.camera is not None, "the camera did not start although a GL context exists"
     return sim
 
 
@@ -165,8 +165,8 @@ def test_nothing_is_rendered_while_nobody_listens_and_the_schedule_holds():
     busy_log = Log(busy, IMAGE)
     quiet.run_until(1.0)
     busy.run_until(1.0)
-    assert quiet.camera.frames_rendered == 0 and quiet.bus.count(IMAGE) == 0 and quiet.bus.count(INFO) == 0
-    assert busy.camera.frames_rendered == 30
+    assert quiet.car.camera.frames_rendered == 0 and quiet.bus.count(IMAGE) == 0 and quiet.bus.count(INFO) == 0
+    assert busy.car.camera.frames_rendered == 30
     quiet_log = Log(quiet, IMAGE)
     quiet.run_until(1.1)
     busy.run_until(1.1)
@@ -222,7 +222,7 @@ def red_blobs(image_bgr: np.ndarray) -> list[tuple[float, float]]:
 @needs_gl
 def test_red_plates_land_where_a_pinhole_model_puts_them(tmp_path):
     sim = camera_sim(world=str(plates_world(tmp_path)), noise=False)
-    image = sim.camera.capture(0)
+    image = sim.car.camera.capture(0)
     assert image.shape == (HEIGHT, WIDTH, 3)
     expected = sorted(pinhole(np.array(p)) for p in PLATES)
     found = red_blobs(image)
@@ -242,7 +242,7 @@ def test_the_spawn_pose_moves_the_view(tmp_path):
     """Turned 20 degrees left, the car sees every plate 20 degrees further right - as the pinhole model says."""
     yaw = math.radians(20)
     sim = camera_sim(world=str(plates_world(tmp_path, yaw)), noise=False, spawn=Spawn(0.3, -0.2, 0.05, yaw))
-    found = red_blobs(sim.camera.capture(0))
+    found = red_blobs(sim.car.camera.capture(0))
     expected = sorted(pinhole(np.array(p), yaw, (0.3, -0.2, 0.05)) for p in PLATES)
     expected = [(u, v) for u, v in expected if 0 <= u < WIDTH]
     assert len(found) == len(expected) >= 2
@@ -253,7 +253,7 @@ def test_the_spawn_pose_moves_the_view(tmp_path):
 @needs_gl
 def test_gaussian_noise_as_gazebo_adds_it():
     sim = camera_sim(seed=7)
-    camera = sim.camera
+    camera = sim.car.camera
     camera.noise = False
     clean = camera.capture(1_000_000_000).astype(int)
     camera.noise = True
@@ -287,9 +287,9 @@ def test_same_seed_same_images_other_seed_other_noise():
 @needs_gl
 def test_rgb8_is_the_same_image_in_the_other_order():
     sim = camera_sim(noise=False)
-    bgr = sim.camera.capture(0)
-    sim.camera.spec = dataclasses.replace(sim.camera.spec, encoding="rgb8")
-    assert np.array_equal(sim.camera.capture(0), bgr[..., ::-1])
+    bgr = sim.car.camera.capture(0)
+    sim.car.camera.spec = dataclasses.replace(sim.car.camera.spec, encoding="rgb8")
+    assert np.array_equal(sim.car.camera.capture(0), bgr[..., ::-1])
 
 
 # --- what the worlds look like ----------------------------------------------------------------------------------
@@ -297,7 +297,7 @@ def test_rgb8_is_the_same_image_in_the_other_order():
 @needs_gl
 def test_sky_is_flat_and_the_ground_shows_its_squares():
     sim = camera_sim(noise=False)
-    image = sim.camera.capture(0).astype(int)
+    image = sim.car.camera.capture(0).astype(int)
     sky = image[:100]
     assert np.all(sky == sky[0, 0]) and abs(sky[0, 0, 0] - 0.7 * 255) <= 1  # the world's background, 0.7 grey
     ground = image[300:]
@@ -341,7 +341,7 @@ def test_the_painted_sky_is_mujocos_skybox_bit_for_bit(world):
     import mujoco
 
     sim = camera_sim(world=world, seed=2)
-    model, data, renderer = sim.model, sim.data, sim.camera.renderer
+    model, data, renderer = sim.model, sim.data, sim.car.camera.renderer
     assert renderer.sky is not None and renderer.sky.tolist() == [178] * 3  # the worlds' 0.7 grey background
     free = model.jnt_qposadr[np.flatnonzero(model.jnt_type == mujoco.mjtJoint.mjJNT_FREE)[0]]
     rng = np.random.default_rng(7)
@@ -353,10 +353,10 @@ def test_the_painted_sky_is_mujocos_skybox_bit_for_bit(world):
         yaw = rng.uniform(-math.pi, math.pi)
         data.qpos[free + 3:free + 7] = [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]
         mujoco.mj_forward(model, data)
-        painted = sim.camera.capture(1_000_000 * k)
+        painted = sim.car.camera.capture(1_000_000 * k)
         sky_seen.append((renderer.target.rgba[..., 3] == 0).mean())
         flat, renderer.target.sky = renderer.target.sky, None  # MuJoCo draws its skybox
-        drawn = sim.camera.capture(1_000_000 * k)
+        drawn = sim.car.camera.capture(1_000_000 * k)
         renderer.target.sky = flat
         assert np.array_equal(painted, drawn), f"pose {k}: {(painted != drawn).any(axis=2).sum()} pixels differ"
     assert sum(0.05 < f < 0.95 for f in sky_seen) >= 3, f"too few poses see both sky and ground: {sky_seen}"
@@ -366,7 +366,7 @@ def test_the_painted_sky_is_mujocos_skybox_bit_for_bit(world):
 @needs_gl
 def test_tunnel_walls_are_lit():
     sim = camera_sim(world="tunnel", noise=False)
-    image = sim.camera.capture(0).astype(int)
+    image = sim.car.camera.capture(0).astype(int)
     walls = image[:150, :50]  # the wall on the left, in front of the car
     assert walls.mean() > 60
 
@@ -388,7 +388,7 @@ def _tag_bits(image: np.ndarray) -> np.ndarray:
 @needs_gl
 def test_the_ar_tag_one_metre_ahead_is_readable():
     sim = camera_sim(world="ar", noise=False)
-    image = sim.camera.capture(0)
+    image = sim.car.camera.capture(0)
     marker = np.asarray(PILImage.open(DATA / "models/ar_tags/marker1/materials/marker1.png").convert("L"))
     n = marker.shape[0] // 8
     expected = marker[n // 2::n, n // 2::n] > 128
@@ -402,7 +402,7 @@ def test_opencv_decodes_the_ar_tag():
         pytest.skip("this OpenCV has no aruco module")
     sim = camera_sim(world="ar")  # with noise
     detector = cv2.aruco.ArucoDetector(cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_4X4_50))
-    _, ids, _ = detector.detectMarkers(sim.camera.capture(0))
+    _, ids, _ = detector.detectMarkers(sim.car.camera.capture(0))
     assert ids is not None and ids.ravel().tolist() == [1]
 
 
@@ -457,8 +457,8 @@ def test_osmesa_renders_when_chosen_or_when_egl_fails(env):
         pytest.skip("libOSMesa is not installed here (.ci/run installs libosmesa6)")
     code = ("from racecar_sim import Simulator\n"
             "sim = Simulator(lidar=False, sensor_noise=False)\n"
-            "image = sim.camera.capture(0)\n"
-            "print(sim.camera.gl_renderer.split(':')[0], int(image[0, 0, 0]), int(image[-1].mean()))\n"
+            "image = sim.car.camera.capture(0)\n"
+            "print(sim.car.camera.gl_renderer.split(':')[0], int(image[0, 0, 0]), int(image[-1].mean()))\n"
             "sim.close()\n")
     result = _run_python(code, env)
     out = result.stdout
@@ -473,7 +473,7 @@ def test_compiled_frame_noise_is_gazebos_noise_from_the_noise_table():
     from racecar_sim.sensors.camera import add_noise
 
     sim = camera_sim(seed=4)
-    camera = sim.camera
+    camera = sim.car.camera
     camera.noise = False
     clean = camera.capture(2_000_000_000)
     camera.noise = True
@@ -493,11 +493,11 @@ def test_render_ahead_publishes_the_same_frames_one_period_later():
     for ahead in (False, True):
         sim = camera_sim("walker", seed=3)
         got: list[tuple[int, int, np.ndarray]] = []
-        sim.subscribe(sim.camera.spec.image_topic, lambda msg, sim=sim: got.append((sim.time_ns, stamp_ns(msg),
+        sim.subscribe(sim.car.camera.spec.image_topic, lambda msg, sim=sim: got.append((sim.time_ns, stamp_ns(msg),
                                                                                     pixels(msg))))
-        sim.camera.render_ahead(ahead)
+        sim.car.camera.render_ahead(ahead)
         sim.run_until(0.2)
-        sim.camera.flush()
+        sim.car.camera.flush()
         runs[ahead] = got
         sim.close()
     sync, ahead = runs[False], runs[True]

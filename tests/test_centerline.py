@@ -44,7 +44,7 @@ def cast(sim: Simulator, origin: np.ndarray, yaw: float) -> float:
     geomgroup[COLLISION_GROUP] = 1
     return mujoco.mj_ray(sim.model, sim.data, np.array([*origin, LIDAR_HEIGHT]),
                          np.array([math.cos(yaw), math.sin(yaw), 0.0]), geomgroup, 1,
-                         sim.model.body(sim.robot.root).id, np.zeros(1, dtype=np.int32))
+                         sim.model.body(sim.car.robot.root).id, np.zeros(1, dtype=np.int32))
 
 
 def inside_polygon(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:

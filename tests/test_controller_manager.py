@@ -66,7 +66,7 @@ def switch(sim: Simulator, start=(), stop=(), strictness=STRICT, prefix: str = "
 
 
 def forward_speed(sim: Simulator) -> float:
-    linear, _ = sim.state.base_velocity(local=True)
+    linear, _ = sim.car.state.base_velocity(local=True)
     return float(linear[0])
 
 
@@ -91,9 +91,9 @@ def test_list_controllers_at_start_is_what_the_spawner_leaves(sim):
             assert c.claimed_resources[0].hardware_interface == "hardware_interface::EffortJointInterface"
             assert c.claimed_resources[0].resources == [yaml_entries[c.name]["joint"]]
     # the same through Python
-    assert sim.controller_manager.list_controllers() == response.controller
-    assert sim.car.controller_manager is sim.controller_manager
-    assert {n: sim.controller_manager.controller_state(n) for n in SPAWNED} == dict.fromkeys(SPAWNED, "running")
+    assert sim.car.controller_manager.list_controllers() == response.controller
+    assert sim.car.controller_manager is sim.car.controller_manager
+    assert {n: sim.car.controller_manager.controller_state(n) for n in SPAWNED} == dict.fromkeys(SPAWNED, "running")
     types = sim.bus.call(f"{CM}/list_controller_types", ListControllerTypesRequest())
     assert sorted(types.types) == sorted({VELOCITY, POSITION, JOINT_STATE})
     assert set(types.base_classes) == {"controller_interface::ControllerBase"}
@@ -112,7 +112,7 @@ def test_stopping_the_rear_wheel_controllers_while_driving_coasts_them_and_the_c
     wheels get exactly 0 effort and only the front wheels (p = 0.5) push, so the car slows below what even slip-free
     front-wheel drive could hold, r (w_cmd - F r / sum p_front); started again, it accelerates back."""
     drag = 3.0
-    sim.data.xfrc_applied[sim.state.body_id, 0] = -drag  # the car drives along +x
+    sim.data.xfrc_applied[sim.car.state.body_id, 0] = -drag  # the car drives along +x
     ConstantCommand(sim.bus, sim.scheduler, 1.0, 0.0)
     sim.run_until(3.0)
     four_wheel = forward_speed(sim)
@@ -146,23 +146,23 @@ def test_with_every_wheel_controller_stopped_the_car_decelerates_only_by_the_ext
     ConstantCommand(sim.bus, sim.scheduler, 1.0, 0.0)
     sim.run_until(2.0)
     assert forward_speed(sim) == pytest.approx(1.0, abs=0.005)
-    assert sim.controller_manager.stop(*WHEELS)
-    d.xfrc_applied[sim.state.body_id, 0] = -drag
+    assert sim.car.controller_manager.stop(*WHEELS)
+    d.xfrc_applied[sim.car.state.body_id, 0] = -drag
     inertia = np.zeros((m.nv, m.nv))
     mujoco.mj_fullM(m, d, inertia)
     dofs = [m.joint(j).dofadr[0] for j in ("left_rear_wheel_joint", "right_rear_wheel_joint",
                                            "left_front_wheel_joint", "right_front_wheel_joint")]
-    mass = m.body_subtreemass[sim.state.body_id] + sum(inertia[i, i] for i in dofs) / RADIUS**2
+    mass = m.body_subtreemass[sim.car.state.body_id] + sum(inertia[i, i] for i in dofs) / RADIUS**2
     v0, t0 = forward_speed(sim), sim.time
     sim.run_until(t0 + 0.4)
     assert np.all(actuator_forces(sim, WHEELS) == 0.0)
     assert (v0 - forward_speed(sim)) / 0.4 == pytest.approx(drag / mass, rel=0.05)
     # without the drag it rolls on (the soft contacts take < 1 %/s): nothing brakes a wheel whose controller is stopped
-    d.xfrc_applied[sim.state.body_id, 0] = 0.0
+    d.xfrc_applied[sim.car.state.body_id, 0] = 0.0
     v1 = forward_speed(sim)
     sim.run_until(sim.time + 2.0)
     assert forward_speed(sim) == pytest.approx(v1, rel=0.03)
-    assert sim.controller_manager.start(*WHEELS)
+    assert sim.car.controller_manager.start(*WHEELS)
     sim.run_until(sim.time + 1.0)
     assert forward_speed(sim) == pytest.approx(1.0, abs=0.005)
 
@@ -170,7 +170,7 @@ def test_with_every_wheel_controller_stopped_the_car_decelerates_only_by_the_ext
 def test_starting_resets_the_command_as_effort_controllers_do(sim):
     """JointVelocityController::starting(): command 0; JointPositionController::starting(): command = the current
     position; the commands that arrive while they are stopped are not applied."""
-    cm, state = sim.controller_manager, sim.state
+    cm, state = sim.car.controller_manager, sim.car.state
     ConstantCommand(sim.bus, sim.scheduler, 1.0, 0.3)  # 20 Hz: keeps commanding the hinges and the wheels
     sim.run_until(0.5)
     assert cm.stop(HINGES[0], REAR[0])
@@ -202,11 +202,11 @@ def test_an_i_term_is_switched_off_with_its_controller_and_reset_at_start(tmp_pa
     sim.run_until(1.0)
     i_term = sim.model.actuator(f"{REAR[0]}/i_term").id
     assert sim.data.actuator_force[i_term] != 0.0
-    assert sim.controller_manager.stop(REAR[0], HINGES[0])
+    assert sim.car.controller_manager.stop(REAR[0], HINGES[0])
     sim.run_until(1.5)
     assert sim.data.actuator_force[i_term] == 0.0
     assert np.all(actuator_forces(sim, [REAR[0], HINGES[0]]) == 0.0)
-    assert sim.controller_manager.start(REAR[0], HINGES[0])
+    assert sim.car.controller_manager.start(REAR[0], HINGES[0])
     hinge_act = sim.model.actuator(HINGES[0])
     assert sim.data.act[hinge_act.actadr[0]] == 0.0  # the PID's integral of the error starts over
     # the velocity I-term integrates the command: force = i (act - q) = 0 at the start
@@ -240,7 +240,7 @@ def test_best_effort_switch_does_what_it_can(sim, caplog):
 
 def test_a_running_controller_in_both_lists_is_restarted(sim):
     sim.publish(f"/racecar/{REAR[0]}/command", msgs.Float64(12.0))
-    ctrl = sim.state.actuator_ctrl(REAR[0])[0]
+    ctrl = sim.car.state.actuator_ctrl(REAR[0])[0]
     assert sim.data.ctrl[ctrl] == 12.0
     assert switch(sim, start=[REAR[0]], stop=[REAR[0]], strictness=STRICT)
     assert listed(sim)[REAR[0]] == "running"
@@ -278,10 +278,10 @@ def test_stopping_the_joint_state_controller_stops_joint_states(sim):
     sim.subscribe("/racecar/joint_states", lambda m: stamps.append(m.header.stamp.to_ns()))
     sim.run_until(1.0)
     assert len(stamps) == 50
-    assert sim.controller_manager.stop("joint_state_controller")
+    assert sim.car.controller_manager.stop("joint_state_controller")
     sim.run_until(2.0)
     assert len(stamps) == 50
-    assert sim.controller_manager.start("joint_state_controller")
+    assert sim.car.controller_manager.start("joint_state_controller")
     sim.run_until(3.0)
     assert len(stamps) == 100
 
@@ -304,7 +304,7 @@ def test_two_controllers_on_one_joint_conflict(tmp_path, caplog):
 
 
 def test_reset_goes_back_to_the_spawner_state(sim):
-    cm = sim.controller_manager
+    cm = sim.car.controller_manager
     assert cm.stop(*WHEELS, "joint_state_controller")
     assert cm.unload_controller(REAR[1])
     sim.run_until(0.5)
@@ -320,13 +320,13 @@ def test_reset_goes_back_to_the_spawner_state(sim):
 
 
 def test_a_stopped_controller_stays_without_effort_when_the_model_is_recompiled(sim):
-    assert sim.controller_manager.stop(REAR[0])
+    assert sim.car.controller_manager.stop(REAR[0])
     fresh = Simulator(world="empty", camera=False, lidar=False)  # the same car, compiled again: full gains
-    sim.state.rebind(fresh.model, fresh.data)
+    sim.car.state.rebind(fresh.model, fresh.data)
     stopped, running = (fresh.model.actuator(n).id for n in REAR)
     assert np.all(fresh.model.actuator_biasprm[stopped] == 0.0)
     assert fresh.model.actuator_biasprm[running][2] == -1.0  # kv = p = 1
-    assert sim.controller_manager.start(REAR[0])
+    assert sim.car.controller_manager.start(REAR[0])
     assert fresh.model.actuator_biasprm[stopped][2] == -1.0
 
 
@@ -380,10 +380,10 @@ def test_state_is_published_only_when_running_and_listened_to(sim):
     sim.subscribe(topic, log.append)
     sim.run_until(1.0)
     assert len(log) == 50
-    assert sim.controller_manager.stop(REAR[0])
+    assert sim.car.controller_manager.stop(REAR[0])
     sim.run_until(1.5)
     assert len(log) == 50  # a stopped controller is not updated
-    assert sim.controller_manager.start(REAR[0])
+    assert sim.car.controller_manager.start(REAR[0])
     sim.run_until(2.0)
     assert len(log) == 100
 

@@ -53,7 +53,7 @@ def test_velocity_i_term_is_clamped_by_i_clamp(tmp_path):
     sim = Simulator(controllers=custom)
     act = sim.model.actuator("left_rear_wheel_velocity_controller/i_term")
     assert act.gainprm[0] == 3.0 and tuple(act.forcerange) == (-0.4, 0.4)
-    sim.state.set_command("left_rear_wheel_velocity_controller", 5.0)
+    sim.car.state.set_command("left_rear_wheel_velocity_controller", 5.0)
     sim.run_until(1.0)
     assert sim.data.actuator_force[act.id] <= 0.4 + 1e-9
 

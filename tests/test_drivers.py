@@ -31,7 +31,7 @@ class Watch:
         self.yaw: list[float] = []
         self.min_range = math.inf
         self.wall_contacts = 0
-        self._car = sim.model.body(sim.robot.root).id
+        self._car = sim.model.body(sim.car.robot.root).id
         sim.subscribe("/vesc/odom", self._on_odom)
         sim.subscribe("/scan", self._on_scan)
 

@@ -26,7 +26,7 @@ def test_rests_on_its_wheels_without_drifting(drive):
     sim, log = drive(0.0, 0.0, 10.0)
     start, end = positions(log["/vesc/odom"])[[0, -1]]
     assert np.linalg.norm(end - start) < 1e-3
-    pos, _ = sim.state.base_pose()
+    pos, _ = sim.car.state.base_pose()
     # base_link is the ground point under the rear axle: the wheel centres sit one wheel radius up
     for wheel in ("left_rear_wheel", "right_front_wheel"):
         assert sim.data.site(wheel).xpos[2] == pytest.approx(R_WHEEL, abs=1e-4)

@@ -145,7 +145,7 @@ def test_a_single_car_keeps_the_original_names():
     sim = Simulator(world="empty", camera=False)
     assert sim.car.model_name == "racecar" and sim.cars == [sim.car]
     assert {"/vesc/odom", "/racecar/joint_states", "/vesc/ackermann_cmd_mux/input/navigation"} <= set(sim.bus.topics())
-    assert sim.lidar.topic == "/scan" and sim.lidar.spec.frame_id == "laser"
+    assert sim.car.lidar.topic == "/scan" and sim.car.lidar.spec.frame_id == "laser"
     assert sim.model.body("base_link").id > 0 and sim.model.joint("left_rear_wheel_joint").id >= 0
 
 

@@ -150,7 +150,7 @@ def test_get_model_state_of_a_car_and_a_cone():
     sim.run_until(0.5)
     res = sim.bus.call("/gazebo/get_model_state", GetModelStateRequest("racecar"))
     assert res.success and res.header.stamp.sec == 0 and res.header.stamp.nanosec == 500_000_000
-    pos, quat = sim.state.base_pose()
+    pos, quat = sim.car.state.base_pose()
     assert (res.pose.position.x, res.pose.position.y, res.pose.position.z) == tuple(pos)
     assert _position(sim, "cone_2") == pytest.approx((2.0, 0.0, 0.0), abs=1e-3)
     rel = sim.bus.call("/gazebo/get_model_state", GetModelStateRequest("cone_2", "racecar"))
@@ -196,13 +196,13 @@ def test_set_model_state_teleports_the_car_and_its_next_scan_sees_the_new_pose(t
     sim = _sim(str(path), sensor_noise=False)
     assert sim.gazebo.model_names == ["ground_plane", "walls", "racecar"]
     sim.run_until(0.5)
-    z = float(sim.state.base_pose()[0][2])  # resting height: the car lands where it stands
+    z = float(sim.car.state.base_pose()[0][2])  # resting height: the car lands where it stands
     for x, y, yaw in ((2.0, 0.5, 0.3), (-3.0, -0.8, math.pi / 2 + 0.2), (4.5, 0.0, math.pi)):
         res = sim.bus.call("/gazebo/set_model_state", SetModelStateRequest(ModelState("racecar", _pose(x, y, z, yaw))))
         assert res.success, res.status_message
         assert _position(sim, "racecar")[:2] == pytest.approx((x, y), abs=1e-12)
         scan = _scan(sim)
-        spec = sim.lidar.spec
+        spec = sim.car.lidar.spec
         predicted = _predicted_ranges(x, y, yaw, len(scan), spec.min_angle, spec.angle_increment)
         near = predicted < spec.range_max - 0.5
         assert near.sum() > 500

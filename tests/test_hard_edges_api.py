@@ -64,11 +64,11 @@ def test_a_message_of_the_wrong_type_on_a_command_topic_is_dropped_with_one_warn
     named = [r.getMessage() for r in caplog.records if topic in r.getMessage()]
     assert named == [f"{topic}: ignored a std_msgs/String message (the topic takes {expected})"]
     assert not any(isinstance(msg, String) for msg in heard + tapped) and sim.bus.topics()[topic] is not String
-    assert sim.chain.in_control() != "Safety" and np.allclose(sim.data.qpos[:2], qpos[:2], atol=1e-3)
+    assert sim.car.chain.in_control() != "Safety" and np.allclose(sim.data.qpos[:2], qpos[:2], atol=1e-3)
     # the topic still takes its own type afterwards (the dropped message did not make it a String topic)
     sim.publish(NAVIGATION, AckermannDriveStamped(drive=AckermannDrive(speed=1.0)))
     sim.run_for(0.05)
-    assert sim.chain.in_control() == "Navigation"
+    assert sim.car.chain.in_control() == "Navigation"
 
 
 def test_a_wrong_type_refreshes_no_timeout(sim, caplog):
@@ -76,12 +76,12 @@ def test_a_wrong_type_refreshes_no_timeout(sim, caplog):
     sim.reset()
     sim.publish(teleop, AckermannDriveStamped(drive=AckermannDrive(speed=1.0)))
     sim.run_for(0.05)
-    assert sim.chain.in_control() == "Teleoperation"
+    assert sim.car.chain.in_control() == "Teleoperation"
     with caplog.at_level(logging.WARNING, logger="racecar_sim"):
         for _ in range(10):  # a driver that goes on publishing, but the wrong type: the car stops as for silence
             sim.publish(teleop, Float64(1.0))
             sim.run_for(0.05)
-    assert sim.chain.in_control() != "Teleoperation"
+    assert sim.car.chain.in_control() != "Teleoperation"
     assert sum(f"{teleop}: ignored a std_msgs/Float64" in r.getMessage() for r in caplog.records) == 1
 
 

@@ -53,14 +53,14 @@ def world_file(folder: Path, name: str, *models: str) -> Path:
 def tilted_scan(sim: Simulator) -> np.ndarray:
     """A scan from 0.3 m up, pitched 0.1 rad down: its beams reach the ground 3 m ahead."""
     c, s = math.cos(0.1), math.sin(0.1)
-    return sim.lidar.caster.cast(np.array([0.0, 0.0, 0.3]), np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]))
+    return sim.car.lidar.caster.cast(np.array([0.0, 0.0, 0.3]), np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]))
 
 
 @pytest.mark.parametrize("side", ["1e4", "1e5", "1e9"])
 def test_a_ground_box_of_any_size_is_a_few_long_walls_and_the_lidar_sees_it_as_a_floor(tmp_path, side):
     ground = box_model("ground", f"{side} {side} 0.1", "0 0 -0.05 0 0 0")
     sim = Simulator(world=str(world_file(tmp_path, "big.sdf", ground)), camera=False)
-    grid = sim.lidar.caster.grid
+    grid = sim.car.lidar.caster.grid
     assert len(grid.cells) == 0 and grid.empty.segments.shape[1] == 4  # its 4 edges, in no cell of their own
     plane = Simulator(world="empty", camera=False)
     assert np.array_equal(tilted_scan(sim), tilted_scan(plane))  # the box's top is seen where the plane is
@@ -81,7 +81,7 @@ def test_long_walls_give_the_scans_of_walls_registered_in_every_cell(tmp_path, m
                  '</collision></link></model>')
     sim = Simulator(world=str(world_file(tmp_path, "long.sdf", GROUND, long_wall, round_pad,
                                          box_model("block", "1 1 1", "4 0 0.5 0 0 0.7"))), camera=False)
-    caster = sim.lidar.caster
+    caster = sim.car.lidar.caster
     assert caster.grid.empty.segments.shape[1] == 2 and caster.grid.empty.circles.shape[1] == 1
     monkeypatch.setattr(raycast_grid, "LONG_CELLS", 10**12)
     every_cell = raycast_grid.Grid(caster.static, caster.fan)  # as before: each item in every cell it reaches
@@ -101,9 +101,9 @@ def test_long_walls_give_the_scans_of_walls_registered_in_every_cell(tmp_path, m
 def test_boxes_kilometres_apart_build_no_table_spanning_the_gap(tmp_path):
     far = [box_model(f"b{i}", "1 1 1", f"{x} {y} 0.5 0 0 0") for i, (x, y) in enumerate([(3, 0), (1e6, 1e6)])]
     sim = Simulator(world=str(world_file(tmp_path, "far.sdf", GROUND, *far)), camera=False)
-    assert sim.lidar.caster.level_walls() is None  # cells 1e6 m apart: no look-up table of 4e10 cells
+    assert sim.car.lidar.caster.level_walls() is None  # cells 1e6 m apart: no look-up table of 4e10 cells
     sim.run_until(0.1)
-    assert np.isfinite(sim.lidar.scan(0)).any()
+    assert np.isfinite(sim.car.lidar.scan(0)).any()
 
 
 def test_a_map_kilometres_across_sizes_its_near_wall_slots_without_a_table_of_its_square_metres(tmp_path):

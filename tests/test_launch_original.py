@@ -31,7 +31,7 @@ def originals(monkeypatch: pytest.MonkeyPatch) -> Path:
 def test_racecar_tunnel_launch_runs_unchanged(originals):
     plan = load_launch(originals / "racecar_gazebo" / "launch" / "racecar_tunnel.launch")
     setup = map_plan(plan, camera=False)
-    car_nodes = setup.cars[0].nodes
+    car_nodes = setup.cars[0].plan
     assert Path(setup.world.world).name == "racecar_tunnel.world"
     assert all(Path(p).is_relative_to(RACECAR_SRC) for p in car_nodes.mux["muxes"].values())  # its own mux YAMLs
     assert car_nodes.servo_input == "/vesc/low_level/ackermann_cmd_mux/output" and car_nodes.odometry

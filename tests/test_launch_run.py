@@ -202,7 +202,7 @@ def test_a_users_own_mux_yamls_are_read(original_packages):
     low = own / "config" / "racecar-v2" / "low_level_mux.yaml"
     low.write_text(low.read_text().replace("input/teleop", "input/joystick"))
     setup = map_plan(load_launch(original_packages / "racecar_gazebo" / "launch" / "racecar_flat.launch"), camera=False)
-    assert str(own) in setup.cars[0].nodes.mux["muxes"]["/vesc/low_level/ackermann_cmd_mux"]
+    assert str(own) in setup.cars[0].plan.mux["muxes"]["/vesc/low_level/ackermann_cmd_mux"]
     with LaunchRun(setup) as run:
         run_with_commands(run, "/vesc/low_level/ackermann_cmd_mux/input/joystick", 1.0, speed=-1.0)
         assert run.sim.car.chain.in_control() == "Teleoperation"

@@ -20,7 +20,6 @@ from racecar_sim.description.kinematics import link_pose
 from racecar_sim.description.urdf import Origin, Sensor
 from racecar_sim.physics import COLLISION_GROUP, ROOT_JOINT
 from racecar_sim.sensors.laser_spec import LaserSpec
-from racecar_sim.sensors.lidar import LidarPublisher
 from racecar_sim.worlds import Mesh, Spawn, World, WorldBody, WorldGeom, load_world
 
 SAMPLES, ANGLE_MIN, INCREMENT, SIGMA = 1081, -2.3561944902, 0.0043633231, 0.01
@@ -34,10 +33,7 @@ def lidar_sim(noise: bool = True, **kwargs) -> Simulator:
         kwargs.setdefault("camera", False)
     if "sensor_noise" in params:
         kwargs["sensor_noise"] = noise
-    sim = Simulator(**kwargs)
-    if getattr(sim, "lidar", None) is None:
-        sim.lidar = LidarPublisher(sim.bus, sim.scheduler, sim.model, sim.data, sim.robot, sim.seed, noise=noise)
-    return sim
+    return Simulator(**kwargs)
 
 
 def scans_of(sim: Simulator, until: float) -> list:
@@ -70,10 +66,10 @@ def room_world(tmp_path, half: float, pillar: bool = True, wall: float = 0.2) ->
 
 def laser_origin_from_tf(sim: Simulator) -> tuple[np.ndarray, float]:
     """The ray origin in the world and its heading, from the URDF chain and the sensor <pose> (not the caster)."""
-    laser_pos, laser_quat = link_pose(sim.robot, sim.robot.sensor("ray").link)
-    sensor = sim.robot.sensor("ray").pose
+    laser_pos, laser_quat = link_pose(sim.car.robot, sim.car.robot.sensor("ray").link)
+    sensor = sim.car.robot.sensor("ray").pose
     pos, quat = compose(laser_pos, laser_quat, np.array(sensor.xyz), quat_from_rpy(sensor.rpy))
-    base_pos, base_quat = sim.state.base_pose()
+    base_pos, base_quat = sim.car.state.base_pose()
     world_pos, world_quat = compose(base_pos, base_quat, pos, quat)
     return world_pos, yaw_of(world_quat)
 
@@ -122,7 +118,7 @@ def test_scans_are_cast_only_for_listeners_and_noise_depends_only_on_the_stamp(t
     world = room_world(tmp_path, 3.0)
     quiet = lidar_sim(world=world, seed=4)
     quiet.run_until(0.5)
-    assert quiet.lidar.scans_cast == 0, "nobody listens: nothing is cast"
+    assert quiet.car.lidar.scans_cast == 0, "nobody listens: nothing is cast"
     late = scans_of(quiet, 1.0)
     always = scans_of(lidar_sim(world=world, seed=4), 1.0)
     assert len(late) == 20 and late[0].header.stamp.to_ns() == 525_000_000, "the schedule was kept"
@@ -133,8 +129,8 @@ def test_a_scan_leaves_the_simulation_state_alone():
     sim = lidar_sim(world="tunnel")
     sim.run_until(0.2)
     before = (sim.data.qpos.copy(), sim.data.xpos.copy(), sim.data.geom_xpos.copy(), sim.model.geom_group.copy())
-    sim.lidar.true_ranges()
-    sim.lidar.caster.cast(*sim.lidar.ray_origin(), mode="3d")
+    sim.car.lidar.true_ranges()
+    sim.car.lidar.caster.cast(*sim.car.lidar.ray_origin(), mode="3d")
     after = (sim.data.qpos, sim.data.xpos, sim.data.geom_xpos, sim.model.geom_group)
     assert all(np.array_equal(a, b) for a, b in zip(before, after))
 
@@ -173,7 +169,7 @@ def test_objects_nearer_than_range_min_are_not_seen(tmp_path):
     sim = lidar_sim(noise=False, world=room_world(tmp_path, 3.0, pillar=False))
     laser_x = laser_origin_from_tf(sim)[0][0]
     sim.data.qpos[sim.model.jnt_qposadr[sim.model.joint(ROOT_JOINT).id]] += 3.0 - 0.05 - laser_x
-    ranges = sim.lidar.true_ranges()
+    ranges = sim.car.lidar.true_ranges()
     assert ranges[SAMPLES // 2] == pytest.approx(0.05 + 0.2, abs=1e-6)
 
 
@@ -206,9 +202,9 @@ def test_fast_caster_equals_mujoco_3d_casts(world, box):
         tilt = (0.0, 1e-4, 0.02)[k % 3]  # level; suspension sway; a slope that brings the floor into reach
         _place(sim, *rng.uniform(*box), rng.uniform(-0.15, 0.1),
                (rng.normal(0, tilt), rng.normal(0, tilt), rng.uniform(-math.pi, math.pi)))
-        fast = sim.lidar.true_ranges()
-        fast_beams += sim.lidar.fan.count - sim.lidar.caster.last_3d_beams
-        reference = sim.lidar.caster.cast(*sim.lidar.ray_origin(), mode="3d")
+        fast = sim.car.lidar.true_ranges()
+        fast_beams += sim.car.lidar.fan.count - sim.car.lidar.caster.last_3d_beams
+        reference = sim.car.lidar.caster.cast(*sim.car.lidar.ray_origin(), mode="3d")
         assert _same(fast, reference) < 1e-3, f"pose {k}"
     assert fast_beams > 20 * SAMPLES, "most beams took the 2-D path"
 
@@ -220,9 +216,9 @@ def test_a_tilted_scan_of_walls_stays_two_dimensional_and_exact():
     rng = np.random.default_rng(5)
     for _ in range(10):
         _place(sim, rng.uniform(-25, -5), rng.uniform(-2, 0.5), 0.0, (0.01, -0.008, rng.uniform(-math.pi, math.pi)))
-        fast = sim.lidar.true_ranges()
-        assert sim.lidar.caster.last_3d_beams == 0
-        assert _same(fast, sim.lidar.caster.cast(*sim.lidar.ray_origin(), mode="3d")) < 1e-9
+        fast = sim.car.lidar.true_ranges()
+        assert sim.car.lidar.caster.last_3d_beams == 0
+        assert _same(fast, sim.car.lidar.caster.cast(*sim.car.lidar.ray_origin(), mode="3d")) < 1e-9
 
 
 def _geom(name: str, kind: str, size: tuple, pos: tuple, rpy: tuple = (0.0, 0.0, 0.0),
@@ -271,22 +267,22 @@ def test_fast_caster_equals_mujoco_3d_casts_for_every_kind_of_geom():
         tilt = (0.0, 1e-4, 0.003)[k % 3]
         _place(sim, *rng.uniform(-8, 8, 2), rng.uniform(-0.1, 0.2),
                (rng.normal(0, tilt), rng.normal(0, tilt), rng.uniform(-math.pi, math.pi)))
-        fast = sim.lidar.true_ranges()
-        assert _same(fast, sim.lidar.caster.cast(*sim.lidar.ray_origin(), mode="3d")) < 1e-3, f"pose {k}"
+        fast = sim.car.lidar.true_ranges()
+        assert _same(fast, sim.car.lidar.caster.cast(*sim.car.lidar.ray_origin(), mode="3d")) < 1e-3, f"pose {k}"
 
 
 def test_car_never_sees_itself():
     sim = lidar_sim(world="empty")
     assert np.all(np.isinf(scans_of(sim, 1.0)[-1].ranges))
     _place(sim, 0.0, 0.0, 20.0, (1.0, 0.3, 0.0))  # rolled 57 degrees, far above the floor: beams pass the wheels
-    assert np.all(np.isinf(sim.lidar.true_ranges()))
-    origin, rotation = sim.lidar.ray_origin()
-    assert np.all(np.isinf(sim.lidar.caster.cast(origin, rotation, mode="3d")))
+    assert np.all(np.isinf(sim.car.lidar.true_ranges()))
+    origin, rotation = sim.car.lidar.ray_origin()
+    assert np.all(np.isinf(sim.car.lidar.caster.cast(origin, rotation, mode="3d")))
     groups = np.zeros(6, np.uint8)
     groups[COLLISION_GROUP] = 1
     mujoco.mj_kinematics(sim.model, sim.data)
     hit = [mujoco.mj_ray(sim.model, sim.data, origin + 0.1 * d, d, groups, 1, -1, np.zeros(1, np.int32))
-           for d in (rotation[:, :2] @ sim.lidar.fan.directions).T]
+           for d in (rotation[:, :2] @ sim.car.lidar.fan.directions).T]
     assert max(hit) > 0, "without the exclusion some of these beams would hit the car"
 
 
@@ -294,7 +290,7 @@ def test_pushable_cone_is_seen_where_it_is():
     sim = lidar_sim(noise=False, world="cones")
     sim.run_until(0.5)
     origin, heading = laser_origin_from_tf(sim)
-    ahead = sim.lidar.true_ranges()[SAMPLES // 2]
+    ahead = sim.car.lidar.true_ranges()[SAMPLES // 2]
     cone = sim.model.body("cone_1::link").id
     assert ahead == pytest.approx(sim.data.xpos[cone][0] - origin[0] - _cone_radius(origin[2]), abs=1e-3)
     adr = sim.model.jnt_qposadr[sim.model.joint("cone_1::link::free").id]
@@ -304,7 +300,7 @@ def test_pushable_cone_is_seen_where_it_is():
     offset = sim.data.xpos[cone][:2] - origin[:2]
     beam = round((math.atan2(offset[1], offset[0]) - heading - ANGLE_MIN) / INCREMENT)
     expected = np.hypot(*offset) - _cone_radius(origin[2])
-    assert sim.lidar.true_ranges()[beam] == pytest.approx(expected, abs=2e-3)
+    assert sim.car.lidar.true_ranges()[beam] == pytest.approx(expected, abs=2e-3)
 
 
 def _cone_radius(z: float) -> float:

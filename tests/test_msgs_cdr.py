@@ -145,7 +145,8 @@ SAMPLES: dict[str, Callable[[np.random.Generator], Message]] = {
         "left_rear_wheel_velocity_controller", "running", "effort_controllers/JointVelocityController",
         [msgs.HardwareInterfaceResources("hardware_interface::EffortJointInterface", ["left_rear_wheel_joint"])]),
     "gazebo_msgs/msg/ModelState": lambda _: msgs.ModelState(
-        "car2", msgs.Pose(msgs.Point(1, 2, 0.05), msgs.Quaternion(w=1.0)), msgs.Twist(msgs.Vector3(0.5, 0, 0)), "world"),
+        "car2", msgs.Pose(msgs.Point(1, 2, 0.05), msgs.Quaternion(w=1.0)), msgs.Twist(msgs.Vector3(0.5, 0, 0)),
+        "world"),
     "gazebo_msgs/msg/ModelStates": lambda _: msgs.ModelStates(
         ["ground_plane", "racecar"], [msgs.Pose(), msgs.Pose(msgs.Point(1, 0, 0))],
         [msgs.Twist(), msgs.Twist(msgs.Vector3(1, 0, 0))]),
@@ -390,3 +391,68 @@ def test_registry_and_helpers() -> None:
     assert msgs.Time.from_ns(12_000_000_345).to_ns() == 12_000_000_345
     assert msgs.Header.at(2_500_000_000, "odom") == msgs.Header(msgs.Time(2, 500_000_000), "odom")
     assert "<921600 bytes>" in repr(msgs.Image(data=bytes(921600)))
+
+
+# --- one field model under both encoders ------------------------------------------------------------------------
+PROBE_MSG = "std_msgs/Header header\nfloat64 x\nstring[] names\nint16[2] pair\n"
+
+
+@dataclasses.dataclass(eq=False, repr=False, slots=True)
+class Probe(Message):
+    """A type that only the test's field model defines."""
+
+    __msgtype__ = "racecar_test_msgs/msg/Probe"
+
+    header: msgs.Header = dataclasses.field(default_factory=msgs.Header)
+    x: float = 0.0
+    names: list[str] = dataclasses.field(default_factory=list)
+    pair: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(2, np.int16))
+
+
+def test_both_encoders_compile_from_the_one_field_model(monkeypatch: pytest.MonkeyPatch, typestore: Any) -> None:
+    """A type defined in the field model and nowhere else goes out through the CDR encoder as rosbags writes it and
+    through the ROS 1 encoder with ROS 1's differences (Header.seq, time as two uint32, no alignment, no NUL)."""
+    from racecar_sim.bridges.ros1 import wire
+    from racecar_sim.msgs import fields
+
+    real, probe = fields.get_spec, idl.parse_msg(PROBE_MSG, Probe.__msgtype__)
+    monkeypatch.setattr(fields, "get_spec", lambda t: probe if t == Probe.__msgtype__ else real(t))
+    msg = Probe(_stamped(7_000_000_005, "map"), 1.5, ["a", "bcd"], np.array([-2, 3], np.int16))
+    typestore.register(get_types_from_msg(PROBE_MSG, Probe.__msgtype__))
+    assert msgs.serialize(msg) == typestore.serialize_cdr(to_rosbags(msg, typestore), Probe.__msgtype__)
+    ros1 = (b"\x2a\0\0\0" + b"\x07\0\0\0\x05\0\0\0" + b"\x03\0\0\0map" + np.float64(1.5).tobytes()
+            + b"\x02\0\0\0" + b"\x01\0\0\0a" + b"\x03\0\0\0bcd" + np.array([-2, 3], "<i2").tobytes())
+    assert wire.serialize(msg, 42) == ros1
+    model = fields.message_fields(Probe.__msgtype__)
+    assert [f.name for f in model] == ["header", "x", "names", "pair"]
+    assert wire.fields(Probe.__msgtype__) is model  # the ROS 1 layout is the model's very fields
+
+
+@pytest.mark.parametrize("msgtype", _cases())
+def test_ros1_layout_is_the_field_model(msgtype: str) -> None:
+    """Every message type's ROS 1 layout is the model's FieldSpec objects, ROS 1's differences aside, and the ROS 1
+    .msg shipped for genpy (bridges/ros1/definitions) holds the same fields."""
+    from racecar_sim.bridges.ros1 import wire
+    from racecar_sim.msgs.fields import message_fields
+
+    model, ros1 = message_fields(msgtype), wire.fields(msgtype)
+    assert all(f.attr == f.name for f in model)
+    if msgtype == "std_msgs/msg/Header":
+        assert ros1[0] is wire.SEQ and ros1[0].attr is None and all(a is b for a, b in zip(ros1[1:], model))
+    elif msgtype.startswith("builtin_interfaces/"):
+        assert [(f.attr, f.type) for f in ros1] == [("sec", "int32" if "Duration" in msgtype else "uint32"),
+                                                    ("nanosec", "int32" if "Duration" in msgtype else "uint32")]
+    else:
+        assert ros1 is model
+    pkg, _, name = msgtype.split("/")
+    shipped = wire.definitions_root().joinpath(pkg, "msg", f"{name}.msg")
+    if shipped.is_file():
+        parsed = idl.parse_msg(shipped.read_text(encoding="utf-8"), msgtype).fields
+        assert [(f.name, f.type, f.is_array, f.size) for f in parsed] == [
+            (f.name, f.type, f.is_array, f.size) for f in model]
+
+
+def test_field_spec_attr_defaults_to_the_name() -> None:
+    assert idl.FieldSpec("k", "float64", True, 9).attr == "k"
+    assert idl.FieldSpec("seq", "uint32", attr=None).attr is None
+    assert idl.FieldSpec("K", "float64", True, 9, attr="k").attr == "k"

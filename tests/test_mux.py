@@ -78,5 +78,5 @@ def test_nan_command_is_ignored_not_fatal(caplog):
     sim.publish(TELEOP, AckermannDriveStamped(drive=AckermannDrive(speed=float("nan"))))
     sim.run_until(2.0)
     assert "drive.speed = nan" in caplog.text
-    pos, _ = sim.state.base_pose()
+    pos, _ = sim.car.state.base_pose()
     assert pos[0] > 1.0  # still driving on the last valid command

@@ -127,12 +127,12 @@ def test_scans_see_the_held_out_walls_as_the_full_model_does(room):
         x, y, yaw = *rng.uniform(-1.0, 1.0, 2), rng.uniform(-np.pi, np.pi)
         for sim in (near, full):
             place(sim, x, y, yaw)
-        ranges = [sim.lidar.scan(0) for sim in (near, full)]
+        ranges = [sim.car.lidar.scan(0) for sim in (near, full)]
         assert np.isfinite(ranges[1]).sum() > 500
         np.testing.assert_array_equal(ranges[0], ranges[1])
     origin = np.array([0.3, -0.2, 0.2])
     tilted = quat_to_matrix(quat_from_axis_angle((1.0, 0.3, 0.0), 0.6))  # a crash: the scan plane is steep
-    np.testing.assert_allclose(near.lidar.caster.cast(origin, tilted), full.lidar.caster.cast(origin, tilted),
+    np.testing.assert_allclose(near.car.lidar.caster.cast(origin, tilted), full.car.lidar.caster.cast(origin, tilted),
                                rtol=0, atol=1e-12)
 
 
@@ -146,13 +146,13 @@ def test_a_spawn_inside_a_held_out_wall_is_refused(room):
 def test_deleting_the_map_model_takes_its_held_out_walls_away(room):
     near, _ = pair(room, sensor_noise=False)
     place(near, 1.8, 1.8, 0.0)
-    assert np.isfinite(near.lidar.scan(0)).any()
+    assert np.isfinite(near.car.lidar.scan(0)).any()
     name = next(m for m in near.gazebo.model_names if m not in ("racecar", "ground_plane"))
     assert near.gazebo.delete_model(DeleteModelRequest(name)).success
     assert WallBoxes.of(near.model) is None
     assert (near.near_walls.held < 0).all()
     place(near, 1.8, 1.8, 0.0)
-    assert not np.isfinite(near.lidar.scan(0)).any()
+    assert not np.isfinite(near.car.lidar.scan(0)).any()
 
 
 def test_a_car_spawned_at_run_time_gets_slots_of_its_own(room):
@@ -178,14 +178,14 @@ def test_the_dense_scan_of_a_map_is_mujocos_own_ray_cast(room):
     """The map's cells are dense (raycast/dense.py casts them): the published scan, noise off, is MuJoCo's 3-D ray
     cast of the held-out walls, clamped and rounded to float32 as Gazebo publishes it."""
     near, _ = pair(room, sensor_noise=False)
-    assert near.lidar.caster.level_walls().dense
+    assert near.car.lidar.caster.level_walls().dense
     rng = np.random.default_rng(5)
-    spec = near.lidar.spec
+    spec = near.car.lidar.spec
     for _ in range(4):
         place(near, *rng.uniform(-1.0, 1.0, 2), rng.uniform(-np.pi, np.pi))
-        published = near.lidar.scan(0)
-        assert near.lidar.caster.last_3d_beams == 0  # the compiled 2-D path answered
-        rays = near.lidar.caster.cast(*near.lidar.ray_origin(), mode="3d")
+        published = near.car.lidar.scan(0)
+        assert near.car.lidar.caster.last_3d_beams == 0  # the compiled 2-D path answered
+        rays = near.car.lidar.caster.cast(*near.car.lidar.ray_origin(), mode="3d")
         expected = np.where(np.isfinite(rays), np.clip(rays, spec.range_min, spec.range_max), np.inf)
         assert np.isfinite(expected).sum() > 500
         np.testing.assert_allclose(published, expected.astype(np.float32), rtol=0, atol=1e-5)

@@ -76,7 +76,7 @@ def cast(sim: Simulator, x: float, y: float, yaw: float) -> tuple[float, str]:
     geomgroup = np.zeros(6, dtype=np.uint8)
     geomgroup[COLLISION_GROUP] = 1
     geomid = np.zeros(1, dtype=np.int32)
-    base = sim.model.body(sim.robot.root).id
+    base = sim.model.body(sim.car.robot.root).id
     distance = mujoco.mj_ray(sim.model, sim.data, np.array([x, y, LIDAR_HEIGHT]),
                              np.array([math.cos(yaw), math.sin(yaw), 0.0]), geomgroup, 1, base, geomid)
     return distance, sim.model.geom(geomid[0]).name

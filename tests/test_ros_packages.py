@@ -119,7 +119,7 @@ def test_a_broken_package_xml_on_the_path_is_one_line(tmp_path, monkeypatch):
         find_package("anything")
     assert str(tmp_path / "broken" / "package.xml") in str(err.value) and "\n" not in str(err.value)
     with Simulator(world="walker", camera=False, lidar=False) as sim:  # built-in worlds and car need no crawl
-        assert sim.robot.name == "racecar"
+        assert sim.car.robot.name == "racecar"
 
 
 def _box_wall_model(models):

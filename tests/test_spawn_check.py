@@ -115,7 +115,7 @@ def test_default_spawns_of_the_builtin_worlds_pass_without_a_warning(name):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         sim = simulator(name)
-        check_spawn(sim.model, sim.data, sim.world, sim.robot)  # called again on the built model: still quiet
+        check_spawn(sim.model, sim.data, sim.world, sim.car.robot)  # called again on the built model: still quiet
 
 
 # --- item 8: no materials anywhere -----------------------------------------------------------------------------------

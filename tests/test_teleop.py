@@ -135,7 +135,7 @@ def test_status_shows_who_drives_not_the_default_commands_route():
     """The 6 Hz zero command holds the low-level mux through its Navigation input: that is idle, not Navigation."""
     sim, teleop, _, changes = teleop_sim()
     labels: list[tuple[float, str]] = []
-    sim.scheduler.every(100.0, lambda now: labels.append((now * 1e-9, sim.chain.in_control())), "watch")
+    sim.scheduler.every(100.0, lambda now: labels.append((now * 1e-9, sim.car.chain.in_control())), "watch")
 
     def driver(now_ns: int) -> None:  # a driver that drives from 2 s to 4 s, then stops
         if 2.0 <= now_ns * 1e-9 < 4.0:
@@ -144,9 +144,9 @@ def test_status_shows_who_drives_not_the_default_commands_route():
     sim.scheduler.every(20.0, driver, "driver")
     sim.run_until(1.0)
     assert holder_at(changes, 1.0) == "Navigation"  # the low-level mux: the default command's route
-    assert sim.chain.in_control() == IDLE_ZERO
+    assert sim.car.chain.in_control() == IDLE_ZERO
     teleop.key("w")
-    assert sim.chain.in_control() == "Teleoperation"
+    assert sim.car.chain.in_control() == "Teleoperation"
     sim.run_until(6.0)
 
     def shown(t0: float, t1: float) -> set[str]:

@@ -48,7 +48,7 @@ def test_original_odometry_is_ground_truth_map_to_odom_with_world_twist():
     sim.run_until(3.0)
     odom = log["/vesc/odom"][-1]
     assert (odom.header.frame_id, odom.child_frame_id) == ("map", "odom")
-    pos, quat = sim.state.base_pose()
+    pos, quat = sim.car.state.base_pose()
     p = odom.pose.pose.position
     np.testing.assert_allclose([p.x, p.y, p.z], pos, atol=1e-12)
     # world-frame twist: the velocity vector points along the car's heading in the world

@@ -36,7 +36,7 @@ def test_a_users_package_with_meshes_drives_a_circle_of_its_own_wheelbase(tmp_pa
         warnings.simplefilter("error")  # a box is convex: no warning about hulls
         sim = Simulator(world="empty", xacro=xacro, camera=False, lidar=False)
     with sim:
-        wheelbase = VehicleGeometry.from_robot(sim.robot).wheelbase
+        wheelbase = VehicleGeometry.from_robot(sim.car.robot).wheelbase
         assert wheelbase == pytest.approx(WHEELBASE, abs=1e-9)
         visual, collision = sim.model.geom("chassis_visual"), sim.model.geom("chassis_collision")
         for geom in (visual, collision):

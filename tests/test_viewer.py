@@ -219,7 +219,7 @@ def on_image(msg):
     variety.append(len(set(bytes(msg.data)[::101])))
 
 sim.subscribe("/camera/zed/rgb/image_rect_color", on_image)
-viewer = CarViewer.open(sim.model, sim.data, sim.robot.root) if sim.camera else None
+viewer = CarViewer.open(sim.model, sim.data, sim.car.robot.root) if sim.car.camera else None
 colours = 0
 for lap in range(2):  # the second lap makes a new camera (reset) while the window is open
     ConstantCommand(sim.bus, sim.scheduler, 1.0, 0.3)
@@ -233,7 +233,7 @@ if viewer:
     from PIL import ImageGrab
     colours = len(ImageGrab.grab(xdisplay=os.environ["DISPLAY"]).getcolors(maxcolors=1 << 24) or ())
     viewer.close()
-print(json.dumps({"camera": sim.camera is not None, "viewer": viewer is not None, "frames": frames,
+print(json.dumps({"camera": sim.car.camera is not None, "viewer": viewer is not None, "frames": frames,
                   "variety": min(variety or [0]), "colours": colours}))
 """
 

@@ -8,6 +8,7 @@ import math
 import os
 import re
 from pathlib import Path
+from typing import Any
 
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.description.ros_packages import add_model_path, add_package_path
@@ -152,15 +153,21 @@ def add_world_arguments(p: argparse.ArgumentParser, world_option: bool = True, d
 
 
 def add_sensor_arguments(p: argparse.ArgumentParser) -> None:
-    """--no-lidar, --no-camera and --no-noise (DISABLE_GAZEBO_LASER / DISABLE_GAZEBO_CAMERA=true work too)."""
-    p.add_argument("--no-lidar", action="store_true", help="no /scan (the Hokuyo is not simulated)")
-    p.add_argument("--no-camera", action="store_true", help="no /camera/zed images (no OpenGL needed)")
+    """--no-lidar, --no-camera, --no-sensor and --no-noise (DISABLE_GAZEBO_LASER / DISABLE_GAZEBO_CAMERA=true work
+    too): the sensor switches of runtime/plugins.py."""
+    p.add_argument("--no-lidar", action="store_true", help="no lasers (/scan: the Hokuyo is not simulated)")
+    p.add_argument("--no-camera", action="store_true", help="no cameras, depth cameras included (/camera/zed images; "
+                                                            "no OpenGL needed)")
+    p.add_argument("--no-sensor", action="append", default=[], metavar="NAME",
+                   help="leave out the description's sensors of a switch (lidar, camera, imu), a sensor type "
+                        "(depth) or a sensor's own name (rear_hokuyo); repeatable")
     p.add_argument("--no-noise", action="store_true", help="sensor readings without their Gaussian noise")
 
 
-def sensor_options(args: argparse.Namespace) -> dict[str, bool]:
+def sensor_options(args: argparse.Namespace) -> dict[str, Any]:
     """Simulator keyword arguments from the sensor switches."""
-    return {"lidar": not args.no_lidar, "camera": not args.no_camera, "sensor_noise": not args.no_noise}
+    return {"lidar": not args.no_lidar, "camera": not args.no_camera, "sensor_noise": not args.no_noise,
+            "sensors_off": tuple(getattr(args, "no_sensor", ()))}
 
 
 def check_folder(flag: str, folder: Path) -> None:

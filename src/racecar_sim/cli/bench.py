@@ -50,7 +50,7 @@ def pipeline_rtf(world: str, physics: str, duration: float, lidar: bool = False,
     A subscriber listens to every sensor topic, since sensors skip their work when nobody listens.
     """
     sim = Simulator(world=world, physics=physics, lidar=lidar, camera=camera)
-    if camera and sim.camera is None:
+    if camera and sim.car.camera is None:
         raise RacecarSimError("the camera could not start (see the error above); try --no-camera")
     for topic in SENSOR_TOPICS:
         sim.subscribe(topic, lambda msg: None)
@@ -78,8 +78,8 @@ def pipeline_rtf(world: str, physics: str, duration: float, lidar: bool = False,
 def bare_rtf(world: str, physics: str, duration: float) -> float:
     """Real-time factor of mj_step alone on the same model (wheels commanded, no Python per step)."""
     sim = Simulator(world=world, physics=physics, lidar=False, camera=False)
-    for c in sim.controllers.controllers:
-        sim.state.set_command(c.name, 20.0 if "wheel" in c.joint else 0.1)
+    for c in sim.car.controllers.controllers:
+        sim.car.state.set_command(c.name, 20.0 if "wheel" in c.joint else 0.1)
     steps = int(duration / sim.model.opt.timestep)
     start = time.perf_counter()
     mujoco.mj_step(sim.model, sim.data, nstep=steps)

@@ -18,6 +18,7 @@ from pathlib import Path
 
 from racecar_sim.cli.args import (
     add_overwrite_argument,
+    add_sensor_arguments,
     add_ros_path_options,
     apply_ros_path_options,
     check_folder,
@@ -25,6 +26,7 @@ from racecar_sim.cli.args import (
     make_folder,
     positive_float,
     seed_value,
+    sensor_options,
     xacro_arg,
 )
 from racecar_sim.cli.live import RealTimePacer
@@ -57,9 +59,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--model-path", action="append", default=[], metavar="DIR",
                    help="folder holding model:// models, searched before GAZEBO_MODEL_PATH (repeatable)")
     add_ros_path_options(p)
-    p.add_argument("--no-lidar", action="store_true", help="no /scan (the Hokuyo is not simulated)")
-    p.add_argument("--no-camera", action="store_true", help="no /camera/zed images (no OpenGL needed)")
-    p.add_argument("--no-noise", action="store_true", help="sensor readings without their Gaussian noise")
+    add_sensor_arguments(p)
 
 
 class _LaunchArgs(argparse.ArgumentParser):
@@ -97,7 +97,9 @@ def main(args: argparse.Namespace) -> int:
     plan = load_launch(args.file, launch_args)
     if args.ros and not has_car(plan):
         return _run_ros_only(args, plan)
-    setup = map_plan(plan, ros=args.ros, lidar=not args.no_lidar, camera=not args.no_camera)
+    sensors = sensor_options(args)
+    setup = map_plan(plan, ros=args.ros, lidar=sensors["lidar"], camera=sensors["camera"],
+                     sensors_off=sensors["sensors_off"])
     with LaunchRun(setup, seed=args.seed, sensor_noise=not args.no_noise, model_path=args.model_path,
                    ros=args.ros) as run:
         sim = run.sim

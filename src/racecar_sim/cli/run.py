@@ -14,7 +14,6 @@ centerline), each with its own instance of the run's driver.
 from __future__ import annotations
 
 import argparse
-import math
 import signal
 import sys
 import time
@@ -22,8 +21,6 @@ from datetime import datetime
 from pathlib import Path
 
 from tqdm import tqdm
-
-import numpy as np
 
 from racecar_sim.cli.args import (MIN_RATE, add_overwrite_argument, add_ros_path_options, add_sensor_arguments,
                                   add_world_arguments, add_xacro_arguments, apply_ros_path_options, check_folder,
@@ -38,9 +35,10 @@ from racecar_sim.core.names import ODOM
 from racecar_sim.drivers import pure_pursuit_config, wall_follow_config
 from racecar_sim.physics import preset_names
 from racecar_sim.runtime import Car, Simulator
-from racecar_sim.runtime.driving import CONSTANT_DEFAULTS, DRIVERS, attach_driver, track_file
+from racecar_sim.runtime.driving import CONSTANT_DEFAULTS, DRIVERS, attach_driver
 from racecar_sim.runtime.run_log import RunLog, image_array
-from racecar_sim.worlds import Spawn, World, load_world
+from racecar_sim.worlds import CAR_SPACING, World, load_world, row_centerline
+from racecar_sim.worlds import starting_row as fleet_spawns  # the row of `--cars N` (tests call it by this name)
 
 # the drivers each option applies to; an option given for another driver is an error, not silently ignored
 OPTION_DRIVERS = {"speed": DRIVERS, "steering": ("constant",), "rate": ("constant",), "side": ("wall-follow",),
@@ -48,7 +46,6 @@ OPTION_DRIVERS = {"speed": DRIVERS, "steering": ("constant",), "rate": ("constan
 PROGRESS_MIN_DURATION = 5.0  # s of sim time; shorter runs finish before a bar is worth drawing
 CHUNK = 0.1  # s of sim time between progress updates
 LIVE_CHUNK = 0.02  # s of sim time between viewer updates
-CAR_SPACING = 1.5  # m between the base_links of two cars in a row (--car-spacing)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -124,7 +121,7 @@ def _attach_driver(args: argparse.Namespace, sim: Simulator, car: Car) -> object
     """The run's driver for `car`: its own instance, on the car's topics (`/carK/...` in a fleet)."""
     if args.driver == "wall-follow" and car.lidar is None:
         raise ConfigError("--driver wall-follow steers by the lidar: drop --no-lidar (or DISABLE_GAZEBO_LASER)")
-    if args.driver == "pure-pursuit" and args.path is None and not _is_track(args.world):
+    if args.driver == "pure-pursuit" and args.path is None and not sim.world.is_track:
         raise ConfigError("--driver pure-pursuit needs --path FILE.csv (or a track .csv as --world)")
     params = {name: getattr(args, name) for name, drivers in OPTION_DRIVERS.items() if args.driver in drivers}
     try:
@@ -134,37 +131,6 @@ def _attach_driver(args: argparse.Namespace, sim: Simulator, car: Car) -> object
             raise
         top = 1.0 / sim.model.opt.timestep
         raise ConfigError(f"--rate: {exc} (--rate takes {MIN_RATE:g} Hz up to the physics rate, {top:g} Hz)") from None
-
-
-def _is_track(world: object) -> bool:
-    return track_file(world) is not None
-
-
-def fleet_spawns(world: World, count: int, spacing: float = CAR_SPACING,
-                 centerline: np.ndarray | None = None) -> list[Spawn]:
-    """Poses for `count` cars in a row: the first at the world's spawn pose, each next one `spacing` m behind the one
-    before, along the spawn heading, or back along a closed `centerline` (N, 2) from its first point (the track's
-    own start), each car facing the way the track runs there."""
-    first = world.spawn
-    if centerline is None:
-        back = np.array([math.cos(first.yaw), math.sin(first.yaw)])
-        return [Spawn(first.x - k * spacing * back[0], first.y - k * spacing * back[1], first.z, first.yaw)
-                for k in range(count)]
-    # walk the loop backwards, P0 -> P(N-1) -> ... -> P1 -> P0: segment j goes from tail[j] back to head[j]
-    points = np.asarray(centerline, dtype=float)
-    tail = np.roll(points[::-1], 1, axis=0)  # P0, P(N-1), ..., P1
-    head = np.roll(tail, -1, axis=0)  # P(N-1), ..., P1, P0
-    lengths = np.hypot(*(head - tail).T)
-    station = np.concatenate([[0.0], np.cumsum(lengths)])  # arc length walked back at the start of each segment
-    spawns = []
-    for k in range(count):
-        s = (k * spacing) % station[-1]  # past a whole lap it lands on a car before it: the spawn check says so
-        j = min(int(np.searchsorted(station, s, side="right")) - 1, len(lengths) - 1)
-        x, y = tail[j] + (s - station[j]) / lengths[j] * (head[j] - tail[j])
-        forward = tail[j] - head[j]  # the direction the track runs
-        yaw = first.yaw if k == 0 else math.atan2(forward[1], forward[0])
-        spawns.append(Spawn(float(x), float(y), first.z, yaw))
-    return spawns
 
 
 def _simulator(args: argparse.Namespace) -> Simulator:
@@ -181,17 +147,12 @@ def _simulator(args: argparse.Namespace) -> Simulator:
                          spawn=args.spawn, odometry=args.odometry, model_path=args.model_path,
                          wall_height=args.wall_height, **sensor_options(args), **xacro_options(args))
     world = load_world(args.world, args.spawn, [Path(p) for p in args.model_path], args.wall_height)
-    centerline = None
-    if args.spawn is None and _is_track(args.world):
-        from racecar_sim.worlds.centerline import read_centerline
-
-        centerline = read_centerline(Path(args.world))[0]
     spacing = CAR_SPACING if args.car_spacing is None else args.car_spacing
-    spawns = fleet_spawns(world, args.cars, spacing, centerline)
-    check_row(world, args, spawns, spacing, centerline)  # before N cars are built (that costs ~N²)
+    spawns = fleet_spawns(world, args.cars, spacing)
+    check_row(world, args, spawns, spacing, row_centerline(world))  # before N cars are built (that costs ~N²)
     sensors = sensor_options(args)
     cars = [Car(f"car{k + 1}", profile=args.profile, spawn=spawn, lidar=sensors["lidar"], camera=sensors["camera"],
-                odometry=args.odometry, **xacro_options(args))
+                sensors_off=sensors["sensors_off"], odometry=args.odometry, **xacro_options(args))
             for k, spawn in enumerate(spawns)]
     return Simulator(world=world, cars=cars, **common)  # its own check: a car in a wall or another car, no ground
 
@@ -235,7 +196,7 @@ def main(args: argparse.Namespace) -> int:
         for car in sim.cars:
             _attach_driver(args, sim, car)
         out, record = _run_folder(args, out, record,
-                                  files=not args.no_summary or (sim.camera is not None and not args.no_video))
+                                  files=not args.no_summary or (sim.car.camera is not None and not args.no_video))
         recording = _recording(args, sim, record)
         try:
             runlogs = [RunLog(sim.bus, car.lidar.topic if car.lidar else None,
@@ -256,8 +217,8 @@ def main(args: argparse.Namespace) -> int:
         finally:
             if recording is not None:
                 recording.close()  # writes what the writer process still holds, then the summary and footer
-        if sim.lidar is not None and runlog.last_scan is not None:
-            origin, ends = sim.lidar.beam_ends(runlog.last_scan.ranges)
+        if sim.car.lidar is not None and runlog.last_scan is not None:
+            origin, ends = sim.car.lidar.beam_ends(runlog.last_scan.ranges)
         else:
             origin = ends = None
     if not args.no_summary:
@@ -296,11 +257,11 @@ def _recording(args: argparse.Namespace, sim: Simulator, record: Path | None) ->
 def _video(args: argparse.Namespace, sim: Simulator, out: Path, recording: object) -> object:
     """camera.mp4, encoded by the recording's writer process (each frame crosses to it once), by a process of its
     own without a recording, or on a writer thread where no process can start."""
-    if args.no_video or sim.camera is None:
+    if args.no_video or sim.car.camera is None:
         return None
     from racecar_sim.recording.writer_process import ProcessVideo, WriterProcess
 
-    spec = sim.camera.spec
+    spec = sim.car.camera.spec
     path = out / "camera.mp4"
     process = getattr(recording, "process", None)
     owns = process is None
@@ -380,7 +341,7 @@ def _summary_lines(sim: Simulator, runlogs: list[RunLog], wall: float) -> list[s
 
 def _print_summary(args: argparse.Namespace, sim: Simulator, runlogs: list[RunLog], wall: float,
                    written: list[Path]) -> None:
-    print(f"world {sim.world.name}, driver {args.driver}, profile {sim.profile.name}, physics {sim.preset.name} "
+    print(f"world {sim.world.name}, driver {args.driver}, profile {sim.car.profile.name}, physics {sim.preset.name} "
           f"(step {sim.model.opt.timestep * 1e3:g} ms), seed {sim.seed}")
     if args.cars is not None:
         spacing = CAR_SPACING if args.car_spacing is None else args.car_spacing

@@ -87,7 +87,7 @@ class Dashboard:
         self._last: tuple[float, float] | None = None  # (wall, sim) at the last redraw
         self._rtf = 0.0
         sim.subscribe("/vesc/odom", self._on_odom)
-        sim.subscribe(sim.chain.output_topic, self._on_output)
+        sim.subscribe(sim.car.chain.output_topic, self._on_output)
 
     def _on_odom(self, msg: Odometry) -> None:
         if self.odom is not None:
@@ -133,7 +133,7 @@ class Dashboard:
         x, y, yaw = self.pose()
         speed = self.odom.twist.twist.linear.x if self.odom is not None else 0.0
         line = (f"t {self.sim.time:7.2f} s | v {speed:+5.2f} m/s | steer {self.steering:+5.2f} rad | "
-                f"x {x:+7.2f} y {y:+7.2f} yaw {yaw:+5.2f} | {self._rtf:4.2f}x | {self.sim.chain.in_control()}")
+                f"x {x:+7.2f} y {y:+7.2f} yaw {yaw:+5.2f} | {self._rtf:4.2f}x | {self.sim.car.chain.in_control()}")
         if self.record:
             line += f" | rec {self.record}"
         with contextlib.suppress(OSError, ValueError):

@@ -23,7 +23,7 @@ from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.time import to_ns
 from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header, String
-from racecar_sim.nodes import Restartable, Timers
+from racecar_sim.nodes import NodeBase, Restartable, Timers
 from racecar_sim.core.tables import finite_number
 from racecar_sim.core.throttle import ThrottledWarning, is_finite_number
 
@@ -175,7 +175,7 @@ class AckermannCmdMux:
         self.bus.publish(self.active_topic, String("idle"))
 
 
-class CommandChain:
+class CommandChain(NodeBase):
     """mux.launch: the high- and low-level muxes, the topic relays and the 6 Hz default zero command.
 
     `config`: the wiring as a YAML file (mux.yaml) or the same as a mapping (a launch file's nodes; its mux files
@@ -224,7 +224,7 @@ class CommandChain:
 
         scheduler.every(float(rate), publish_default, "zero_ackermann_cmd")
 
-    def reset(self) -> None:
+    def reset(self, seed: int = 0) -> None:
         """Both muxes as freshly started (the default command's timer is the scheduler's, re-based on reset)."""
         for mux in self.muxes:
             mux.reset()

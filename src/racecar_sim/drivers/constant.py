@@ -4,12 +4,12 @@ from __future__ import annotations
 
 from racecar_sim.bus import Bus
 from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header
-from racecar_sim.nodes import Timers
+from racecar_sim.nodes import NodeBase, Timers
 
 NAVIGATION = "/vesc/ackermann_cmd_mux/input/navigation"
 
 
-class ConstantCommand:
+class ConstantCommand(NodeBase):
     """Publishes speed/steering_angle at `rate` Hz on `topic` (the navigation input by default)."""
 
     def __init__(self, bus: Bus, scheduler: Timers, speed: float, steering_angle: float, rate: float = 20.0,

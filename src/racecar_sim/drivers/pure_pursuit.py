@@ -12,11 +12,12 @@ from racecar_sim.drivers.constant import NAVIGATION
 from racecar_sim.drivers.odom import planar_pose
 from racecar_sim.drivers.waypoints import Waypoints
 from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header, Odometry
+from racecar_sim.nodes import NodeBase
 
 SEARCH_AHEAD = 4.0  # m of path searched past the last nearest point (keeps loops that pass close from jumping)
 
 
-class PurePursuit:
+class PurePursuit(NodeBase):
     """A navigation node: from /vesc/odom only, it drives base_link (the rear axle) along `path`.
 
     The goal is the path point `lookahead` ahead of the nearest point (further at speed); the arc

@@ -12,6 +12,7 @@ from racecar_sim.drivers.config import WallFollowConfig, wall_follow_config
 from racecar_sim.drivers.constant import NAVIGATION
 from racecar_sim.drivers.odom import planar_pose
 from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header, LaserScan, Odometry
+from racecar_sim.nodes import NodeBase
 
 
 # the side sector (beam indices, and their unit vectors: rows cos, sin) and the front cone (beam indices)
@@ -32,7 +33,7 @@ def _span(indices: np.ndarray) -> slice | np.ndarray:
     return indices
 
 
-class WallFollower:
+class WallFollower(NodeBase):
     """A navigation node: from /scan and /vesc/odom only, it steers to keep `distance` to one wall.
 
     A line fitted to the nearest beam ends on the wall's side gives the car's approach angle β to the

@@ -19,8 +19,8 @@ Observation (spaces.py, one per car):
 Action: float32 Box(-1, 1, (2,)) = [speed, steering] x [max_speed 2.0 m/s, max_steering 0.34 rad] (the
 original joy_teleop ranges); action="raw" takes the same in m/s and rad. The command enters as an
 AckermannDriveStamped on /vesc/ackermann_cmd_mux/input/navigation (per car: /<car>/vesc/...) every control step.
-Reward per step: metres of progress along the world's centerline (reward.py: a track CSV's own, walker's from
-data/, or `centerline=CSV`; else the distance driven along the heading) minus crash_penalty on the step that
+Reward per step: metres of progress along the world's centerline (reward.py: World.centerline, a track CSV's own or
+walker's, or `centerline=CSV`; else the distance driven along the heading) minus crash_penalty on the step that
 crashes. Terminated: the car touches a wall, an obstacle or another car (any contact of a car geom with something
 not itself, except a wheel resting on a surface whose normal points up, |n_z| > 0.7). Truncated: time limit.
 """

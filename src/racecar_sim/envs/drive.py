@@ -120,7 +120,7 @@ class DriveEnv(gym.Env):
         self.agent = CarAgent(sim, sim.car, self.action_mode, self.limits, self.camera,
                               world_centerline(loaded, self._centerline_arg), self.period_ns)
         geometry = sim.car.servo.geometry
-        self.crashes = CrashMonitor.for_cars(sim.model, [(sim.car.names, sim.robot.root, geometry)])
+        self.crashes = CrashMonitor.for_cars(sim.model, [(sim.car.names, sim.car.robot.root, geometry)])
         sim.scheduler.every(CHECK_RATE, lambda now: self.crashes.check(sim.data, now), "env crash check")
         self._steps = 0
 

@@ -38,23 +38,15 @@ from racecar_sim.envs.spaces import (
 from racecar_sim.envs.view import EnvView
 from racecar_sim.runtime.car import Car
 from racecar_sim.runtime.simulator import Simulator
-from racecar_sim.worlds import Spawn, World, load_world
+from racecar_sim.worlds import CAR_SPACING, Spawn, load_world, starting_row
 
 COLLISION_MODES = ("involved", "all", "none")
-CAR_SPACING = 1.5  # m between consecutive cars of the starting row, back along the spawn heading
 MAX_CYCLES = 1200  # control steps before every agent is truncated (60 s at 20 Hz)
 
 
-def row_spawns(world: World, count: int, spacing: float = CAR_SPACING) -> list[Spawn]:
-    """`count` poses in a row: the first at the world's spawn, each next `spacing` m behind along its heading."""
-    first = world.spawn
-    back = np.array([np.cos(first.yaw), np.sin(first.yaw)])
-    return [Spawn(first.x - k * spacing * back[0], first.y - k * spacing * back[1], first.z, first.yaw)
-            for k in range(count)]
-
-
 class RaceEnv(ParallelEnv):
-    """N cars in `world`. num_cars: how many (2 by default); spawns: their poses (default: a row, row_spawns).
+    """N cars in `world`. num_cars: how many (2 by default); spawns: their poses (default: the world's starting row,
+    worlds.starting_row: car_spacing m apart, back along the spawn heading or round a track's centerline).
     collision: "involved" | "all" | "none" (see the module doc). max_cycles: steps before truncation.
     The other keywords as DriveEnv's (world, centerline, control_rate, action, max_speed, max_steering,
     crash_penalty, camera, profile, physics, sensor_noise, render_mode)."""
@@ -86,16 +78,16 @@ class RaceEnv(ParallelEnv):
                              MAX_STEERING if max_steering is None else max_steering)
         loaded = load_world(world)
         if spawns is None:
-            spawns = row_spawns(loaded, num_cars, car_spacing)
+            spawns = starting_row(loaded, num_cars, car_spacing)
         if len(spawns) != num_cars:
             raise ConfigError(f"race env spawns: {len(spawns)} poses for {num_cars} cars")
         self.possible_agents = [f"car{i + 1}" for i in range(num_cars)]
         cars = [Car(name, profile=profile, spawn=spawn_pose(s, what=f"race env spawns[{i}]"), camera=camera)
                 for i, (name, s) in enumerate(zip(self.possible_agents, spawns))]
         self.sim = sim = Simulator(world=loaded, physics=physics, sensor_noise=sensor_noise, cars=cars)
-        centerline = world_centerline(loaded, centerline)
+        line = world_centerline(loaded, centerline)
         mode = check_action_mode(action)
-        self._agents = {name: CarAgent(sim, car, mode, limits, camera, centerline, self.period_ns)
+        self._agents = {name: CarAgent(sim, car, mode, limits, camera, line, self.period_ns)
                         for name, car in zip(self.possible_agents, sim.cars)}
         self.observation_spaces = {name: a.observation_space for name, a in self._agents.items()}
         self.action_spaces = {name: a.action_space for name, a in self._agents.items()}

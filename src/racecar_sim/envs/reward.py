@@ -3,9 +3,8 @@
 Where the centerline comes from, first match wins:
   1. the env's `centerline=` argument: a track CSV (x, y, w_right, w_left: a closed loop) or a path/waypoint CSV
      (x, y [, speed], read as pure-pursuit reads it: a loop when its ends meet);
-  2. a world loaded from a track CSV: its own centerline;
-  3. a built-in world listed in data/centerlines.yaml (walker);
-  4. none: progress is the distance driven along the car's heading (dot(displacement, heading)).
+  2. the world's own (World.centerline, set by its loader): a track CSV's, or a built-in world's (walker's);
+  3. none: progress is the distance driven along the car's heading (dot(displacement, heading)).
 """
 
 from __future__ import annotations
@@ -13,55 +12,11 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import numpy as np
-import yaml
-
-from racecar_sim.core.errors import ConfigError, WorldError
+from racecar_sim.core.errors import WorldError
 from racecar_sim.worlds import World
+from racecar_sim.worlds.world import SEARCH_WINDOW, Centerline
 
-DATA = Path(__file__).parent / "data"
-BUILTIN_CENTERLINES: dict[str, str] = yaml.safe_load((DATA / "centerlines.yaml").read_text())
-SEARCH_WINDOW = 5.0  # m of arc length either side of the last projection searched for the next one
-
-
-class Centerline:
-    """A polyline (N, 2), closed (a loop) or open, with arc-length projection of points onto it."""
-
-    def __init__(self, points: np.ndarray, closed: bool, source: str = "") -> None:
-        points = np.asarray(points, np.float64)
-        if closed and len(points) > 1 and np.array_equal(points[0], points[-1]):
-            points = points[:-1]
-        if len(points) < 2:
-            raise ConfigError(f"{source or 'centerline'}: needs at least 2 points, got {len(points)}")
-        self.points, self.closed, self.source = points, closed, source
-        ends = np.roll(points, -1, axis=0) if closed else points[1:]
-        self._start = points[:len(ends)]
-        self._delta = ends - self._start
-        self._seg_len = np.hypot(self._delta[:, 0], self._delta[:, 1])
-        if np.any(self._seg_len == 0):
-            raise ConfigError(f"{source or 'centerline'}: two consecutive points are equal")
-        self._s0 = np.concatenate([[0.0], np.cumsum(self._seg_len)[:-1]])
-        self.length = float(self._seg_len.sum())
-
-    def project(self, x: float, y: float, near: float | None = None) -> float:
-        """Arc length s of the point of the line nearest to (x, y); with `near`, only segments within
-        SEARCH_WINDOW of arc length `near` count (the line may pass close to itself elsewhere)."""
-        px, py = x - self._start[:, 0], y - self._start[:, 1]
-        t = np.clip((px * self._delta[:, 0] + py * self._delta[:, 1]) / self._seg_len**2, 0.0, 1.0)
-        dist = np.hypot(px - t * self._delta[:, 0], py - t * self._delta[:, 1])
-        s = self._s0 + t * self._seg_len
-        if near is not None:
-            far = np.abs(self.wrap(s - near)) > SEARCH_WINDOW
-            if not np.all(far):
-                dist = np.where(far, np.inf, dist)
-        return float(s[int(np.argmin(dist))])
-
-    def wrap(self, ds: np.ndarray | float) -> np.ndarray | float:
-        """An arc-length difference taken the short way round a loop (unchanged on an open line)."""
-        if not self.closed:
-            return ds
-        half = self.length / 2
-        return (np.asarray(ds) + half) % self.length - half
+__all__ = ["SEARCH_WINDOW", "Centerline", "Progress", "load_centerline", "world_centerline"]
 
 
 def load_centerline(path: str | Path) -> Centerline:
@@ -82,12 +37,7 @@ def world_centerline(world: World, centerline: str | Path | None = None) -> Cent
     """The centerline progress is measured along in `world` (see the module doc), None for distance driven."""
     if centerline is not None:
         return load_centerline(centerline)
-    source = getattr(world, "source", "") or ""
-    if str(source).lower().endswith(".csv"):
-        return load_centerline(source)
-    if world.name in BUILTIN_CENTERLINES:
-        return load_centerline(DATA / BUILTIN_CENTERLINES[world.name])
-    return None
+    return world.centerline
 
 
 class Progress:

@@ -105,9 +105,10 @@ class _Parts:
 
 
 def map_plan(plan: LaunchPlan, ros: bool = False, profile: str = "seed", lidar: bool = True, camera: bool = True,
-             odometry: str = "original", scratch: Path | None = None) -> SimSetup:
+             odometry: str = "original", scratch: Path | None = None, sensors_off: tuple[str, ...] = ()) -> SimSetup:
     """The sim that runs `plan`; `ros`: nodes without a sim equivalent go to the bridge. `scratch`: a folder for
-    controller YAMLs built from the parameter tree (a temporary one by default)."""
+    controller YAMLs built from the parameter tree (a temporary one by default). `lidar`, `camera`, `sensors_off`:
+    the sensor switches of each car (runtime/plugins.py)."""
     world = world_of(plan)
     spawns = [parse_spawn(plan, n) for n in plan.nodes_of("gazebo_ros", "spawn_model")]
     if not spawns:
@@ -128,7 +129,7 @@ def map_plan(plan: LaunchPlan, ros: bool = False, profile: str = "seed", lidar: 
     for part in parts.values():
         car = Car(part.names.namespace, profile=profile, controllers=_controllers(plan, part, scratch),
                   spawn=part.spawn.spawn, lidar=lidar, camera=camera, odometry=odometry,
-                  nodes=_car_nodes(plan, part))
+                  nodes=_car_nodes(plan, part), sensors_off=sensors_off)
         car.urdf = part.spawn.urdf
         setup.cars.append(car)
         for source, target, _ in part.relays:

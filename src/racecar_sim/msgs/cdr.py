@@ -1,6 +1,6 @@
 """ROS 2 CDR (little-endian XCDR1, as rosbag2 and rosbags write it) for the message classes.
 
-The encoder of each type is compiled once from its parsed ``.msg`` definition into a
+The encoder of each type is compiled once from the field model (msgs/fields.py) into a
 flat tuple of small closures ("ops"). Nested message fields are flattened into dotted
 attribute paths, consecutive scalar fields become one precompiled ``struct`` per
 alignment state, and numeric arrays go out through numpy without per-element Python work.
@@ -10,7 +10,7 @@ Alignment is counted from the end of the 4-byte encapsulation header.
 from __future__ import annotations
 
 import struct
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from functools import cache, lru_cache
 from itertools import chain
 from operator import attrgetter
@@ -18,21 +18,12 @@ from typing import Any
 
 import numpy as np
 
-from racecar_sim.msgs.idl import FieldSpec, get_spec, normalize_msgtype
+from racecar_sim.msgs.fields import DTYPES, SCALARS, leaves, message_fields
+from racecar_sim.msgs.idl import FieldSpec, normalize_msgtype
 from racecar_sim.msgs.registry import message_class, msgtype_of
 
 CDR_LE_HEADER = b"\x00\x01\x00\x00"
 
-# ROS 2 maps byte and char to an 8-bit unsigned integer.
-_SCALARS: dict[str, tuple[str, int]] = {
-    "bool": ("?", 1), "byte": ("B", 1), "char": ("B", 1),
-    "int8": ("b", 1), "uint8": ("B", 1), "int16": ("h", 2), "uint16": ("H", 2),
-    "int32": ("i", 4), "uint32": ("I", 4), "int64": ("q", 8), "uint64": ("Q", 8),
-    "float32": ("f", 4), "float64": ("d", 8),
-}  # fmt: skip
-_DTYPES: dict[str, np.dtype[Any]] = {
-    name: np.dtype(np.bool_ if code == "?" else f"<{code}") for name, (code, _) in _SCALARS.items()
-}
 _BYTE_TYPES = frozenset({"uint8", "byte", "char"})
 _U32 = struct.Struct("<I")
 _PAD = tuple(b"\0" * n for n in range(8))
@@ -67,23 +58,13 @@ def _error(kind: type[Exception], msgtype: str, path: str, detail: str) -> Excep
     return kind(f"{msgtype}: field '{path}': {detail}")
 
 
-def _leaves(msgtype: str, prefix: str = "") -> Iterator[tuple[str, FieldSpec]]:
-    """Fields in wire order with nested (non-array) messages flattened to dotted paths."""
-    for spec in get_spec(msgtype).fields:
-        path = prefix + spec.name
-        if spec.is_primitive or spec.is_array:
-            yield path, spec
-        else:
-            yield from _leaves(spec.type, path + ".")
-
-
 @cache
 def _encoder(msgtype: str) -> Encoder:
     msgtype = normalize_msgtype(msgtype)
     ops: list[Encoder] = []
     run: list[tuple[str, str]] = []
-    for path, spec in _leaves(msgtype):
-        if not spec.is_array and spec.type in _SCALARS:
+    for path, spec in leaves(msgtype):
+        if not spec.is_array and spec.type in SCALARS:
             run.append((path, spec.type))
             continue
         if run:
@@ -107,7 +88,7 @@ def _field_op(msgtype: str, path: str, spec: FieldSpec) -> Encoder:
         return _string_op(msgtype, path)
     if spec.type in _BYTE_TYPES:
         return _bytes_op(msgtype, path, spec.size)
-    if spec.type in _SCALARS:
+    if spec.type in SCALARS:
         return _numeric_array_op(msgtype, path, spec.type, spec.size)
     if spec.type == "string":
         return _string_array_op(msgtype, path, spec.size)
@@ -117,7 +98,7 @@ def _field_op(msgtype: str, path: str, spec: FieldSpec) -> Encoder:
 def _run_struct(types: list[str], start: int) -> struct.Struct:
     fmt, pos = "<", start
     for name in types:
-        code, size = _SCALARS[name]
+        code, size = SCALARS[name]
         pad = -pos % size
         fmt += "x" * pad + code
         pos += pad + size
@@ -149,7 +130,7 @@ def _diagnose_scalars(msgtype: str, msg: Any, run: list[tuple[str, str]]) -> Exc
             value = attrgetter(path)(msg)
         except AttributeError:
             return _error(TypeError, msgtype, path, f"missing on {type(msg).__name__}")
-        code = _SCALARS[type_name][0]
+        code = SCALARS[type_name][0]
         try:
             struct.pack("<" + code, value)
         except (struct.error, TypeError, OverflowError) as exc:
@@ -250,7 +231,7 @@ def _as_array(msgtype: str, path: str, value: Any, dtype: np.dtype[Any]) -> np.n
 
 def _numeric_array_op(msgtype: str, path: str, type_name: str, size: int | None) -> Encoder:
     get = _get(msgtype, path)
-    dtype = _DTYPES[type_name]
+    dtype = DTYPES[type_name]
     itemsize = dtype.itemsize
 
     def op(msg: Any, out: list[Any], pos: int) -> int:
@@ -307,14 +288,14 @@ def _string_array_op(msgtype: str, path: str, size: int | None) -> Encoder:
 def _uniform_leaves(element_type: str) -> tuple[tuple[str, ...], str] | None:
     """The leaf paths of a message type whose leaves are all scalars of one numeric type (Pose, Twist, Point: all
     float64), and that type; None otherwise. Such elements lie end to end with no padding between them."""
-    leaves = list(_leaves(element_type))
-    types = {spec.type for _, spec in leaves}
-    if not leaves or len(types) != 1 or any(spec.is_array for _, spec in leaves):
+    found = list(leaves(element_type))
+    types = {spec.type for _, spec in found}
+    if not found or len(types) != 1 or any(spec.is_array for _, spec in found):
         return None
     (type_name,) = types
-    if type_name not in _SCALARS or type_name == "bool":
+    if type_name not in SCALARS or type_name == "bool":
         return None
-    return tuple(path for path, _ in leaves), type_name
+    return tuple(path for path, _ in found), type_name
 
 
 @lru_cache(maxsize=256)  # a few array lengths repeat (links, models); a PoseArray of any length must not pile up
@@ -345,7 +326,7 @@ def _message_array_op(msgtype: str, path: str, element_type: str, size: int | No
         return op
 
     paths, type_name = uniform
-    code, width = _SCALARS[type_name]
+    code, width = SCALARS[type_name]
     getter, per_item = attrgetter(*paths), len(paths)
 
     def op_uniform(msg: Any, out: list[Any], pos: int) -> int:
@@ -387,12 +368,14 @@ def deserialize(data: bytes | bytearray | memoryview, msgtype: str) -> Any:
 
 def _decode(msgtype: str, buf: memoryview, pos: int) -> tuple[Any, int]:
     values: dict[str, Any] = {}
-    for spec in get_spec(msgtype).fields:
+    for spec in message_fields(msgtype):
         try:
-            values[spec.name], pos = _decode_field(spec, buf, pos)
+            value, pos = _decode_field(spec, buf, pos)
         except (struct.error, ValueError, UnicodeDecodeError) as exc:
             detail = f"malformed CDR data ({exc})"
             raise ValueError(f"{msgtype}: field '{spec.name}': {detail}") from None
+        if spec.attr is not None:
+            values[spec.attr] = value
     return message_class(msgtype)(**values), pos
 
 
@@ -404,7 +387,7 @@ def _decode_scalar(type_name: str, buf: memoryview, pos: int) -> tuple[Any, int]
         if length < 1 or end > len(buf):
             raise ValueError(f"bad string length {length}")
         return bytes(buf[pos + 4 : end - 1]).decode(), end
-    code, size = _SCALARS[type_name]
+    code, size = SCALARS[type_name]
     pos += -pos % size
     return struct.unpack_from("<" + code, buf, pos)[0], pos + size
 
@@ -423,8 +406,8 @@ def _decode_field(spec: FieldSpec, buf: memoryview, pos: int) -> tuple[Any, int]
         if pos + count > len(buf):
             raise ValueError(f"{count} bytes past the end of the data")
         return bytes(buf[pos : pos + count]), pos + count
-    if spec.type in _SCALARS:
-        dtype = _DTYPES[spec.type]
+    if spec.type in SCALARS:
+        dtype = DTYPES[spec.type]
         if count:
             pos += -pos % dtype.itemsize
         array = np.frombuffer(buf, dtype=dtype, count=count, offset=pos)

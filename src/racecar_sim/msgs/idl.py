@@ -40,12 +40,19 @@ class FieldSpec:
             (``geometry_msgs/msg/Point``).
         is_array: True for ``T[]``, ``T[<=N]`` and ``T[N]``.
         size: ``N`` for a fixed-size array ``T[N]``, otherwise None.
+        attr: The message class's attribute that holds the value: ``name`` unless given; None for a field
+            that is on a wire only (ROS 1's ``Header.seq``).
     """
 
     name: str
     type: str
     is_array: bool = False
     size: int | None = None
+    attr: str | None = ""
+
+    def __post_init__(self) -> None:
+        if self.attr == "":
+            object.__setattr__(self, "attr", self.name)
 
     @property
     def is_primitive(self) -> bool:

@@ -90,6 +90,16 @@ class NodeBase:
         """The node's owner is going away: free what it holds."""
 
 
+@dataclass(frozen=True)
+class Mount:
+    """What a node's `prepare` step needs to put its parts (sites, MuJoCo sensors and cameras, actuators) into the
+    MjSpec before the model is compiled: the car's description, its names and its controller configuration."""
+
+    robot: Robot
+    names: CarNames
+    controllers: ControllerConfig | None = None
+
+
 @dataclass
 class NodeContext:
     """Everything a node is built from.

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Mapping
-from pathlib import Path
 
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import NAVIGATION, ODOM
@@ -19,16 +18,17 @@ from racecar_sim.drivers import (
     PurePursuitConfig,
     WallFollowConfig,
     WallFollower,
+    Waypoints,
     load_waypoints,
     pure_pursuit_config,
     wall_follow_config,
 )
 from racecar_sim.runtime.car import Car
 from racecar_sim.runtime.simulator import Simulator
+from racecar_sim.worlds import World, track_file  # noqa: F401 (track_file: sweep/spec.py asks it of a world's name)
 
 DRIVERS = ("wall-follow", "pure-pursuit", "constant")
 CONSTANT_DEFAULTS = {"speed": 1.0, "steering": 0.0, "rate": 20.0}
-TRACK_SUFFIX = ".csv"  # a race-track centerline world: pure-pursuit follows it unless given a path
 
 
 def driver_parameters(driver: str) -> tuple[str, ...]:
@@ -43,10 +43,13 @@ def driver_parameters(driver: str) -> tuple[str, ...]:
     raise ConfigError(f"unknown driver {driver!r} (choose from: {', '.join(DRIVERS)})")
 
 
-def track_file(world: object) -> Path | None:
-    """The world as a race-track centerline CSV file, or None when it is not one."""
-    path = Path(str(world))
-    return path if path.suffix.lower() == TRACK_SUFFIX and path.is_file() else None
+def track_path(world: World) -> Waypoints | None:
+    """What pure-pursuit follows in `world` unless given a path: a race track's centerline (a loop), None for a world
+    that is not a track."""
+    line = world.centerline
+    if line is None or not world.is_track:
+        return None
+    return Waypoints(line.points, None, True, line.source)
 
 
 def attach_driver(sim: Simulator, car: Car, driver: str, params: Mapping[str, object] | None = None,
@@ -70,17 +73,18 @@ def attach_driver(sim: Simulator, car: Car, driver: str, params: Mapping[str, ob
         options = {name: finite_number(value, f"constant: {name}")
                    for name, value in {**CONSTANT_DEFAULTS, **params}.items()}
         # ConfigError from the scheduler for a rate above the physics rate
-        return ConstantCommand(sim.bus, sim.scheduler, options["speed"], options["steering"], options["rate"],
-                               topic=navigation)
+        return car.hold(ConstantCommand(sim.bus, sim.scheduler, options["speed"], options["steering"], options["rate"],
+                                        topic=navigation))
     if driver == "wall-follow":
         if car.lidar is None and scan_topic is None:  # a given scan topic may be fed from elsewhere (ROS)
             raise ConfigError("wall-follow steers by the lidar: the car needs its lidar on")
-        return WallFollower(sim.bus, wall_follow_config(**params), topic=navigation,
-                            scan_topic=scan_topic or car.lidar.topic, odom_topic=odom)
-    path = params.pop("path", None) or track_file(sim.world.source)
-    if path is None:
+        return car.hold(WallFollower(sim.bus, wall_follow_config(**params), topic=navigation,
+                                     scan_topic=scan_topic or car.lidar.topic, odom_topic=odom))
+    path = params.pop("path", None)
+    waypoints = load_waypoints(path) if path else track_path(sim.world)
+    if waypoints is None:
         raise ConfigError("pure-pursuit needs a path: a waypoint CSV (x,y[,speed]) or a track centerline, or a track "
                           ".csv as the world")
     wheelbase = VehicleGeometry.from_robot(car.robot).wheelbase  # the loaded xacro's, not the YAML's default
     config = pure_pursuit_config(**{"wheelbase": wheelbase, **params})
-    return PurePursuit(sim.bus, load_waypoints(path), config, topic=navigation, odom_topic=odom)
+    return car.hold(PurePursuit(sim.bus, waypoints, config, topic=navigation, odom_topic=odom))

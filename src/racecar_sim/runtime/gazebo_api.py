@@ -31,7 +31,8 @@ import warnings
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from collections.abc import Callable, Sequence
+from typing import Protocol
 
 import mujoco
 import numpy as np
@@ -58,18 +59,14 @@ from racecar_sim.msgs.gazebo_msgs import (
     SpawnModelResponse,
 )
 from racecar_sim.msgs.std_srvs import EmptyRequest, EmptyResponse
-from racecar_sim.physics import check_spawn
-from racecar_sim.physics.builder import friction_min_rule
-from racecar_sim.physics.near_walls import drop as drop_held_walls
-from racecar_sim.physics.world_geoms import add_world
+from racecar_sim.bus import BusPort
+from racecar_sim.nodes import NodeBase, Timers
 from racecar_sim.runtime.car import Car
 from racecar_sim.worlds import Spawn, World
 from racecar_sim.worlds.sdf import load_sdf
 from racecar_sim.worlds.sdf_parts import SdfContext, pose, pose_or_identity, resolve_uri
 from racecar_sim.worlds.world import WorldBody
 
-if TYPE_CHECKING:
-    from racecar_sim.runtime.simulator import Simulator
 
 log = logging.getLogger("racecar_sim")
 
@@ -109,10 +106,50 @@ class _Model:
         return any(link.qpos >= 0 for link in self.links)
 
 
-class GazeboApi:
-    """The gazebo node: state topics at STATES_RATE, the /gazebo services. Created by the Simulator (`sim.gazebo`)."""
+class GazeboHost(Protocol):
+    """What the Gazebo API needs of the simulation: reads of its state, and the few calls that change the scene."""
 
-    def __init__(self, sim: Simulator) -> None:
+    bus: BusPort
+    world: World
+    cars: list[Car]
+    paused: bool
+    seed: int
+
+    @property
+    def scheduler(self) -> Timers: ...
+
+    @property
+    def model(self) -> mujoco.MjModel: ...
+
+    @property
+    def data(self) -> mujoco.MjData: ...
+
+    @property
+    def time_ns(self) -> int: ...
+
+    @property
+    def time(self) -> float: ...
+
+    def poses_changed(self) -> None: ...
+
+    def defer(self, action: Callable[[], None]) -> None: ...
+
+    def reset(self) -> None: ...
+
+    def spawn_car(self, car: Car, quat: Sequence[float] | None = None) -> None: ...
+
+    def delete_car(self, car: Car) -> None: ...
+
+    def add_world_bodies(self, bodies: list[WorldBody], prefix: str) -> None: ...
+
+    def remove_world_bodies(self, bodies: list[WorldBody]) -> None: ...
+
+
+class GazeboApi(NodeBase):
+    """The gazebo node: state topics at STATES_RATE, the /gazebo services. Created by the Simulator (`sim.gazebo`),
+    a node of the world: it changes the scene only through the host's spawn and delete calls."""
+
+    def __init__(self, sim: GazeboHost) -> None:
         self.sim, self.bus = sim, sim.bus
         self._frames = _world_file_frames(sim.world)  # model name -> its pose as the world file places it
         self._order = list(dict.fromkeys(_model_of(body.name) for body in sim.world.bodies))
@@ -120,7 +157,6 @@ class GazeboApi:
         self._spawned = 0
         self._vel = np.zeros(6)
         self._index()
-        sim.on_rebuild(lambda model, data: self._index())
         self.task = sim.scheduler.every(STATES_RATE, self._tick, "gazebo_ros_api_plugin", unheard=self._unheard)
         self._warn = ThrottledWarning(log, lambda: sim.time_ns)
         self.bus.subscribe(SET_MODEL_STATE, self._on_set_model_state, ModelState)
@@ -144,6 +180,14 @@ class GazeboApi:
     def model_names(self) -> list[str]:
         """Every model, in Gazebo's order: the world file's, then the cars, then what was spawned, by spawn time."""
         return list(self._order)
+
+    def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """A model spawned or deleted: the model and link table is built again against the new model."""
+        self._index()
+
+    def close(self) -> None:
+        """Stop publishing the state topics."""
+        self.task.cancel()
 
     def _index(self) -> None:
         """(Re)build the table of models and links against the current MuJoCo model."""
@@ -420,18 +464,15 @@ class GazeboApi:
         m = self.models.get(req.model_name)
         if m is None:
             return DeleteModelResponse(False, f"DeleteModel: model [{req.model_name}] does not exist ({self._known()})")
-        sim, spec = self.sim, self.sim.spec
+        sim = self.sim
         if m.car is not None:
             if len(sim.cars) == 1:
                 return DeleteModelResponse(False, f"DeleteModel: [{m.name}] is the last car; a Simulator keeps one")
-            m.car.stop()
-            m.car.remove_from(spec)
-            sim.cars.remove(m.car)
+            self._order.remove(m.name)
+            sim.delete_car(m.car)
         else:
-            _remove_bodies(spec, m.bodies)
-            sim.world.bodies = [b for b in sim.world.bodies if all(b is not own for own in m.bodies)]
-        self._order.remove(m.name)
-        sim.install_model(*sim.compile_spec())
+            self._order.remove(m.name)
+            sim.remove_world_bodies(m.bodies)
         return DeleteModelResponse(True, "DeleteModel: successfully deleted model")
 
     def _initial_pose(self, req: SpawnModelRequest) -> PoseArrays | str:
@@ -466,29 +507,19 @@ class GazeboApi:
         (pos, quat) = initial
         first = sim.cars[0]
         car = Car(namespace, profile=first.profile_name, controllers=first.controllers_file,
-                  spawn=Spawn(*(float(v) for v in pos), yaw_of(quat)), lidar=first.want_lidar,
-                  camera=first.want_camera, odometry=first.odometry_mode)
+                  spawn=Spawn(*(float(v) for v in pos), yaw_of(quat)), sensors_off=first.off,
+                  odometry=first.odometry_mode)
         car.urdf = req.model_xml
         try:
             car.load()
         except RacecarSimError as exc:
             return SpawnModelResponse(False, f"SpawnModel: {exc}")
+        self._order.append(name)  # before the rebuild: the model table is indexed with it
         try:
-            car.add_to(sim.spec, sim.preset, car.spawn)
+            sim.spawn_car(car, quat)  # the full orientation, not only the heading
         except (RacecarSimError, ValueError) as exc:
-            car.remove_from(sim.spec)
+            self._order.remove(name)
             return SpawnModelResponse(False, f"SpawnModel: {exc}")
-        sim.spec.body(names.mj(car.robot.root)).quat = list(quat)  # the full orientation, not only the heading
-        try:
-            model, data = sim.compile_spec()
-            check_spawn(model, data, sim.world, car.robot, names, car.spawn)
-        except RacecarSimError as exc:
-            car.remove_from(sim.spec)
-            return SpawnModelResponse(False, f"SpawnModel: {exc}")
-        car.start(model, data, sim.bus, sim.scheduler, lambda: sim.time_ns, sim.static_tf, sim.seed, sim.sensor_noise)
-        sim.cars.append(car)
-        self._order.append(name)
-        sim.install_model(model, data)
         log.info("spawned car %s at (%.3g, %.3g, %.3g)", name, *pos)
         return SpawnModelResponse(True, "SpawnModel: Successfully spawned entity")
 
@@ -506,16 +537,14 @@ class GazeboApi:
         if not bodies:
             return SpawnModelResponse(False, f"SpawnModel: model [{name}] has no link")
         self._spawned += 1
-        _attach_bodies(sim.spec, bodies, f"gazebo_spawn{self._spawned}/")
-        try:
-            model, data = sim.compile_spec()
-        except RacecarSimError as exc:
-            _remove_bodies(sim.spec, bodies)
-            return SpawnModelResponse(False, f"SpawnModel: {exc}")
-        sim.world.bodies.extend(bodies)
         self._frames[name] = frame
         self._order.append(name)
-        sim.install_model(model, data)
+        try:
+            sim.add_world_bodies(bodies, f"gazebo_spawn{self._spawned}/")
+        except RacecarSimError as exc:
+            self._order.remove(name)
+            del self._frames[name]
+            return SpawnModelResponse(False, f"SpawnModel: {exc}")
         return SpawnModelResponse(True, "SpawnModel: Successfully spawned entity")
 
     def _known(self) -> str:
@@ -639,35 +668,3 @@ def _load_model(xml: str, model_name: str, initial: PoseArrays) -> tuple[str, Po
         path.write_text(ET.tostring(sdf, encoding="unicode"))
         world = load_sdf(path)
     return name, placed, world.bodies
-
-
-def _attach_bodies(spec: mujoco.MjSpec, bodies: list[WorldBody], prefix: str) -> None:
-    """Add world bodies to the scene's MjSpec with the world loader's own code: built in a spec of their own, then
-    attached. Meshes, textures and materials keep `prefix` (unique per spawn), bodies, geoms and joints get their
-    Gazebo names back; the friction rule is applied again over every geom."""
-    child = mujoco.MjSpec()
-    child.compiler.degree = spec.compiler.degree
-    child.compiler.inertiafromgeom = spec.compiler.inertiafromgeom
-    child.compiler.autolimits = spec.compiler.autolimits
-    add_world(child, World("spawn", "", bodies=bodies))
-    spec.attach(child, frame=spec.worldbody.add_frame(), prefix=prefix)
-    for element in [*spec.bodies, *spec.geoms, *spec.joints, *spec.sites, *spec.lights]:
-        if element.name.startswith(prefix):
-            element.name = element.name[len(prefix):]
-    sky = spec.texture(f"{prefix}sky")  # the loader's skybox: the scene has its own
-    if sky is not None:
-        spec.delete(sky)
-    friction_min_rule(spec)
-
-
-def _remove_bodies(spec: mujoco.MjSpec, bodies: list[WorldBody]) -> None:
-    """Delete world bodies from the scene's MjSpec: a free one as a body, a static one as its geoms."""
-    for body in bodies:
-        if not body.static and spec.body(body.name) is not None:
-            spec.delete(spec.body(body.name))
-    for body in bodies:
-        if body.static:
-            drop_held_walls(spec, body.name)  # a map's walls kept as data (physics.near_walls)
-    names = {geom.name for body in bodies if body.static for geom in body.geoms}
-    for geom in [g for g in spec.geoms if g.name in names]:
-        spec.delete(geom)

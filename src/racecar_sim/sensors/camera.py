@@ -1,8 +1,8 @@
 """The ZED camera (left lens): gazebo_ros_camera on MuJoCo offscreen rendering.
 
 Two steps, because the Simulator compiles the model before nodes exist:
-  add_camera(spec, robot)   puts a MuJoCo camera on the camera link of the MjSpec, before compiling;
-  CameraPublisher(...)      renders it at the sensor's rate and publishes Image + CameraInfo, stamped in sim time.
+  add_camera(spec, sensor)   puts a MuJoCo camera on the camera link of the MjSpec, before compiling;
+  CameraPublisher(ctx, sensor)  renders it at the sensor's rate and publishes Image + CameraInfo, stamped in sim time.
 
 Rendering happens only when someone listens (gazebo_ros_camera renders only for subscribers); the schedule is
 kept regardless, and the noise of a frame depends only on (seed, stamp), so skipping frames changes no other.
@@ -19,13 +19,12 @@ import zlib
 import mujoco
 import numpy as np
 
-from racecar_sim.bus import Bus
 from racecar_sim.core.errors import DescriptionError, RenderingError
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.rng import NoiseTable
-from racecar_sim.nodes import Timers
+from racecar_sim.nodes import NodeBase, NodeContext
 from racecar_sim.core.transforms import quat_from_rpy, quat_mul
-from racecar_sim.description.urdf import Robot
+from racecar_sim.description.urdf import Robot, Sensor
 from racecar_sim.msgs import Header, Image
 from racecar_sim.sensors.camera_spec import CameraSpec
 from racecar_sim.render.offscreen import OffscreenCamera
@@ -33,6 +32,7 @@ from racecar_sim.render.offscreen import OffscreenCamera
 __all__ = ["CameraPublisher", "CameraSpec", "RenderingError", "add_camera", "add_noise", "camera_spec", "set_clip"]
 
 NOISE_STREAM = "camera"
+ORIGINAL_TOPIC = "/camera/zed/rgb/image_rect_color"  # its camera keeps the original noise stream, `camera`
 _NO_NOISE = np.zeros(1, dtype=np.float32)  # the noise table finish_frame gets when there is no noise
 _NO_SKY = np.zeros(3, dtype=np.uint8)  # the sky finish_frame gets when the skybox was drawn
 # A MuJoCo camera looks along its -z with +y up; Gazebo's looks along the link's +x with +z up. This rotation
@@ -41,21 +41,26 @@ LOOK_ALONG_X = np.array([0.5, 0.5, -0.5, -0.5])
 
 
 def camera_spec(robot: Robot, names: CarNames = CarNames()) -> CameraSpec:
-    """The robot's camera sensor block, parsed, with the car's names (MuJoCo camera and link, topics, frame);
+    """The robot's first camera sensor block, parsed, with the car's names (MuJoCo camera and link, topics, frame);
     DescriptionError if it has none."""
     sensor = robot.sensor("camera")
     if sensor is None:
         raise DescriptionError(f"robot {robot.name} has no <sensor type=\"camera\"> (is DISABLE_GAZEBO_CAMERA set?)")
+    return named_camera_spec(sensor, names)
+
+
+def named_camera_spec(sensor: Sensor, names: CarNames = CarNames()) -> CameraSpec:
+    """A camera sensor block, parsed, with the car's names."""
     spec = CameraSpec.from_sensor(sensor)
     return dataclasses.replace(spec, name=names.mj(spec.name), link=names.mj(spec.link),
                                image_topic=names.topic(spec.image_topic), info_topic=names.topic(spec.info_topic),
                                frame_id=names.frame(spec.frame_id))
 
 
-def add_camera(spec: mujoco.MjSpec, robot: Robot, names: CarNames = CarNames()) -> None:
-    """Add the robot's camera to `spec` (before compiling): on its link's body, at the sensor pose, with the
-    sensor's vertical field of view, and an offscreen buffer large enough for its image."""
-    cam = camera_spec(robot, names)
+def add_camera(spec: mujoco.MjSpec, sensor: Sensor, names: CarNames = CarNames()) -> None:
+    """Add a camera sensor block's MuJoCo camera to `spec` (before compiling): on its link's body, at the sensor pose,
+    with the sensor's vertical field of view, and an offscreen buffer large enough for its image."""
+    cam = named_camera_spec(sensor, names)
     body = spec.body(cam.link)
     if body is None:
         raise DescriptionError(f"camera sensor '{cam.name}': link {cam.link} is not in the model")
@@ -95,22 +100,24 @@ def add_noise(pixels: np.ndarray, unit_noise: np.ndarray, mean: float, stddev: f
     return out.astype(np.uint8).reshape(height, width, channels)
 
 
-class CameraPublisher:
-    """gazebo_ros_camera: Image and CameraInfo at the sensor's rate (30 Hz), frame camera_link, sim-time stamps.
+class CameraPublisher(NodeBase):
+    """gazebo_ros_camera: Image and CameraInfo at the sensor's rate (30 Hz), frame camera_link, sim-time stamps, for
+    one `<sensor type="camera">` block of the description.
 
     Raises RenderingError (one line) at construction when no headless OpenGL context can be made.
     Attributes: `spec` (the parsed sensor block), `noise` (whether frames get the sensor's noise),
     `frames_rendered` (how many frames were drawn: none while nobody listens).
     """
 
-    def __init__(self, bus: Bus, scheduler: Timers, model: mujoco.MjModel, data: mujoco.MjData, robot: Robot,
-                 seed: int, noise: bool = True, names: CarNames = CarNames()) -> None:
-        self.spec = camera_spec(robot, names)
-        self.noise_stream = names.noise_prefix + NOISE_STREAM
+    def __init__(self, ctx: NodeContext, sensor: Sensor) -> None:
+        model, data, noise = ctx.model, ctx.data, ctx.noise
+        self.spec = named_camera_spec(sensor, ctx.names)
+        own_topic = CameraSpec.from_sensor(sensor).image_topic
+        self.noise_stream = ctx.noise_stream(NOISE_STREAM if own_topic == ORIGINAL_TOPIC else NOISE_STREAM + own_topic)
         if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, self.spec.name) < 0:
-            raise ValueError(f"the model has no camera '{self.spec.name}': call add_camera(spec, robot) before "
+            raise ValueError(f"the model has no camera '{self.spec.name}': call add_camera(spec, sensor) before "
                              "compiling")
-        self.bus, self.seed = bus, seed
+        self.bus, self.seed = ctx.bus, ctx.seed
         self._stream_key = zlib.crc32(self.noise_stream.encode()) << 32  # mixed into the seed: cars differ
         self.noise = noise and (self.spec.noise_stddev > 0 or self.spec.noise_mean != 0)
         set_clip(model, self.spec.near, self.spec.far)
@@ -119,7 +126,7 @@ class CameraPublisher:
         self._ahead = False
         self._pending: tuple[int, Future[np.ndarray]] | None = None  # (stamp, frame) drawn ahead, not yet published
         self._prepare()
-        self._task = scheduler.every(self.spec.rate_hz, self._tick, "gazebo_ros_camera")
+        self._task = ctx.timers.every(self.spec.rate_hz, self._tick, "gazebo_ros_camera")
 
     def _prepare(self) -> None:
         """Load the compiled frame finishing and draw the noise table now, with the rest of the start-up, rather
@@ -211,6 +218,11 @@ class CameraPublisher:
     def gl_renderer(self) -> str:
         """The OpenGL renderer drawing the images (e.g. llvmpipe: Mesa's software rasteriser)."""
         return f"{self.renderer.gl.backend}: {self.renderer.gl.renderer}"
+
+    def reset(self, seed: int) -> None:
+        """Noise from `seed`; a frame drawn ahead of the reset shows the old episode and is dropped."""
+        self.seed = seed
+        self.drop_pending()
 
     def close(self) -> None:
         """Stop publishing and free this camera's GL objects (a frame drawn ahead is dropped)."""

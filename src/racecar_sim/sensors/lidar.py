@@ -13,13 +13,12 @@ import dataclasses
 import mujoco
 import numpy as np
 
-from racecar_sim.bus import Bus
 from racecar_sim.core.errors import DescriptionError
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.rng import NoiseTable
-from racecar_sim.nodes import Timers
 from racecar_sim.core.transforms import quat_from_rpy, quat_to_matrix
-from racecar_sim.description.urdf import Robot
+from racecar_sim.description.urdf import Robot, Sensor
+from racecar_sim.nodes import NodeBase, NodeContext
 from racecar_sim.msgs import Header, LaserScan
 from racecar_sim.physics import COLLISION_GROUP
 from racecar_sim.sensors.laser_mount import LaserMount
@@ -27,33 +26,42 @@ from racecar_sim.sensors.laser_spec import LaserSpec
 from racecar_sim.sensors.raycast import Fan, RayCaster
 
 NOISE_STREAM = "scan"
+ORIGINAL_TOPIC = "/scan"  # the laser on it keeps the original noise stream, `scan` (runs stay bit-identical)
 
 
 def laser_spec(robot: Robot, names: CarNames = CarNames()) -> LaserSpec:
-    """The robot's ray sensor block, parsed, with the car's names (link, topic, frame); DescriptionError if it
+    """The robot's first ray sensor block, parsed, with the car's names (link, topic, frame); DescriptionError if it
     has none."""
-    sensor = robot.sensor("ray")
+    sensor = robot.sensor("ray") or robot.sensor("gpu_ray")
     if sensor is None:
         raise DescriptionError(f"robot {robot.name} has no <sensor type=\"ray\"> (is DISABLE_GAZEBO_LASER set?)")
+    return named_laser_spec(sensor, names)
+
+
+def named_laser_spec(sensor: Sensor, names: CarNames = CarNames()) -> LaserSpec:
+    """A ray sensor block, parsed, with the car's names (link, topic, frame)."""
     spec = LaserSpec.from_sensor(sensor)
     return dataclasses.replace(spec, link=names.mj(spec.link), topic=names.topic(spec.topic),
                                frame_id=names.frame(spec.frame_id))
 
 
-class LidarPublisher:
-    """gazebo_ros_laser: LaserScan at the sensor's rate (40 Hz), frame `laser`, sim-time stamps.
+class LidarPublisher(NodeBase):
+    """gazebo_ros_laser: LaserScan at the sensor's rate (40 Hz), frame `laser`, sim-time stamps, for one
+    `<sensor type="ray">` block of the description (a car may have several, each on its own topic).
 
-    `noise=False` publishes the true ranges (still clamped and +inf past range_max). `mode` "3d" makes
+    The context's `noise=False` publishes the true ranges (still clamped and +inf past range_max). `mode` "3d" makes
     every scan a MuJoCo 3-D cast (the reference; "auto" gives the same ranges, faster).
     """
 
-    def __init__(self, bus: Bus, scheduler: Timers, model: mujoco.MjModel, data: mujoco.MjData, robot: Robot,
-                 seed: int, noise: bool = True, topic: str | None = None, mode: str = "auto",
-                 names: CarNames = CarNames()) -> None:
-        self.spec = spec = laser_spec(robot, names)
-        self.noise_stream = names.noise_prefix + NOISE_STREAM
-        self.bus, self.model, self.data, self.seed, self.mode = bus, model, data, seed, mode
-        self.topic = topic or spec.topic  # gazebo_ros_laser's <topicName>: /scan
+    def __init__(self, ctx: NodeContext, sensor: Sensor, mode: str = "auto") -> None:
+        names, model, data = ctx.names, ctx.model, ctx.data
+        robot = ctx.need_robot("a laser")
+        own = LaserSpec.from_sensor(sensor)
+        self.spec = spec = named_laser_spec(sensor, names)
+        self.noise_stream = ctx.noise_stream(NOISE_STREAM if own.topic == ORIGINAL_TOPIC else NOISE_STREAM + own.topic)
+        self.bus, self.model, self.data, self.seed, self.mode = ctx.bus, model, data, ctx.seed, mode
+        noise = ctx.noise
+        self.topic = spec.topic  # gazebo_ros_laser's <topicName>: /scan
         self.noise = noise and spec.noisy
         self.noise_table = NoiseTable.shared(self.noise_stream, spec.samples)
         self._no_intensities = np.zeros(spec.samples, np.float32)
@@ -71,7 +79,7 @@ class LidarPublisher:
         self.caster = RayCaster(model, self._pose, self.fan, model.body(self._root).id, COLLISION_GROUP,
                                 pose_bodies=self._pose_bodies)
         self.scans_cast = 0
-        self._task = scheduler.every(spec.update_rate, self._tick, "hokuyo")
+        self._task = ctx.timers.every(spec.update_rate, self._tick, "hokuyo")
 
     def _site_id(self, model: mujoco.MjModel) -> int:
         site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, self.spec.link)
@@ -181,6 +189,10 @@ class LidarPublisher:
         r, a = ranges[hit], angles[hit]
         local = np.stack([r * np.cos(a), r * np.sin(a), np.zeros_like(r)], axis=1)
         return origin.copy(), origin + local @ axes.T
+
+    def reset(self, seed: int) -> None:
+        """Noise from `seed` from now on (a scan's noise depends only on the seed and its stamp)."""
+        self.seed = seed
 
     def close(self) -> None:
         """Stop publishing."""

@@ -19,12 +19,12 @@ from racecar_sim.core.names import ODOM, ODOM_RELAY, TF, CarNames
 from racecar_sim.msgs import (Header, Odometry, Point, Pose, PoseWithCovariance, Quaternion, TFMessage, Transform,
                               TransformStamped, Twist, TwistWithCovariance, Vector3)
 from racecar_sim.physics.state import CarState
-from racecar_sim.nodes import Timers
+from racecar_sim.nodes import NodeBase, Timers
 
 FRAMES = {"original": ("map", "odom"), "ros": ("odom", "base_link")}
 
 
-class OdometryPublisher:
+class OdometryPublisher(NodeBase):
     """The odometry node; `rate` 20 Hz as the original timer."""
 
     def __init__(self, bus: Bus, scheduler: Timers, state: CarState, mode: str = "original", rate: float = 20.0,

@@ -13,6 +13,7 @@ from racecar_sim.core.transforms import quat_from_rpy
 from racecar_sim.description.kinematics import joint_transform
 from racecar_sim.description.urdf import Robot
 from racecar_sim.msgs import Header, JointState, Quaternion, TFMessage, Time, Transform, TransformStamped, Vector3
+from racecar_sim.nodes import NodeBase
 
 
 def transform_msg(stamp_ns: int, parent: str, child: str, pos: np.ndarray, quat_wxyz: np.ndarray) -> TransformStamped:
@@ -36,7 +37,7 @@ class StaticTransforms:
         self.bus.publish(TF_STATIC, TFMessage(list(self.transforms)))
 
 
-class RobotStatePublisher:
+class RobotStatePublisher(NodeBase):
     """Publishes the URDF tree as TF (frames with the car's tf_prefix), from the joint states on `joint_states_topic`."""
 
     def __init__(self, bus: Bus, robot: Robot, joint_states_topic: str = "/racecar/joint_states",

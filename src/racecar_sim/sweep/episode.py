@@ -43,8 +43,8 @@ def run_episode(episode: Episode, folder: str | Path) -> dict[str, Any]:
         attach_driver(sim, sim.car, episode.driver, episode.params)
         if settings.record:
             sim.record(folder / MCAP)
-        runlog = RunLog(sim.bus, sim.lidar.topic if sim.lidar else None,
-                        sim.camera.spec.image_topic if sim.camera and settings.summary_png else None, odom_topic=ODOM)
+        runlog = RunLog(sim.bus, sim.car.lidar.topic if sim.car.lidar else None,
+                        sim.car.camera.spec.image_topic if sim.car.camera and settings.summary_png else None, odom_topic=ODOM)
         contacts = CrashCounter(sim.model, sim.car)
         sim.scheduler.every(CHECK_RATE, lambda now: contacts.update(sim.data, now), "sweep crash count")
         start = time.perf_counter()  # the episode's own time: building the world is not the sim's speed
@@ -91,8 +91,8 @@ def _summary_png(episode: Episode, sim: Simulator, runlog: RunLog, row: dict[str
     from racecar_sim.plots.summary import save_summary  # matplotlib loads only when a summary is drawn
 
     origin = ends = None
-    if sim.lidar is not None and runlog.last_scan is not None:
-        origin, ends = sim.lidar.beam_ends(runlog.last_scan.ranges)
+    if sim.car.lidar is not None and runlog.last_scan is not None:
+        origin, ends = sim.car.lidar.beam_ends(runlog.last_scan.ranges)
     params = ", ".join(f"{k} {v}" for k, v in episode.params.items())
     lines = [f"distance         {row['distance']:.1f} m", f"mean speed       {row['mean_speed']:.2f} m/s",
              f"collisions       {row['collisions']}", f"real-time factor {row['real_time_factor']:.1f}x"]

@@ -4,7 +4,9 @@ The format of the F1TENTH racetrack database: metres, comma (or semicolon) separ
 row, plain (`x,y,w_right,w_left`) or a `#` comment (`# x_m,y_m,w_tr_right_m,w_tr_left_m`) whose names place
 the columns. The last point joins the first; a last row repeating the first point is dropped. Borders are the
 centerline moved w_left to the left and w_right to the right (averaged normals), simplified to within
-BORDER_TOLERANCE. The CSV reader here (read_csv_table) also reads pure-pursuit paths (drivers/waypoints.py).
+BORDER_TOLERANCE. The loaded World keeps the centerline (World.centerline, with its widths). The CSV reader here
+(read_csv_table) also reads pure-pursuit paths (drivers/waypoints.py) and a built-in world's centerline
+(read_course_line: walker's).
 """
 
 from __future__ import annotations
@@ -13,12 +15,13 @@ import math
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
 from racecar_sim.core.errors import RacecarSimError, WorldError
 from racecar_sim.worlds.walls import border_walls, offset_polyline, simplify
-from racecar_sim.worlds.world import MAX_COORDINATE, Spawn, World, WorldBody, WorldGeom
+from racecar_sim.worlds.world import MAX_COORDINATE, Centerline, Spawn, World, WorldBody, WorldGeom
 
 COLUMNS = ("x", "y", "w_right", "w_left")
 BORDER_TOLERANCE = 0.01  # m, a simplified border stays this close to the offset centerline
@@ -33,7 +36,8 @@ def load_track(path: str | Path, wall_height: float) -> World:
     points, w_right, w_left, line_numbers = read_centerline(path)
     geoms: list[WorldGeom] = []
     borders = []
-    for side, widths in (("left", w_left), ("right", w_right)):
+    sides: tuple[tuple[Literal["left", "right"], np.ndarray], ...] = (("left", w_left), ("right", w_right))
+    for side, widths in sides:
         try:
             border = offset_polyline(points, widths, side, closed=True)
             _warn_if_folded(path, points, border, side, line_numbers)
@@ -48,7 +52,19 @@ def load_track(path: str | Path, wall_height: float) -> World:
     world.cover_ground(np.concatenate(borders))
     (x0, y0), (x1, y1) = points[:2]
     world.spawn = Spawn(float(x0), float(y0), Spawn().z, math.atan2(y1 - y0, x1 - x0))
+    world.centerline = Centerline(points, True, str(path), np.column_stack([w_right, w_left]))
     return world
+
+
+def read_course_line(path: Path) -> Centerline:
+    """A built-in world's centerline from its CSV (x, y columns named in the header): a loop when the last row
+    repeats the first."""
+    table = read_csv_table(path, WorldError)
+    x, y = table.find(X_NAMES), table.find(Y_NAMES)
+    if x is None or y is None:
+        raise WorldError(f"{path}: the header names no x and y columns")
+    points = table.numbers([(x, "x"), (y, "y")])
+    return Centerline(points, len(points) > 2 and bool(np.array_equal(points[0], points[-1])), str(path))
 
 
 def _warn_if_folded(path: Path, points: np.ndarray, border: np.ndarray, side: str, line_numbers: list[int]) -> None:
@@ -71,11 +87,11 @@ def read_centerline(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, lis
     first = table.lines[0] if table.lines else None
     x, y = table.find(X_NAMES), table.find(Y_NAMES)
     if x is not None and y is not None:
-        w_right, w_left = table.find(W_RIGHT_NAMES), table.find(W_LEFT_NAMES)
-        if w_right is None or w_left is None:
+        right, left = table.find(W_RIGHT_NAMES), table.find(W_LEFT_NAMES)
+        if right is None or left is None:
             raise table.fail(table.header_line, f"no track-width columns (w_tr_right_m, w_tr_left_m) in the header "
                                                 f"({', '.join(table.header or ())}): {PATH_HINT}")
-        indices = [x, y, w_right, w_left]
+        indices = [x, y, right, left]
     elif table.rows and table.width != len(COLUMNS):
         kind = DELIMITER_NAMES.get(table.delimiter, repr(table.delimiter))
         hint = f": {PATH_HINT}" if table.width < len(COLUMNS) else ""

@@ -1,4 +1,5 @@
-"""What a loaded world is: static and dynamic bodies with their geoms, lights, physics block and spawn pose."""
+"""What a loaded world is: static and dynamic bodies with their geoms, lights, physics block, spawn pose and, where
+one is known, the centerline of its course."""
 
 from __future__ import annotations
 
@@ -8,12 +9,13 @@ from pathlib import Path
 
 import numpy as np
 
-from racecar_sim.core.errors import WorldError
+from racecar_sim.core.errors import ConfigError, WorldError
 
 BUILTIN_DATA = Path(__file__).resolve().parent / "data"  # the built-in worlds' SDF files
 # m: every point of a world lies within this of the origin. Here a float64 position is good to 1.2e-7 m, about a
 # tenth of MuJoCo's collision tolerance (ccd_tolerance, 1e-6 m); much farther, its contacts become unreliable.
 MAX_COORDINATE = 1e9
+SEARCH_WINDOW = 5.0  # m of arc length either side of the last projection searched for the next one
 
 
 @dataclass
@@ -105,9 +107,54 @@ class Spawn:
     yaw: float = 0.0
 
 
+class Centerline:
+    """A course's centerline: a polyline (N, 2), closed (a loop) or open, with arc-length projection of points onto
+    it. widths (N, 2): the right and left half-widths of a race track, whose walls are built along them; None for a
+    line drawn through a course built otherwise (walker's)."""
+
+    def __init__(self, points: np.ndarray, closed: bool, source: str = "", widths: np.ndarray | None = None) -> None:
+        points = np.asarray(points, np.float64)
+        if closed and len(points) > 1 and np.array_equal(points[0], points[-1]):
+            points = points[:-1]
+            widths = None if widths is None else widths[:-1]
+        if len(points) < 2:
+            raise ConfigError(f"{source or 'centerline'}: needs at least 2 points, got {len(points)}")
+        self.points, self.closed, self.source = points, closed, source
+        self.widths = None if widths is None else np.asarray(widths, np.float64)
+        ends = np.roll(points, -1, axis=0) if closed else points[1:]
+        self._start = points[:len(ends)]
+        self._delta = ends - self._start
+        self._seg_len = np.hypot(self._delta[:, 0], self._delta[:, 1])
+        if np.any(self._seg_len == 0):
+            raise ConfigError(f"{source or 'centerline'}: two consecutive points are equal")
+        self._s0 = np.concatenate([[0.0], np.cumsum(self._seg_len)[:-1]])
+        self.length = float(self._seg_len.sum())
+
+    def project(self, x: float, y: float, near: float | None = None) -> float:
+        """Arc length s of the point of the line nearest to (x, y); with `near`, only segments within
+        SEARCH_WINDOW of arc length `near` count (the line may pass close to itself elsewhere)."""
+        px, py = x - self._start[:, 0], y - self._start[:, 1]
+        t = np.clip((px * self._delta[:, 0] + py * self._delta[:, 1]) / self._seg_len**2, 0.0, 1.0)
+        dist = np.hypot(px - t * self._delta[:, 0], py - t * self._delta[:, 1])
+        s = self._s0 + t * self._seg_len
+        if near is not None:
+            far = np.abs(self.wrap(s - near)) > SEARCH_WINDOW
+            if not np.all(far):
+                dist = np.where(far, np.inf, dist)
+        return float(s[int(np.argmin(dist))])
+
+    def wrap(self, ds: np.ndarray | float) -> np.ndarray | float:
+        """An arc-length difference taken the short way round a loop (unchanged on an open line)."""
+        if not self.closed:
+            return ds
+        half = self.length / 2
+        return (np.asarray(ds) + half) % self.length - half
+
+
 @dataclass
 class World:
-    """A loaded world."""
+    """A loaded world. centerline: its course's, where one is known (set by the loader: a track CSV's own, a
+    built-in world's from worlds.yaml), else None."""
 
     name: str
     source: str
@@ -116,6 +163,13 @@ class World:
     physics: Physics = field(default_factory=Physics)
     scene: Scene = field(default_factory=Scene)
     spawn: Spawn = field(default_factory=Spawn)
+    centerline: Centerline | None = None
+
+    @property
+    def is_track(self) -> bool:
+        """Whether the world is a race track built from its centerline (walls along both borders, widths known):
+        pure-pursuit follows that line unless given a path."""
+        return self.centerline is not None and self.centerline.widths is not None
 
     @property
     def label(self) -> str:

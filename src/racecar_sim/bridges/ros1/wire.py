@@ -3,10 +3,11 @@
 The classes in racecar_sim.msgs are ROS 2 shaped; ROS 1 lays the same data out differently: little-endian with
 no alignment, a uint32 length before every string and variable-length array, strings without a terminating NUL,
 `std_msgs/Header` starting with a uint32 `seq`, `time` as uint32 secs + uint32 nsecs and `duration` as int32 secs
-+ int32 nsecs. The layout of each type comes from its ROS 1 definition where this package ships one
-(bridges/ros1/definitions: the packages Debian lacks, and every service) and otherwise from the ROS 2 definition
-in msgs/definitions, whose fields are those of ROS 1 in the same order for the standard types the sim uses.
-Fields map to the class's attributes by name (case-insensitively: ROS 1 CameraInfo's `K` is the class's `k`).
++ int32 nsecs. The layout of each type is the messages' field model (msgs/fields.py, the one msgs/cdr.py compiles
+from: the ROS 2 definitions, whose fields are those of ROS 1 in the same order for every type the sim uses) with
+these differences applied, all in `fields` below. A service part has no ROS 2 definition: its layout is its half of
+the ROS 1 `.srv` shipped in definitions/, parsed into the same model, its fields mapped onto the class's attributes
+by name, case-insensitively.
 
 As in msgs/cdr.py the encoder of each type is compiled once into a flat tuple of closures: nested messages
 flattened into dotted attribute paths, runs of scalars packed by one precompiled struct, numeric arrays through
@@ -20,7 +21,6 @@ import importlib
 import re
 import struct
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
 from functools import cache
 from importlib import resources
 from operator import attrgetter
@@ -28,45 +28,26 @@ from typing import Any
 
 import numpy as np
 
-from racecar_sim.msgs.idl import PRIMITIVE_TYPES, get_spec, normalize_msgtype, parse_msg
+from racecar_sim.msgs.fields import DTYPES, SCALARS, leaves, message_fields
+from racecar_sim.msgs.idl import FieldSpec, normalize_msgtype, parse_msg
 from racecar_sim.msgs.registry import message_class
 
 TIME = "builtin_interfaces/msg/Time"
 DURATION = "builtin_interfaces/msg/Duration"
 HEADER = "std_msgs/msg/Header"
-_SCALARS: dict[str, str] = {
-    "bool": "?", "byte": "b", "char": "B", "int8": "b", "uint8": "B", "int16": "h", "uint16": "H",
-    "int32": "i", "uint32": "I", "int64": "q", "uint64": "Q", "float32": "f", "float64": "d",
-}  # fmt: skip
-_DTYPES = {name: np.dtype(np.bool_ if code == "?" else f"<{code}") for name, code in _SCALARS.items()}
+SEQ = FieldSpec("seq", "uint32", attr=None)
+"""ROS 1's Header.seq, on the wire only: the top-level header's is the publisher's count, any other is 0."""
+_SCALARS = {name: code for name, (code, _) in SCALARS.items()} | {"byte": "b"}  # ROS 1's byte is an int8
+_DTYPES = DTYPES | {"byte": np.dtype(np.int8)}
 _BYTE_ARRAYS = frozenset({"uint8", "char"})
 _U32 = struct.Struct("<I")
 _TIME_TOKEN = re.compile(r"^(\s*)(time|duration)(?=[\s\[])", re.MULTILINE)
 
 
-@dataclass(frozen=True, slots=True)
-class Field:
-    """One field of a ROS 1 layout: the sim class's attribute (None: ROS 1 only, like Header.seq) and its type."""
-
-    attr: str | None
-    type: str
-    is_array: bool = False
-    size: int | None = None
-
-    @property
-    def is_primitive(self) -> bool:
-        return self.type in PRIMITIVE_TYPES
-
-
-_FIXED = {
-    TIME: (Field("sec", "uint32"), Field("nanosec", "uint32")),
-    DURATION: (Field("sec", "int32"), Field("nanosec", "int32")),
-}
-
-
 # --- names and classes ------------------------------------------------------------------------------------------
 def type_of(cls: type) -> str:
-    """The type name of a sim class: `pkg/msg/Name` for a message, `pkg/srv/Name_Request|_Response` for a service part."""
+    """The type name of a sim class: `pkg/msg/Name` for a message, `pkg/srv/Name_Request|_Response` for a service
+    part."""
     msgtype = getattr(cls, "__msgtype__", None)
     if isinstance(msgtype, str):
         return msgtype
@@ -90,7 +71,7 @@ def sim_class(msgtype: str) -> type:
         return message_class(f"{pkg}/msg/{name}")
     service, _, part = name.rpartition("_")
     cls = getattr(importlib.import_module(f"racecar_sim.msgs.{pkg}"), f"{service}{part}", None)
-    if cls is None:
+    if not isinstance(cls, type):
         raise KeyError(f"no class for service part {msgtype!r}")
     return cls
 
@@ -106,37 +87,39 @@ def definitions_root() -> Any:
     return resources.files("racecar_sim.bridges.ros1").joinpath("definitions")
 
 
-def _ros1_text(msgtype: str) -> str | None:
-    pkg, kind, name = msgtype.split("/")
-    if kind == "srv":
-        service, _, part = name.rpartition("_")
-        path = definitions_root().joinpath(pkg, "srv", f"{service}.srv")
-        if not path.is_file():
-            raise KeyError(f"no ROS 1 definition for service {pkg}/{service}")
-        lines = path.read_text(encoding="utf-8").splitlines()
-        cut = next(i for i, line in enumerate(lines) if line.strip() == "---")
-        return "\n".join(lines[:cut] if part == "Request" else lines[cut + 1:])
-    path = definitions_root().joinpath(pkg, "msg", f"{name}.msg")
-    return path.read_text(encoding="utf-8") if path.is_file() else None
-
-
 @cache
-def fields(msgtype: str) -> tuple[Field, ...]:
-    """The ROS 1 layout of a message type or service part, mapped onto its sim class's attributes."""
-    if msgtype in _FIXED:
-        return _FIXED[msgtype]
+def fields(msgtype: str) -> tuple[FieldSpec, ...]:
+    """The ROS 1 layout of a message type or service part: the field model with ROS 1's differences.
+
+    `std_msgs/Header` starts with `SEQ`; ROS 1's time is two uint32 and its duration two int32 (ROS 2's are an
+    int32 and a uint32); a service part is laid out from its ROS 1 `.srv`. Every other message has the model's very
+    fields: the ROS 1 `.msg` files in definitions/ are genpy's input and hold the same fields (tests check it).
+    """
+    if "/srv/" in msgtype:
+        return _service_part(msgtype)
+    model = message_fields(msgtype)
     if msgtype == HEADER:
-        return (Field(None, "uint32"), Field("stamp", TIME), Field("frame_id", "string"))
-    text = _ros1_text(msgtype)
+        return (SEQ, *model)
+    if msgtype in (TIME, DURATION):  # ROS 2's are int32 sec + uint32 nanosec
+        return tuple(dataclasses.replace(f, type="uint32" if msgtype == TIME else "int32") for f in model)
+    return model
+
+
+def _service_part(msgtype: str) -> tuple[FieldSpec, ...]:
     pkg, _, name = msgtype.split("/")
-    if text is None:
-        specs = get_spec(msgtype).fields
-    else:  # ROS 1's builtin time and duration are builtin_interfaces' Time and Duration in the sim's classes
-        text = _TIME_TOKEN.sub(lambda m: m[1] + ("builtin_interfaces/Time" if m[2] == "time" else
-                                                 "builtin_interfaces/Duration"), text)
-        specs = parse_msg(text, f"{pkg}/{name}").fields
+    service, _, part = name.rpartition("_")
+    path = definitions_root().joinpath(pkg, "srv", f"{service}.srv")
+    if not path.is_file():
+        raise KeyError(f"no ROS 1 definition for service {pkg}/{service}")
+    lines = path.read_text(encoding="utf-8").splitlines()
+    cut = next(i for i, line in enumerate(lines) if line.strip() == "---")
+    text = "\n".join(lines[:cut] if part == "Request" else lines[cut + 1:])
+    # ROS 1's builtin time and duration are builtin_interfaces' Time and Duration in the sim's classes
+    text = _TIME_TOKEN.sub(lambda m: m[1] + ("builtin_interfaces/Time" if m[2] == "time" else
+                                             "builtin_interfaces/Duration"), text)
     attrs = {f.name.lower(): f.name for f in dataclasses.fields(sim_class(msgtype))}
-    return tuple(Field(attrs.get(s.name.lower()), s.type, s.is_array, s.size) for s in specs)
+    specs = parse_msg(text, f"{pkg}/{name}").fields
+    return tuple(dataclasses.replace(s, attr=attrs.get(s.name.lower())) for s in specs)
 
 
 # --- encoding ----------------------------------------------------------------------------------------------------
@@ -161,29 +144,21 @@ def encoder(cls: type) -> Callable[[Any, int, list[Any]], None]:
         return _ENCODERS.setdefault(cls, _compile(type_of(cls)))
 
 
-def _leaves(msgtype: str, prefix: str, top: bool) -> Iterator[tuple[str | None, Field, bool]]:
-    """(attribute path or None, field, whether it is the top-level header's seq) in wire order, nested messages
-    flattened."""
-    for f in fields(msgtype):
-        if f.attr is None:
-            if not f.is_primitive or f.is_array:
-                raise TypeError(f"{msgtype}: the sim's class has no field for ROS 1 field of type {f.type}")
-            yield None, f, top and msgtype == HEADER and prefix == "header."
-            continue
-        path = prefix + f.attr
-        if f.is_primitive or f.is_array:
-            yield path, f, False
-        else:
-            yield from _leaves(f.type, path + ".", top)
+def _leaves(msgtype: str) -> Iterator[tuple[str, FieldSpec, bool]]:
+    """(attribute path, field, whether it is the top-level header's seq) in wire order, nested messages flattened."""
+    for path, f in leaves(msgtype, fields):
+        if f.attr is None and (f.type not in _SCALARS or f.is_array):
+            raise TypeError(f"{msgtype}: the sim's class has no field for ROS 1 field {path} of type {f.type}")
+        yield path, f, f.attr is None and path == "header.seq"
 
 
 @cache
 def _compile(msgtype: str) -> Callable[[Any, int, list[Any]], None]:
     ops: list[Op] = []
     run: list[tuple[str | None, str, bool]] = []
-    for path, f, is_seq in _leaves(msgtype, "", True):
+    for path, f, is_seq in _leaves(msgtype):
         if f.type in _SCALARS and not f.is_array:
-            run.append((path, f.type, is_seq))
+            run.append((None if f.attr is None else path, f.type, is_seq))  # None: on the wire only
             continue
         if run:
             ops.append(_scalar_run(run))
@@ -202,8 +177,9 @@ def _compile(msgtype: str) -> Callable[[Any, int, list[Any]], None]:
 
 def _scalar_run(run: list[tuple[str | None, str, bool]]) -> Op:
     packer = struct.Struct("<" + "".join(_SCALARS[t] for _, t, _ in run))
-    if all(path is not None for path, _, _ in run):
-        getter = attrgetter(*[path for path, _, _ in run])
+    paths = [path for path, _, _ in run if path is not None]
+    if len(paths) == len(run):
+        getter = attrgetter(*paths)
         if len(run) == 1:
             return lambda msg, seq, out: out.append(packer.pack(getter(msg)))
         return lambda msg, seq, out: out.append(packer.pack(*getter(msg)))
@@ -212,11 +188,11 @@ def _scalar_run(run: list[tuple[str | None, str, bool]]) -> Op:
     return lambda msg, seq, out: out.append(packer.pack(*[g(msg, seq) for g in getters]))
 
 
-def _field_op(msgtype: str, path: str | None, f: Field) -> Op:
+def _field_op(msgtype: str, path: str, f: FieldSpec) -> Op:
     get = attrgetter(path)
     if not f.is_array:  # a string
         return lambda msg, seq, out: _put_str(get(msg), out)
-    prefix = (lambda n: b"") if f.size is not None else _U32.pack
+    prefix: Callable[[int], bytes] = _U32.pack if f.size is None else _no_count
     if f.type in _BYTE_ARRAYS:
         def put_bytes(msg: Any, seq: int, out: list[Any]) -> None:
             data = _as_bytes(get(msg))
@@ -251,6 +227,10 @@ def _field_op(msgtype: str, path: str | None, f: Field) -> Op:
     return put_messages
 
 
+def _no_count(count: int) -> bytes:
+    return b""  # a fixed-size array has no length on the wire
+
+
 def _put_str(value: str, out: list[Any]) -> None:
     data = value.encode()
     out.append(_U32.pack(len(data)))
@@ -265,7 +245,7 @@ def _as_bytes(value: Any) -> Any:
     return bytes(value)
 
 
-def _check(msgtype: str, path: str | None, count: int, size: int | None) -> None:
+def _check(msgtype: str, path: str, count: int, size: int | None) -> None:
     if size is not None and count != size:
         raise ValueError(f"{msgtype}: field '{path}': expected {size} elements, got {count}")
 
@@ -310,7 +290,7 @@ def _decode_one(type_name: str, buf: memoryview, pos: int) -> tuple[Any, int]:
     return _decode(type_name, buf, pos)
 
 
-def _decode_field(f: Field, buf: memoryview, pos: int) -> tuple[Any, int]:
+def _decode_field(f: FieldSpec, buf: memoryview, pos: int) -> tuple[Any, int]:
     if not f.is_array:
         return _decode_one(f.type, buf, pos)
     count = f.size
