@@ -45,8 +45,15 @@ def _draw(camera: CameraPublisher) -> Callable[[int], None]:
         GL.glFinish()
 
     def draw(_: int) -> None:
-        mujoco.mjv_updateScene(renderer.model, renderer.data, renderer.option, None, renderer.camera,
-                               mujoco.mjtCatBit.mjCAT_STATIC | mujoco.mjtCatBit.mjCAT_DYNAMIC, renderer.target.scene)
+        mujoco.mjv_updateScene(
+            renderer.model,
+            renderer.data,
+            renderer.option,
+            None,
+            renderer.camera,
+            mujoco.mjtCatBit.mjCAT_STATIC | mujoco.mjtCatBit.mjCAT_DYNAMIC,
+            renderer.target.scene,
+        )
         renderer.gl.call(finish)
 
     return draw
@@ -60,8 +67,10 @@ def measure(world: str, frames: int) -> tuple[str, dict[str, float]]:
     camera = sim.car.camera
     camera._task.cancel()  # the bench calls the camera itself
     camera.renderer.render()  # warm up: shaders, textures
-    rows = {"draw": _fps(sim, frames, _draw(camera)),
-            "+ readback": _fps(sim, frames, lambda _: camera.renderer.render())}
+    rows = {
+        "draw": _fps(sim, frames, _draw(camera)),
+        "+ readback": _fps(sim, frames, lambda _: camera.renderer.render()),
+    }
     sim.subscribe(camera.spec.image_topic, lambda msg: None)
     rows["full frame"] = _fps(sim, frames, camera._tick)
     renderer = camera.gl_renderer
@@ -77,8 +86,10 @@ def main() -> None:
     print(f"OpenGL: {next(iter(results.values()))[0]}; 640x480, {args.frames} frames per figure, one run")
     print(f"{'world':<8}{'draw fps':>10}{'+ readback fps':>16}{'full frame fps':>16}{'full frame ms':>15}")
     for world, (_, rows) in results.items():
-        print(f"{world:<8}{rows['draw']:>10.0f}{rows['+ readback']:>16.0f}{rows['full frame']:>16.0f}"
-              f"{1e3 / rows['full frame']:>15.2f}")
+        print(
+            f"{world:<8}{rows['draw']:>10.0f}{rows['+ readback']:>16.0f}{rows['full frame']:>16.0f}"
+            f"{1e3 / rows['full frame']:>15.2f}"
+        )
 
 
 if __name__ == "__main__":

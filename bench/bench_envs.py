@@ -43,6 +43,7 @@ def single(world: str, steps: int) -> float:
         *_, terminated, truncated, _ = env.step(next(it))
         if terminated or truncated:
             env.reset()
+
     result = rate(step, steps, 1)
     env.close()
     return result
@@ -75,9 +76,11 @@ def batch(world: str, worlds: int, steps: int, rounds: int = 3) -> tuple[float, 
     scratch = [mujoco.MjData(model) for _ in range(b.threads)]
     batch_rate = bare_rate = 0.0
     with mujoco.rollout.Rollout(nthread=b.threads if b.threads > 1 else 0) as pool:
+
         def bare() -> None:
             pool.rollout(model, scratch, state, ctrl, nstep=nstep, state=out, sensordata=sensors)
             state[:] = out[:, -1]
+
         for _ in range(rounds):
             batch_rate = max(batch_rate, rate(lambda: b.step(actions), steps, worlds))
             for i in range(worlds):  # the bare rollout goes on from the batch's worlds, same setpoints
@@ -103,9 +106,11 @@ def split(world: str, worlds: int, steps: int) -> tuple[float, float, float]:
     ctrl = np.repeat(b.ctrl[:, None, :], nstep, axis=1)
     out = np.empty((worlds, nstep, state.shape[1]))
     with mujoco.rollout.Rollout(nthread=0) as pool:
+
         def bare() -> None:
             pool.rollout(model, mujoco.MjData(model), state, ctrl, nstep=nstep, state=out)
             state[:] = out[:, -1]
+
         physics_us = 1e6 / rate(bare, steps, worlds)
     lidar_us = 1e6 / rate(lambda: b.lidar.scans(b.qpos, b.seeds, b.time_ns), steps, worlds)
     b.close()
@@ -122,6 +127,7 @@ def race(world: str, steps: int) -> float:
         if not env.agents:
             env.reset()
         env.step({a: env.action_space(a).sample() for a in env.agents})
+
     result = rate(step, steps, 4)
     env.close()
     return result
@@ -139,11 +145,15 @@ def main() -> None:
         print(f"{'make_vec x4 ' + mode:<28}{vector(args.world, mode, steps):>12.0f} env steps/s")
     for worlds in (64, 256 if args.quick else 1024):
         got, bare = batch(args.world, worlds, max(5, steps // (worlds // 64)))
-        print(f"{f'DriveBatch x{worlds}':<28}{got:>12.0f} env steps/s   bare rollout {bare:>9.0f}/s   "
-              f"ratio {got / bare:.2f}")
+        print(
+            f"{f'DriveBatch x{worlds}':<28}{got:>12.0f} env steps/s   bare rollout {bare:>9.0f}/s   "
+            f"ratio {got / bare:.2f}"
+        )
     step, physics, lidar = split(args.world, 64, steps)
-    print(f"{'DriveBatch x64, 1 thread':<28}{step:>9.0f} us per env step, bare rollout {physics:.0f} (ratio "
-          f"{physics / step:.2f}); of the step: lidar {lidar:.0f}, the rest {step - physics - lidar:.0f}")
+    print(
+        f"{'DriveBatch x64, 1 thread':<28}{step:>9.0f} us per env step, bare rollout {physics:.0f} (ratio "
+        f"{physics / step:.2f}); of the step: lidar {lidar:.0f}, the rest {step - physics - lidar:.0f}"
+    )
     try:
         print(f"{'race x4 cars':<28}{race(args.world, steps):>12.0f} agent steps/s")
     except (ImportError, AttributeError) as exc:

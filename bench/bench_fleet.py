@@ -64,8 +64,10 @@ def main() -> None:
     p.add_argument("--reset-cars", type=int, nargs="+", default=[1, 4], help="fleet sizes for the reset cost")
     args = p.parse_args()
 
-    print(f"world {args.world}, lidar on, camera off, each car a 1 m/s circle; {args.duration:g} sim s, "
-          f"best of {args.repeat}")
+    print(
+        f"world {args.world}, lidar on, camera off, each car a 1 m/s circle; {args.duration:g} sim s, "
+        f"best of {args.repeat}"
+    )
     print(f"{'cars':>4}  {'real-time factor':>16}  {'vs 1 car':>8}  {'car-s per wall s':>16}")
     base = None
     for count in args.cars:

@@ -36,8 +36,18 @@ def run_job(extra: list[str], duration: float, pythonpath: str | None) -> float:
     if pythonpath is not None:
         env["PYTHONPATH"] = pythonpath
     with tempfile.TemporaryDirectory() as out:
-        cmd = [sys.executable, "-m", "racecar_sim", "run", "--duration", f"{duration:g}", "--out", out,
-               "--no-summary", *extra]
+        cmd = [
+            sys.executable,
+            "-m",
+            "racecar_sim",
+            "run",
+            "--duration",
+            f"{duration:g}",
+            "--out",
+            out,
+            "--no-summary",
+            *extra,
+        ]
         result = subprocess.run(cmd, check=False, capture_output=True, text=True, env=env, timeout=1800)
     if result.returncode != 0:
         raise SystemExit(f"{' '.join(cmd)} failed ({result.returncode}):\n{result.stderr[-2000:]}")
@@ -61,8 +71,11 @@ def main() -> None:
         for name in names:
             for side, path in sides.items():
                 rates[side, name].append(run_job(JOBS[name], args.duration, path))
-        print(f"round {r + 1}/{args.rounds}: " + ", ".join(f"{s} {n.split(' (')[0]} {rates[s, n][-1]:.1f}x"
-                                                            for s in sides for n in names), file=sys.stderr)
+        print(
+            f"round {r + 1}/{args.rounds}: "
+            + ", ".join(f"{s} {n.split(' (')[0]} {rates[s, n][-1]:.1f}x" for s in sides for n in names),
+            file=sys.stderr,
+        )
     print(f"racecar-sim run, walker, {args.duration:g} sim s, median of {args.rounds} rounds")
     header = f"{'job':<42}" + "".join(f"{s + ' RTF':>10}{s + ' /bare':>11}" for s in sides)
     print(header + (f"{'new/old':>9}" if "old" in sides else ""))

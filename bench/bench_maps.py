@@ -25,10 +25,10 @@ from pathlib import Path
 
 import numpy as np
 import yaml
-from bench_scaling import CLOCKS, pipeline_rate, step_us
-from map_files import write_map
 
 import racecar_sim
+from bench_scaling import CLOCKS, pipeline_rate, step_us
+from map_files import write_map
 from racecar_sim import Simulator
 from racecar_sim.worlds import load_world
 
@@ -70,8 +70,14 @@ def basement_like(folder: Path, seed: int) -> Path:
     cells = round(SIDE / RESOLUTION)
     grid = np.zeros((cells, cells), bool)
     h = ROOM / 2
-    for a, b in [((-h, -h), (h, -h)), ((h, -h), (h, -1.0)), ((h, 1.0), (h, h)), ((h, h), (-h, h)),
-                 ((-h, h), (-h, 1.0)), ((-h, -1.0), (-h, -h))]:  # the room, doorways east and west
+    for a, b in [
+        ((-h, -h), (h, -h)),
+        ((h, -h), (h, -1.0)),
+        ((h, 1.0), (h, h)),
+        ((h, h), (-h, h)),
+        ((-h, h), (-h, 1.0)),
+        ((-h, -1.0), (-h, -h)),
+    ]:  # the room, doorways east and west
         _line(grid, a, b)
     hallways = [
         [(h, 0.0), (14.0, 0.0), (14.5, 12.0), (22.0, 20.0)],  # east, then slightly askew north, then 45 degrees
@@ -85,10 +91,10 @@ def basement_like(folder: Path, seed: int) -> Path:
     speckle = rng.integers(0, cells, (350, 2))  # scanner noise: single cells, mostly near walls in real maps
     grid[speckle[:, 0], speckle[:, 1]] = True
     for r, c in rng.integers(0, cells - 8, (60, 2)):  # furniture and people: small blobs
-        grid[r:r + rng.integers(2, 7), c:c + rng.integers(2, 7)] = True
+        grid[r : r + rng.integers(2, 7), c : c + rng.integers(2, 7)] = True
     centre = cells // 2
     clear = round(3.0 / RESOLUTION)
-    grid[centre - clear:centre + clear, centre - clear:centre + clear] = False  # nothing on the car's circle
+    grid[centre - clear : centre + clear, centre - clear : centre + clear] = False  # nothing on the car's circle
     return write_map(folder, "basement_like", grid, RESOLUTION, (-SIDE / 2, -SIDE / 2))
 
 
@@ -121,11 +127,17 @@ def main() -> None:
     p.add_argument("--duration", type=float, default=5.0, help="sim seconds per measurement (default 5)")
     p.add_argument("--rounds", type=int, default=5, help="interleaved rounds; medians are reported (default 5)")
     p.add_argument("--seed", type=int, default=0, help="seed of the generated map")
-    p.add_argument("--clock", choices=tuple(CLOCKS), default="cpu",
-                   help="cpu: this process's CPU time (default; steady on a shared machine), wall: elapsed time")
+    p.add_argument(
+        "--clock",
+        choices=tuple(CLOCKS),
+        default="cpu",
+        help="cpu: this process's CPU time (default; steady on a shared machine), wall: elapsed time",
+    )
     args = p.parse_args()
-    print(f"racecar_sim from {Path(racecar_sim.__file__).parent}; lidar pipeline, camera off, {args.duration:g} sim s "
-          f"per measurement, medians of {args.rounds} interleaved rounds, {args.clock} time")
+    print(
+        f"racecar_sim from {Path(racecar_sim.__file__).parent}; lidar pipeline, camera off, {args.duration:g} sim s "
+        f"per measurement, medians of {args.rounds} interleaved rounds, {args.clock} time"
+    )
     with tempfile.TemporaryDirectory() as folder:
         maps = {"basement-like (generated)": basement_like(Path(folder), args.seed)}
         maps.update({Path(m).name: Path(m).resolve() for m in args.map})
@@ -134,10 +146,13 @@ def main() -> None:
         rates: dict[str, list[float]] = {name: [] for name in worlds}
         for _ in range(args.rounds):
             for name, world in worlds.items():
-                rates[name].append(pipeline_rate(lambda w=world: Simulator(world=w, camera=False), args.duration,
-                                                 args.clock))
-        print(f"{'world':<28}{'cells':>8}{'geoms':>7}{'held':>6}{'mj_step us':>11}{'real-time factor':>18}"
-              f"{'vs empty':>10}")
+                rates[name].append(
+                    pipeline_rate(lambda w=world: Simulator(world=w, camera=False), args.duration, args.clock)
+                )
+        print(
+            f"{'world':<28}{'cells':>8}{'geoms':>7}{'held':>6}{'mj_step us':>11}{'real-time factor':>18}"
+            f"{'vs empty':>10}"
+        )
         for name, world in worlds.items():
             cells = occupied_count(maps[name]) if name in maps else 0
             ratio = statistics.median(a / b for a, b in zip(rates[name], rates["empty"]))
@@ -145,8 +160,10 @@ def main() -> None:
             rate = statistics.median(rates[name])
             geoms, held = collision_geoms(world)
             print(f"{name:<28}{cells:>8}{geoms:>7}{held:>6}{step:>11.1f}{rate:>17.1f}x{ratio:>10.2f}")
-    print("geoms: colliding geoms in the MuJoCo model (the car's 6, the ground plane and the near-wall slots in use at the start);"
-          " held: map wall boxes kept as data, placed in slots near the car (physics/near_walls.py)")
+    print(
+        "geoms: colliding geoms in the MuJoCo model (the car's 6, the ground plane and the near-wall slots in use at the start);"
+        " held: map wall boxes kept as data, placed in slots near the car (physics/near_walls.py)"
+    )
 
 
 if __name__ == "__main__":

@@ -26,10 +26,10 @@ import mujoco
 import numpy as np
 
 from racecar_sim.bus import Bus
-from racecar_sim.runtime.scheduler import Scheduler
 from racecar_sim.drivers import WallFollower
 from racecar_sim.runtime import Simulator
 from racecar_sim.runtime.driving import attach_driver
+from racecar_sim.runtime.scheduler import Scheduler
 
 WORLDS = ("tunnel", "walker")
 
@@ -123,8 +123,9 @@ def node_split(world: str, duration: float) -> tuple[dict[str, float], dict[str,
     def timed_subscribe(bus: Bus, topic: str, callback: Callable[[Any], None], *args: Any, **kw: Any) -> Any:
         return subscribe(bus, topic, clock.wrap(label_of(callback, f"sub {topic}"), callback), *args, **kw)
 
-    def timed_every(scheduler: Scheduler, rate: float, callback: Callable[[int], None], name: str,
-                    *args: Any, **kw: Any) -> Any:
+    def timed_every(
+        scheduler: Scheduler, rate: float, callback: Callable[[int], None], name: str, *args: Any, **kw: Any
+    ) -> Any:
         return every(scheduler, rate, clock.wrap(label_of(callback, f"timer {name}"), callback), name, *args, **kw)
 
     step = mujoco.mj_step
@@ -180,8 +181,10 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=3, help="interleaved pipeline/bare rounds (default 3)")
     parser.add_argument("--worlds", nargs="+", default=list(WORLDS))
     args = parser.parse_args()
-    print(f"lidar pipeline (camera off, wall-follow) vs bare mj_step; {args.duration:g} sim s, "
-          f"median of {args.rounds} interleaved rounds")
+    print(
+        f"lidar pipeline (camera off, wall-follow) vs bare mj_step; {args.duration:g} sim s, "
+        f"median of {args.rounds} interleaved rounds"
+    )
     print(f"{'world':<8}{'pipeline x':>11}{'bare x':>9}{'ratio':>7}{'scan us':>9}{'_wall us':>9}")
     splits = {}
     for world in args.worlds:

@@ -56,9 +56,7 @@ def _rate(count: int, func: Callable[[], Any], repeats: int = 3) -> float:
     return statistics.median(rates)
 
 
-def _record_rate(
-    topic: str, pool: list[Any], count: int, workdir: Path, compression: str
-) -> tuple[float, float]:
+def _record_rate(topic: str, pool: list[Any], count: int, workdir: Path, compression: str) -> tuple[float, float]:
     """Median write rate (msg/s) and payload/file size ratio over 3 recordings."""
     rates, ratio = [], 0.0
     payload = sum(len(msgs.serialize(m)) for m in pool) / len(pool)

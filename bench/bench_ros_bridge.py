@@ -106,9 +106,11 @@ def main(argv: list[str] | None = None) -> int:
         master.close()
     print(f"empty world, lidar on, camera off, {args.duration:g} sim s, best of {args.repeat}")
     print(f"without bridge   real-time factor {base[0]:6.1f}x  ({base[1]:.0f} bus messages/s)")
-    print(f"with --ros       real-time factor {bridged[0]:6.1f}x  (ratio {bridged[0] / base[0]:.2f}); "
-          f"{bridged[1]:.0f} messages/s bridged to ROS on {bridged[3]} topics, a rospy subscriber on each "
-          f"received {bridged[2]} in all")
+    print(
+        f"with --ros       real-time factor {bridged[0]:6.1f}x  (ratio {bridged[0] / base[0]:.2f}); "
+        f"{bridged[1]:.0f} messages/s bridged to ROS on {bridged[3]} topics, a rospy subscriber on each "
+        f"received {bridged[2]} in all"
+    )
     return 0
 
 

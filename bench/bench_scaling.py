@@ -101,8 +101,11 @@ def lidar_xacro(folder: Path, samples: int) -> Path:
     if not found:
         raise SystemExit(f"{urdf / 'racecar.gazebo'}: no <samples> element to change")
     (folder / f"racecar_{samples}.gazebo").write_text(gazebo)
-    xacro = (urdf / "racecar.xacro").read_text().replace("$(find racecar_description)/urdf/racecar.gazebo",
-                                                        str(folder / f"racecar_{samples}.gazebo"))
+    xacro = (
+        (urdf / "racecar.xacro")
+        .read_text()
+        .replace("$(find racecar_description)/urdf/racecar.gazebo", str(folder / f"racecar_{samples}.gazebo"))
+    )
     path = folder / f"racecar_{samples}.xacro"
     path.write_text(xacro)
     return path
@@ -126,30 +129,45 @@ def scattered_boxes(count: int, seed: int = 0) -> World:
 
 def fleet(count: int) -> Simulator:
     """`count` cars side by side along y in `empty`, lidar on, camera off."""
-    return Simulator(world="empty", cars=[Car(f"car{k + 1}", spawn=Spawn(0.0, k * GAP, 0.05, 0.0), camera=False)
-                                          for k in range(count)])
+    return Simulator(
+        world="empty",
+        cars=[Car(f"car{k + 1}", spawn=Spawn(0.0, k * GAP, 0.05, 0.0), camera=False) for k in range(count)],
+    )
 
 
-def measure(cases: dict[str, Callable[[], Simulator]], duration: float, rounds: int,
-            clock: str) -> dict[str, dict[str, float]]:
+def measure(
+    cases: dict[str, Callable[[], Simulator]], duration: float, rounds: int, clock: str
+) -> dict[str, dict[str, float]]:
     """Per case: median real-time factor, median ratio to the first case (per round), and mj_step us."""
     rates: dict[str, list[float]] = {name: [] for name in cases}
     for _ in range(rounds):
         for name, make in cases.items():
             rates[name].append(pipeline_rate(make, duration, clock))
     first = next(iter(cases))
-    return {name: {"rtf": statistics.median(r),
-                   "ratio": statistics.median(a / b for a, b in zip(r, rates[first])),
-                   "step_us": step_us(make, clock=clock)} for (name, make), r in zip(cases.items(), rates.values())}
+    return {
+        name: {
+            "rtf": statistics.median(r),
+            "ratio": statistics.median(a / b for a, b in zip(r, rates[first])),
+            "step_us": step_us(make, clock=clock),
+        }
+        for (name, make), r in zip(cases.items(), rates.values())
+    }
 
 
-def table(title: str, label: str, rows: dict[str, dict[str, float]], extra: Callable[[str, dict], str] | None = None,
-          extra_head: str = "") -> None:
+def table(
+    title: str,
+    label: str,
+    rows: dict[str, dict[str, float]],
+    extra: Callable[[str, dict], str] | None = None,
+    extra_head: str = "",
+) -> None:
     print(f"\n{title}")
     print(f"{label:>12}  {'real-time factor':>16}  {'vs first':>8}  {'mj_step us':>10}  {extra_head}")
     for name, r in rows.items():
-        print(f"{name:>12}  {r['rtf']:>15.1f}x  {r['ratio']:>8.2f}  {r['step_us']:>10.1f}  "
-              f"{extra(name, r) if extra else ''}")
+        print(
+            f"{name:>12}  {r['rtf']:>15.1f}x  {r['ratio']:>8.2f}  {r['step_us']:>10.1f}  "
+            f"{extra(name, r) if extra else ''}"
+        )
 
 
 def main() -> None:
@@ -157,11 +175,17 @@ def main() -> None:
     p.add_argument("--duration", type=float, default=5.0, help="sim seconds per measurement (default 5)")
     p.add_argument("--rounds", type=int, default=3, help="interleaved rounds; medians are reported (default 3)")
     p.add_argument("--only", nargs="+", choices=("beams", "geoms", "cars"), default=["beams", "geoms", "cars"])
-    p.add_argument("--clock", choices=tuple(CLOCKS), default="cpu",
-                   help="cpu: this process's CPU time (default; steady on a shared machine), wall: elapsed time")
+    p.add_argument(
+        "--clock",
+        choices=tuple(CLOCKS),
+        default="cpu",
+        help="cpu: this process's CPU time (default; steady on a shared machine), wall: elapsed time",
+    )
     args = p.parse_args()
-    print(f"racecar_sim from {Path(racecar_sim.__file__).parent}; lidar pipeline, camera off, {args.duration:g} sim s "
-          f"per measurement, medians of {args.rounds} interleaved rounds, {args.clock} time")
+    print(
+        f"racecar_sim from {Path(racecar_sim.__file__).parent}; lidar pipeline, camera off, {args.duration:g} sim s "
+        f"per measurement, medians of {args.rounds} interleaved rounds, {args.clock} time"
+    )
     if "beams" in args.only:
         with tempfile.TemporaryDirectory() as folder:
             xacros = {n: lidar_xacro(Path(folder), n) for n in BEAMS}
@@ -169,12 +193,20 @@ def main() -> None:
             table("lidar beams (tunnel)", "beams", measure(cases, args.duration, args.rounds, args.clock))
     if "geoms" in args.only:
         cases = {str(n): (lambda n=n: Simulator(world=scattered_boxes(n), camera=False)) for n in GEOMS}
-        table("static boxes in empty (collision + visual each)", "boxes",
-              measure(cases, args.duration, args.rounds, args.clock))
+        table(
+            "static boxes in empty (collision + visual each)",
+            "boxes",
+            measure(cases, args.duration, args.rounds, args.clock),
+        )
     if "cars" in args.only:
         cases = {str(n): (lambda n=n: fleet(n)) for n in CARS}
-        table("cars in empty", "cars", measure(cases, args.duration, args.rounds, args.clock),
-              lambda name, r: f"{r['rtf'] * int(name):.1f}", "car-s per wall s")
+        table(
+            "cars in empty",
+            "cars",
+            measure(cases, args.duration, args.rounds, args.clock),
+            lambda name, r: f"{r['rtf'] * int(name):.1f}",
+            "car-s per wall s",
+        )
 
 
 if __name__ == "__main__":

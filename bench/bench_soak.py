@@ -80,8 +80,21 @@ def descendants(pid: int) -> list[int]:
 
 
 class _Mallinfo2(ctypes.Structure):
-    _fields_ = [(name, ctypes.c_size_t) for name in ("arena", "ordblks", "smblks", "hblks", "hblkhd", "usmblks",
-                                                     "fsmblks", "uordblks", "fordblks", "keepcost")]
+    _fields_ = [
+        (name, ctypes.c_size_t)
+        for name in (
+            "arena",
+            "ordblks",
+            "smblks",
+            "hblks",
+            "hblkhd",
+            "usmblks",
+            "fsmblks",
+            "uordblks",
+            "fordblks",
+            "keepcost",
+        )
+    ]
 
 
 def malloc_in_use() -> int | None:
@@ -119,8 +132,20 @@ def child(args: argparse.Namespace) -> int:
             now = sim.time
             rss, anon = memory()
             writer = sum(memory(pid)[1] for pid in descendants(os.getpid()))
-            out.write(json.dumps({"t": now, "wall": time.perf_counter(), "rss": rss, "anon": anon, "writer": writer,
-                                  "blocks": sys.getallocatedblocks(), "malloc": malloc_in_use()}) + "\n")
+            out.write(
+                json.dumps(
+                    {
+                        "t": now,
+                        "wall": time.perf_counter(),
+                        "rss": rss,
+                        "anon": anon,
+                        "writer": writer,
+                        "blocks": sys.getallocatedblocks(),
+                        "malloc": malloc_in_use(),
+                    }
+                )
+                + "\n"
+            )
             if args.trace and (len(snapshots) == 0 and now >= args.warmup - 1e-9 or now >= args.duration - 1e-9):
                 snapshots.append(tracemalloc.take_snapshot())  # the end of the warm-up, and the end of the drive
 
@@ -138,24 +163,48 @@ def child(args: argparse.Namespace) -> int:
         if len(snapshots) >= 2:
             grown = snapshots[-1].compare_to(snapshots[0], "traceback")
             print(f"tracemalloc, {args.warmup:g} s -> {args.duration:g} s: the {args.top} allocations that grew most")
-            for stat in grown[:args.top]:
+            for stat in grown[: args.top]:
                 print(f"{stat.size_diff / MB:+8.2f} MB {stat.count_diff:+9d} blocks")
-                for line in stat.traceback.format(limit=args.trace)[-2 * args.trace:]:
+                for line in stat.traceback.format(limit=args.trace)[-2 * args.trace :]:
                     print("    " + line)
     return code
 
 
-def soak(cars: int, duration: float, every: float, warmup: float, pythonpath: str | None,
-         trace: int = 0, top: int = 10, keep: Path | None = None) -> dict[str, float]:
+def soak(
+    cars: int,
+    duration: float,
+    every: float,
+    warmup: float,
+    pythonpath: str | None,
+    trace: int = 0,
+    top: int = 10,
+    keep: Path | None = None,
+) -> dict[str, float]:
     """One run in a child process: its RSS samples reduced to the table's figures."""
     env = dict(os.environ)
     if pythonpath is not None:
         env["PYTHONPATH"] = pythonpath
     with tempfile.TemporaryDirectory() as folder:
         samples = Path(folder) / "samples.jsonl"
-        cmd = [sys.executable, __file__, "--child", "--cars", str(cars), "--duration", f"{duration:g}",
-               "--every", f"{every:g}", "--warmup", f"{warmup:g}", "--samples", str(samples),
-               "--trace", str(trace), "--top", str(top)]
+        cmd = [
+            sys.executable,
+            __file__,
+            "--child",
+            "--cars",
+            str(cars),
+            "--duration",
+            f"{duration:g}",
+            "--every",
+            f"{every:g}",
+            "--warmup",
+            f"{warmup:g}",
+            "--samples",
+            str(samples),
+            "--trace",
+            str(trace),
+            "--top",
+            str(top),
+        ]
         result = subprocess.run(cmd, env=env, capture_output=True, text=True, check=False)
         if result.returncode != 0:
             raise SystemExit(f"{' '.join(cmd)} failed ({result.returncode}):\n{result.stderr[-3000:]}")
@@ -177,11 +226,18 @@ def soak(cars: int, duration: float, every: float, warmup: float, pythonpath: st
         return slope([(r["t"], r[key] / unit) for r in rows]) * 1000.0
 
     moving = [r for r in rows if r["t"] > 0]
-    return {"rss": after[-1]["rss"] / MB, "start": after[0]["anon"] / MB, "end": after[-1]["anon"] / MB,
-            "slope": per_1000_s("anon", after), "late": per_1000_s("anon", late), "writer": after[-1]["writer"] / MB,
-            "writer_slope": per_1000_s("writer", after), "blocks": per_1000_s("blocks", after, 1000.0),
-            "malloc": per_1000_s("malloc", after),
-            "rtf": (moving[-1]["t"] - moving[0]["t"]) / max(moving[-1]["wall"] - moving[0]["wall"], 1e-9)}
+    return {
+        "rss": after[-1]["rss"] / MB,
+        "start": after[0]["anon"] / MB,
+        "end": after[-1]["anon"] / MB,
+        "slope": per_1000_s("anon", after),
+        "late": per_1000_s("anon", late),
+        "writer": after[-1]["writer"] / MB,
+        "writer_slope": per_1000_s("writer", after),
+        "blocks": per_1000_s("blocks", after, 1000.0),
+        "malloc": per_1000_s("malloc", after),
+        "rtf": (moving[-1]["t"] - moving[0]["t"]) / max(moving[-1]["wall"] - moving[0]["wall"], 1e-9),
+    }
 
 
 def main() -> int:
@@ -193,8 +249,13 @@ def main() -> int:
     p.add_argument("--every", type=float, help="sim s between RSS samples (default 10; --quick 1)")
     p.add_argument("--warmup", type=float, help="sim s left out of the fit (default 60; --quick 3)")
     p.add_argument("--compare", metavar="SRC", help="also run the jobs with PYTHONPATH=SRC (the code before)")
-    p.add_argument("--trace", type=int, default=0, metavar="FRAMES",
-                   help="tracemalloc with this many frames: print what grew (slow; default off)")
+    p.add_argument(
+        "--trace",
+        type=int,
+        default=0,
+        metavar="FRAMES",
+        help="tracemalloc with this many frames: print what grew (slow; default off)",
+    )
     p.add_argument("--top", type=int, default=10, help="with --trace: allocations printed (default 10)")
     p.add_argument("--keep", metavar="DIR", type=Path, help="keep each run's samples there (JSON lines)")
     p.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
@@ -211,21 +272,29 @@ def main() -> int:
     solo = args.solo_duration if args.solo_duration is not None else (10.0 if quick else 3600.0)
     jobs = [(args.fleet_cars, fleet)] + ([(1, solo)] if solo > 0 else [])
     sides = {"new": os.environ.get("PYTHONPATH")} | ({"old": args.compare} if args.compare else {})
-    print(f"racecar-sim run --world tunnel --no-camera (MCAP and summary.png written): memory every {args.every:g} "
-          f"sim s; anon: the run's anonymous resident memory (heap), slopes in MB per 1000 sim s of it after "
-          f"{args.warmup:g} s; writer: the recording's writer process", flush=True)
+    print(
+        f"racecar-sim run --world tunnel --no-camera (MCAP and summary.png written): memory every {args.every:g} "
+        f"sim s; anon: the run's anonymous resident memory (heap), slopes in MB per 1000 sim s of it after "
+        f"{args.warmup:g} s; writer: the recording's writer process",
+        flush=True,
+    )
     figures = {}
     for cars, duration in jobs:
         for side, path in sides.items():
             figures[f"{cars} car{'s' if cars > 1 else ''}, {duration:g} s", side] = soak(
-                cars, duration, args.every, args.warmup, path, args.trace, args.top, args.keep)
+                cars, duration, args.every, args.warmup, path, args.trace, args.top, args.keep
+            )
             print(f"done: {cars} car(s), {duration:g} s, {side}", file=sys.stderr, flush=True)
-    print(f"{'run':<20}{'side':<6}{'RSS end':>9}{'anon start':>12}{'anon end':>10}{'slope':>8}{'last half':>11}"
-          f"{'writer end':>12}{'writer slope':>14}{'RTF':>7}")
+    print(
+        f"{'run':<20}{'side':<6}{'RSS end':>9}{'anon start':>12}{'anon end':>10}{'slope':>8}{'last half':>11}"
+        f"{'writer end':>12}{'writer slope':>14}{'RTF':>7}"
+    )
     for (name, side), fig in figures.items():
-        print(f"{name:<20}{side:<6}{fig['rss']:>6.1f} MB{fig['start']:>9.1f} MB{fig['end']:>7.1f} MB"
-              f"{fig['slope']:>+8.1f}{fig['late']:>+11.1f}{fig['writer']:>9.1f} MB{fig['writer_slope']:>+14.1f}"
-              f"{fig['rtf']:>6.1f}x")
+        print(
+            f"{name:<20}{side:<6}{fig['rss']:>6.1f} MB{fig['start']:>9.1f} MB{fig['end']:>7.1f} MB"
+            f"{fig['slope']:>+8.1f}{fig['late']:>+11.1f}{fig['writer']:>9.1f} MB{fig['writer_slope']:>+14.1f}"
+            f"{fig['rtf']:>6.1f}x"
+        )
     print("where it grows, after the warm-up: Python's allocator (blocks) and malloc (numpy, MuJoCo, C libraries)")
     print(f"{'run':<20}{'side':<6}{'k blocks/1000 s':>16}{'malloc MB/1000 s':>18}")
     for (name, side), fig in figures.items():

@@ -26,12 +26,13 @@ def sections(quick: bool) -> list[tuple[str, str, list[str], bool]]:
     """(title, script, arguments, whether the script compares trees itself via --compare)."""
     d, r = ("2", "1") if quick else ("20", "3")
     short, rounds = ("2", "1") if quick else ("5", "3")
-    return [("1. main job: camera, recording, video", "bench_mainjob.py", ["--duration", d, "--rounds", r], True),
-            ("2. lidar pipeline against bare MuJoCo", "bench_pipeline.py", ["--duration", d, "--rounds", r], False),
-            ("3. start-up", "bench_startup.py", ["--repeats", "2" if quick else "5"], True),
-            ("4. real maps against the empty world", "bench_maps.py", ["--duration", short, "--rounds", rounds], False),
-            ("5. scaling: beams, static geoms, cars", "bench_scaling.py", ["--duration", short, "--rounds", rounds],
-             False)]
+    return [
+        ("1. main job: camera, recording, video", "bench_mainjob.py", ["--duration", d, "--rounds", r], True),
+        ("2. lidar pipeline against bare MuJoCo", "bench_pipeline.py", ["--duration", d, "--rounds", r], False),
+        ("3. start-up", "bench_startup.py", ["--repeats", "2" if quick else "5"], True),
+        ("4. real maps against the empty world", "bench_maps.py", ["--duration", short, "--rounds", rounds], False),
+        ("5. scaling: beams, static geoms, cars", "bench_scaling.py", ["--duration", short, "--rounds", rounds], False),
+    ]
 
 
 def compare_problem(compare: str, own_src: Path) -> str | None:
@@ -40,8 +41,10 @@ def compare_problem(compare: str, own_src: Path) -> str | None:
     folder = Path(compare)
     if not (folder / "racecar_sim" / "__init__.py").is_file():
         why = "no such folder" if not folder.exists() else "not a src folder: it holds no racecar_sim/__init__.py"
-        return f"{why} (give an older checkout's src folder, e.g. git worktree add /tmp/old HEAD~1, then " \
-               "--compare /tmp/old/src)"
+        return (
+            f"{why} (give an older checkout's src folder, e.g. git worktree add /tmp/old HEAD~1, then "
+            "--compare /tmp/old/src)"
+        )
     if folder.resolve() == own_src.resolve():
         return "is this checkout's own src folder: give an older checkout's"
     return None
@@ -69,8 +72,9 @@ def main(argv: list[str] | None = None) -> int:
     for title, script, extra, compares in sections(args.quick):
         print(f"\n=== {title} ({script}) ===", flush=True)
         if args.compare and compares:
-            extra = extra + (["--compare", args.compare] if script != "bench_startup.py" else
-                             ["--compare", src, args.compare])
+            extra = extra + (
+                ["--compare", args.compare] if script != "bench_startup.py" else ["--compare", src, args.compare]
+            )
         code = run(script, extra)
         if args.compare and not compares and code == 0:
             print(f"--- the same, PYTHONPATH={args.compare} ---", flush=True)

@@ -90,8 +90,14 @@ def first_step(workdir: Path, src: str | None = None) -> tuple[float, float]:
     # takes no --overwrite)
     shutil.rmtree(out, ignore_errors=True)
     start = time.monotonic()
-    result = subprocess.run([sys.executable, "-c", _CHILD, str(mark), *RUN_ARGS, "--out", str(out)],
-                            capture_output=True, text=True, cwd=workdir, env=_env(src), check=False)
+    result = subprocess.run(
+        [sys.executable, "-c", _CHILD, str(mark), *RUN_ARGS, "--out", str(out)],
+        capture_output=True,
+        text=True,
+        cwd=workdir,
+        env=_env(src),
+        check=False,
+    )
     end = time.monotonic()
     if result.returncode != 0 or not mark.exists():
         raise SystemExit(f"the run failed ({result.returncode}): {result.stderr.strip()[-2000:]}")
@@ -100,8 +106,7 @@ def first_step(workdir: Path, src: str | None = None) -> tuple[float, float]:
 
 def msgs_import(src: str | None = None) -> dict:
     """`import racecar_sim.msgs` in a fresh process: its seconds, which heavy modules it loaded, the package file."""
-    result = subprocess.run([sys.executable, "-c", _IMPORT], capture_output=True, text=True, check=True,
-                            env=_env(src))
+    result = subprocess.run([sys.executable, "-c", _IMPORT], capture_output=True, text=True, check=True, env=_env(src))
     return json.loads(result.stdout)
 
 
@@ -115,8 +120,13 @@ def python_start() -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5, help="fresh processes per figure (median)")
-    parser.add_argument("--compare", nargs="+", metavar="SRC", default=[None],
-                        help="source trees (each put first on PYTHONPATH), measured interleaved")
+    parser.add_argument(
+        "--compare",
+        nargs="+",
+        metavar="SRC",
+        default=[None],
+        help="source trees (each put first on PYTHONPATH), measured interleaved",
+    )
     args = parser.parse_args()
     figures = {src: {"first": [], "wall": [], "import": [], "loaded": set(), "file": ""} for src in args.compare}
     bare = []
@@ -142,8 +152,10 @@ def main() -> None:
     for fig in figures.values():
         print(f"racecar_sim from {fig['file']}")
         print(f"  (a) start -> first physics step   {show(fig, 'first')}   `racecar-sim {' '.join(RUN_ARGS)}`")
-        print(f"  (b) import racecar_sim.msgs       {show(fig, 'import')}   loaded: "
-              f"{', '.join(sorted(fig['loaded'])) or 'none'} of {', '.join(HEAVY)}")
+        print(
+            f"  (b) import racecar_sim.msgs       {show(fig, 'import')}   loaded: "
+            f"{', '.join(sorted(fig['loaded'])) or 'none'} of {', '.join(HEAVY)}"
+        )
         print(f"  (c) whole command, start -> exit  {show(fig, 'wall')}")
 
 

@@ -26,8 +26,13 @@ def measure(name: str, duration: float) -> dict[str, float]:
     sim.run_until(duration)
     wall = time.perf_counter() - run_start
     steps = round(duration / sim.model.opt.timestep)
-    return {"load_ms": 1e3 * (loaded - start), "build_ms": 1e3 * (built - loaded), "geoms": sim.model.ngeom,
-            "steps_per_s": steps / wall, "rtf": duration / wall}
+    return {
+        "load_ms": 1e3 * (loaded - start),
+        "build_ms": 1e3 * (built - loaded),
+        "geoms": sim.model.ngeom,
+        "steps_per_s": steps / wall,
+        "rtf": duration / wall,
+    }
 
 
 def main() -> None:
@@ -38,8 +43,10 @@ def main() -> None:
     base = rows["empty"]["rtf"]
     print(f"{'world':<9}{'load ms':>9}{'build ms':>10}{'geoms':>7}{'steps/s':>10}{'RTF':>8}{'vs empty':>10}")
     for name, r in rows.items():
-        print(f"{name:<9}{r['load_ms']:>9.1f}{r['build_ms']:>10.1f}{r['geoms']:>7}{r['steps_per_s']:>10.0f}"
-              f"{r['rtf']:>7.0f}x{r['rtf'] / base:>10.2f}")
+        print(
+            f"{name:<9}{r['load_ms']:>9.1f}{r['build_ms']:>10.1f}{r['geoms']:>7}{r['steps_per_s']:>10.0f}"
+            f"{r['rtf']:>7.0f}x{r['rtf'] / base:>10.2f}"
+        )
 
 
 if __name__ == "__main__":

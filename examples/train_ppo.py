@@ -73,9 +73,19 @@ class Training:
         return float(np.mean(part))
 
 
-def train(timesteps: int = DEFAULT_TIMESTEPS, *, world: str = "walker", episode_seconds: float = 30.0,
-          n_envs: int = 2, n_steps: int = 512, batch_size: int = 128, seed: int = 0, sectors: int = SECTORS,
-          subprocess: bool = True, verbose: int = 0) -> Training:
+def train(
+    timesteps: int = DEFAULT_TIMESTEPS,
+    *,
+    world: str = "walker",
+    episode_seconds: float = 30.0,
+    n_envs: int = 2,
+    n_steps: int = 512,
+    batch_size: int = 128,
+    seed: int = 0,
+    sectors: int = SECTORS,
+    subprocess: bool = True,
+    verbose: int = 0,
+) -> Training:
     """PPO for `timesteps` env steps over `n_envs` envs (each in its own process with `subprocess`), collecting
     `n_steps` per env between updates; returns every finished episode's return."""
     import torch
@@ -103,13 +113,30 @@ def train(timesteps: int = DEFAULT_TIMESTEPS, *, world: str = "walker", episode_
                     self.ended_at.append(self.num_timesteps)
             return True
 
-    vec_env = make_vec_env(make_env, n_envs=n_envs, seed=seed,
-                           env_kwargs={"world": world, "episode_seconds": episode_seconds, "sectors": sectors},
-                           vec_env_cls=SubprocVecEnv if subprocess and n_envs > 1 else DummyVecEnv)
+    vec_env = make_vec_env(
+        make_env,
+        n_envs=n_envs,
+        seed=seed,
+        env_kwargs={"world": world, "episode_seconds": episode_seconds, "sectors": sectors},
+        vec_env_cls=SubprocVecEnv if subprocess and n_envs > 1 else DummyVecEnv,
+    )
     try:
-        model = PPO("MlpPolicy", vec_env, n_steps=n_steps, batch_size=batch_size, n_epochs=10, gamma=0.99,
-                    gae_lambda=0.95, learning_rate=3e-4, ent_coef=0.0, clip_range=0.2, seed=seed, verbose=verbose,
-                    policy_kwargs={"net_arch": [64, 64]}, device="cpu")
+        model = PPO(
+            "MlpPolicy",
+            vec_env,
+            n_steps=n_steps,
+            batch_size=batch_size,
+            n_epochs=10,
+            gamma=0.99,
+            gae_lambda=0.95,
+            learning_rate=3e-4,
+            ent_coef=0.0,
+            clip_range=0.2,
+            seed=seed,
+            verbose=verbose,
+            policy_kwargs={"net_arch": [64, 64]},
+            device="cpu",
+        )
         log = EpisodeLog()
         start = time.perf_counter()
         model.learn(total_timesteps=timesteps, callback=log)
@@ -140,7 +167,7 @@ def plot_learning_curve(training: Training, path: Path, title: str) -> None:
     mean = np.convolve(returns, np.ones(window) / window, mode="valid")
     fig, ax = plt.subplots(figsize=(8, 4.5), dpi=120)
     ax.plot(steps, returns, ".", ms=3, alpha=0.35, color="tab:blue", label="episode return")
-    ax.plot(steps[window - 1:], mean, color="tab:red", lw=2, label=f"mean of {window} episodes")
+    ax.plot(steps[window - 1 :], mean, color="tab:red", lw=2, label=f"mean of {window} episodes")
     ax.set_xlabel("env steps (20 Hz control)")
     ax.set_ylabel("return (m of progress, -10 per crash)")
     ax.set_title(title)
@@ -153,8 +180,12 @@ def plot_learning_curve(training: Training, path: Path, title: str) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--timesteps", type=int, default=DEFAULT_TIMESTEPS,
-                   help=f"env steps to train for (default {DEFAULT_TIMESTEPS}: a few minutes on CPU)")
+    p.add_argument(
+        "--timesteps",
+        type=int,
+        default=DEFAULT_TIMESTEPS,
+        help=f"env steps to train for (default {DEFAULT_TIMESTEPS}: a few minutes on CPU)",
+    )
     p.add_argument("--world", default="walker", help="a world with a centerline (default walker)")
     p.add_argument("--episode-seconds", type=float, default=30.0, help="sim seconds per episode (default 30)")
     p.add_argument("--envs", type=int, default=2, help="envs stepped in parallel processes (default 2)")
@@ -163,14 +194,22 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    training = train(args.timesteps, world=args.world, episode_seconds=args.episode_seconds, n_envs=args.envs,
-                     seed=args.seed, verbose=0)
+    training = train(
+        args.timesteps,
+        world=args.world,
+        episode_seconds=args.episode_seconds,
+        n_envs=args.envs,
+        seed=args.seed,
+        verbose=0,
+    )
     training.model.save(out / "policy.zip")
     write_episodes(training, out / "episodes.csv")
-    title = (f"PPO on {ENV_ID} ({args.world}): {args.timesteps} steps, {training.seconds / 60:.1f} min on CPU")
+    title = f"PPO on {ENV_ID} ({args.world}): {args.timesteps} steps, {training.seconds / 60:.1f} min on CPU"
     plot_learning_curve(training, out / "learning_curve.png", title)
-    print(f"{len(training.returns)} episodes in {training.seconds:.0f} s "
-          f"({args.timesteps / training.seconds:.0f} steps/s)")
+    print(
+        f"{len(training.returns)} episodes in {training.seconds:.0f} s "
+        f"({args.timesteps / training.seconds:.0f} steps/s)"
+    )
     if training.returns:
         print(f"mean return, first 10% of episodes: {training.mean_return(first=True):.2f}")
         print(f"mean return, last 10% of episodes:  {training.mean_return(first=False):.2f}")

@@ -42,8 +42,13 @@ def laser_pose(sim: Simulator) -> tuple[np.ndarray, np.ndarray]:
 
 def positions(odom: list, after: float = 0.0) -> np.ndarray:
     """(x, y) of /vesc/odom messages stamped after `after` seconds."""
-    return np.array([[o.pose.pose.position.x, o.pose.pose.position.y] for o in odom
-                     if o.header.stamp.sec + o.header.stamp.nanosec * 1e-9 > after])
+    return np.array(
+        [
+            [o.pose.pose.position.x, o.pose.pose.position.y]
+            for o in odom
+            if o.header.stamp.sec + o.header.stamp.nanosec * 1e-9 > after
+        ]
+    )
 
 
 def ground_speed(odom_msg) -> float:
@@ -74,8 +79,12 @@ def drive():
 
 def run_cli_error(world: Path) -> str:
     """stderr of `racecar-sim run --world WORLD`, which must fail with exit code 2 and one line."""
-    result = subprocess.run([sys.executable, "-m", "racecar_sim", "run", "--world", str(world), "--duration", "0.1"],
-                            capture_output=True, text=True, timeout=60)
+    result = subprocess.run(
+        [sys.executable, "-m", "racecar_sim", "run", "--world", str(world), "--duration", "0.1"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert result.returncode == 2, result.stderr
     assert "Traceback" not in result.stderr
     lines = result.stderr.strip().splitlines()

@@ -18,12 +18,14 @@ def write_package_xml(folder: Path, name: str, export: str = "") -> Path:
     (folder / "package.xml").write_text(
         f"<?xml version='1.0'?>\n<package format='2'><name>{name}</name><version>1.0.0</version>"
         f"<description>test package</description><maintainer email='t@example.invalid'>t</maintainer>"
-        f"<license>BSD</license><export>{export}</export></package>\n")
+        f"<license>BSD</license><export>{export}</export></package>\n"
+    )
     return folder
 
 
-def write_description_package(root: Path, name: str, wheelbase: float | None = None, mesh: bool = False,
-                              edit: dict[str, str] | None = None) -> Path:
+def write_description_package(
+    root: Path, name: str, wheelbase: float | None = None, mesh: bool = False, edit: dict[str, str] | None = None
+) -> Path:
     """A copy of the shipped racecar description as package `name` under `root`: its own package.xml, its
     xacro files including each other through `$(find name)`; `wheelbase` moves both steering hinges, `mesh`
     adds an STL box (made with trimesh) as a visual and a collision of the chassis through package://name/...,
@@ -45,8 +47,10 @@ def write_description_package(root: Path, name: str, wheelbase: float | None = N
         (package / "meshes").mkdir()
         trimesh.creation.box((0.12, 0.08, 0.04)).export(package / "meshes" / "x.stl")
         geometry = f'<geometry><mesh filename="package://{name}/meshes/x.stl"/></geometry>'
-        shapes = (f'<visual><origin xyz="0.05 0 0.09"/>{geometry}<material name="blue"/></visual>'
-                  f'<collision><origin xyz="0.05 0 0.09"/>{geometry}</collision>')
+        shapes = (
+            f'<visual><origin xyz="0.05 0 0.09"/>{geometry}<material name="blue"/></visual>'
+            f'<collision><origin xyz="0.05 0 0.09"/>{geometry}</collision>'
+        )
         old = '<link name="chassis">'
         assert old in text
         text = text.replace(old, old + shapes, 1)

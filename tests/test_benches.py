@@ -10,22 +10,36 @@ from pathlib import Path
 
 
 def test_speed_benches_run_and_print_their_tables():
-    result = subprocess.run([sys.executable, "-m", "racecar_sim", "bench", "--speed", "--quick"], capture_output=True,
-                            text=True, timeout=600, check=False)
+    result = subprocess.run(
+        [sys.executable, "-m", "racecar_sim", "bench", "--speed", "--quick"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
     assert result.returncode == 0, result.stderr[-3000:]
     out = result.stdout
     for header in ("1. main job", "2. lidar pipeline", "3. start-up", "4. real maps", "5. scaling"):
         assert f"=== {header}" in out
-    for line in ("main job (camera, noise, MCAP, video)", "tunnel ", "walker ", "start -> first physics step",
-                 "import racecar_sim.msgs", "basement-like (generated)", "lidar beams (tunnel)", "cars in empty"):
+    for line in (
+        "main job (camera, noise, MCAP, video)",
+        "tunnel ",
+        "walker ",
+        "start -> first physics step",
+        "import racecar_sim.msgs",
+        "basement-like (generated)",
+        "lidar beams (tunnel)",
+        "cars in empty",
+    ):
         assert line in out, line
 
 
 def test_soak_bench_runs_and_prints_its_table():
     """bench/bench_soak.py --quick: the memory slopes of a short fleet run and a short one-car run."""
     bench = Path(__file__).resolve().parents[1] / "bench" / "bench_soak.py"
-    result = subprocess.run([sys.executable, str(bench), "--quick"], capture_output=True, text=True, timeout=600,
-                            check=False)
+    result = subprocess.run(
+        [sys.executable, str(bench), "--quick"], capture_output=True, text=True, timeout=600, check=False
+    )
     assert result.returncode == 0, result.stderr[-3000:]
     for line in ("anon start", "4 cars, 10 s", "1 car, 10 s", "k blocks/1000 s"):
         assert line in result.stdout, line

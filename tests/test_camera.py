@@ -16,16 +16,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import Log
 from PIL import Image as PILImage
 
+from conftest import Log
 from racecar_sim import Simulator
 from racecar_sim.core.errors import DescriptionError, RenderingError
 from racecar_sim.core.transforms import compose, quat_from_axis_angle, quat_from_rpy, quat_to_matrix
 from racecar_sim.description import load_robot
 from racecar_sim.description.kinematics import link_pose
-from racecar_sim.sensors.camera import CameraSpec, camera_spec
 from racecar_sim.render.gl import library_present, shared_context
+from racecar_sim.sensors.camera import CameraSpec, camera_spec
 from racecar_sim.worlds import Spawn
 from racecar_sim.worlds.catalog import DATA
 
@@ -63,6 +63,7 @@ def pixels(msg) -> np.ndarray:
 
 # --- the description --------------------------------------------------------------------------------------------
 
+
 def test_spec_reads_the_sensor_block():
     spec = camera_spec(load_robot())
     assert (spec.image_topic, spec.info_topic, spec.frame_id) == (IMAGE, INFO, "camera_link")
@@ -85,16 +86,19 @@ def _edited(path: str, text: str | None) -> CameraSpec:
     return CameraSpec.from_sensor(sensor)
 
 
-@pytest.mark.parametrize("path, text, message", [
-    ("camera/horizontal_fov", None, "<horizontal_fov> is missing"),
-    ("camera/horizontal_fov", "wide", "'wide' is not a number"),
-    ("camera/horizontal_fov", "3.5", "must be in (0, pi)"),
-    ("camera/image/width", "640.5", "<image/width> '640.5' is not a whole number"),
-    ("camera/image/format", "L8", "'L8' is not one of B8G8R8, R8G8B8"),
-    ("camera/clip/far", "0.01", "0 < near < far"),
-    ("camera/noise/stddev", "-1", "must not be negative"),
-    ("camera/noise/type", "poisson", "'poisson' is not supported"),
-])
+@pytest.mark.parametrize(
+    "path, text, message",
+    [
+        ("camera/horizontal_fov", None, "<horizontal_fov> is missing"),
+        ("camera/horizontal_fov", "wide", "'wide' is not a number"),
+        ("camera/horizontal_fov", "3.5", "must be in (0, pi)"),
+        ("camera/image/width", "640.5", "<image/width> '640.5' is not a whole number"),
+        ("camera/image/format", "L8", "'L8' is not one of B8G8R8, R8G8B8"),
+        ("camera/clip/far", "0.01", "0 < near < far"),
+        ("camera/noise/stddev", "-1", "must not be negative"),
+        ("camera/noise/type", "poisson", "'poisson' is not supported"),
+    ],
+)
 def test_a_bad_field_is_named(path, text, message):
     with pytest.raises(DescriptionError, match="zed_camera_left_sensor") as err:
         _edited(path, text)
@@ -104,11 +108,15 @@ def test_a_bad_field_is_named(path, text, message):
 def test_rgb_format_and_a_sensor_without_plugin():
     assert _edited("camera/image/format", "R8G8B8").encoding == "rgb8"
     bare = _edited("plugin", None)
-    assert (bare.image_topic, bare.info_topic, bare.frame_id) == ("/zed_camera_left_camera/image_raw",
-                                                                  "/zed_camera_left_camera/camera_info", "camera_link")
+    assert (bare.image_topic, bare.info_topic, bare.frame_id) == (
+        "/zed_camera_left_camera/image_raw",
+        "/zed_camera_left_camera/camera_info",
+        "camera_link",
+    )
 
 
 # --- the model --------------------------------------------------------------------------------------------------
+
 
 @needs_gl
 def test_the_mujoco_camera_sits_on_camera_link_looking_along_x():
@@ -126,6 +134,7 @@ def test_the_mujoco_camera_sits_on_camera_link_looking_along_x():
 
 
 # --- messages and schedule --------------------------------------------------------------------------------------
+
 
 @needs_gl
 def test_300_images_in_10_s_at_exact_stamps():
@@ -150,8 +159,12 @@ def test_camera_info_as_gazebo_ros_camera_fills_it():
     log = Log(sim, INFO)
     sim.run_until(0.04)
     info = log[INFO][0]
-    assert (info.header.frame_id, info.height, info.width, info.distortion_model) == ("camera_link", 480, 640,
-                                                                                       "plumb_bob")
+    assert (info.header.frame_id, info.height, info.width, info.distortion_model) == (
+        "camera_link",
+        480,
+        640,
+        "plumb_bob",
+    )
     np.testing.assert_array_equal(info.d, np.zeros(5))
     np.testing.assert_allclose(info.k, [FX, 0, 320.5, 0, FX, 240.5, 0, 0, 1], rtol=1e-15)
     np.testing.assert_array_equal(info.r, np.eye(3).ravel())
@@ -188,7 +201,8 @@ def plates_world(folder: Path, yaw: float = 0.0) -> Path:
         f"<model name='plate{i}'><static>true</static><pose>{x} {y} {z} 0 0 {yaw}</pose><link name='l'>"
         f"<visual name='v'><geometry><box><size>0.001 {PLATE} {PLATE}</size></box></geometry><material>"
         f"<ambient>1 0 0 1</ambient><diffuse>1 0 0 1</diffuse></material></visual></link></model>"
-        for i, (x, y, z) in enumerate(PLATES))
+        for i, (x, y, z) in enumerate(PLATES)
+    )
     path = folder / "plates.world"
     path.write_text(f"<sdf version='1.6'><world name='plates'>{models}</world></sdf>")
     return path
@@ -214,7 +228,7 @@ def red_blobs(image_bgr: np.ndarray) -> list[tuple[float, float]]:
     groups = np.split(cols, np.flatnonzero(np.diff(cols) > 1) + 1)
     centroids = []
     for group in groups:
-        rows, columns = np.nonzero(mask[:, group[0]:group[-1] + 1])
+        rows, columns = np.nonzero(mask[:, group[0] : group[-1] + 1])
         centroids.append((float(columns.mean() + group[0]), float(rows.mean())))
     return centroids
 
@@ -294,6 +308,7 @@ def test_rgb8_is_the_same_image_in_the_other_order():
 
 # --- what the worlds look like ----------------------------------------------------------------------------------
 
+
 @needs_gl
 def test_sky_is_flat_and_the_ground_shows_its_squares():
     sim = camera_sim(noise=False)
@@ -316,14 +331,22 @@ def test_flat_sky_only_where_painting_it_is_exact():
     def model(sky_top, sky_bottom, alpha=1.0, material_alpha=1.0, skybox=True):
         spec = mujoco.MjSpec()
         spec.add_material(name="paint", rgba=[1, 1, 1, material_alpha])
-        spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[1, 1, 1], group=VISUAL_GROUP,
-                                rgba=[1, 0, 0, alpha], material="paint")
-        spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[1, 1, 1], group=VISUAL_GROUP + 1,
-                                rgba=[1, 0, 0, 0.5])  # not drawn by the camera: may be translucent
+        spec.worldbody.add_geom(
+            type=mujoco.mjtGeom.mjGEOM_BOX, size=[1, 1, 1], group=VISUAL_GROUP, rgba=[1, 0, 0, alpha], material="paint"
+        )
+        spec.worldbody.add_geom(
+            type=mujoco.mjtGeom.mjGEOM_BOX, size=[1, 1, 1], group=VISUAL_GROUP + 1, rgba=[1, 0, 0, 0.5]
+        )  # not drawn by the camera: may be translucent
         if skybox:
-            spec.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
-                             builtin=mujoco.mjtBuiltin.mjBUILTIN_FLAT, width=8, height=8, rgb1=sky_top,
-                             rgb2=sky_bottom)
+            spec.add_texture(
+                name="sky",
+                type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+                builtin=mujoco.mjtBuiltin.mjBUILTIN_FLAT,
+                width=8,
+                height=8,
+                rgb1=sky_top,
+                rgb2=sky_bottom,
+            )
         return spec.compile()
 
     assert flat_sky(model([0.2, 0.4, 0.6], [0.2, 0.4, 0.6])).tolist() == [51, 102, 153]
@@ -349,9 +372,9 @@ def test_the_painted_sky_is_mujocos_skybox_bit_for_bit(world):
     sky_seen = []
     for k in range(6):
         data.qpos[:] = start
-        data.qpos[free:free + 2] += rng.uniform(-3.0, 3.0, 2)
+        data.qpos[free : free + 2] += rng.uniform(-3.0, 3.0, 2)
         yaw = rng.uniform(-math.pi, math.pi)
-        data.qpos[free + 3:free + 7] = [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]
+        data.qpos[free + 3 : free + 7] = [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]
         mujoco.mj_forward(model, data)
         painted = sim.car.camera.capture(1_000_000 * k)
         sky_seen.append((renderer.target.rgba[..., 3] == 0).mean())
@@ -391,7 +414,7 @@ def test_the_ar_tag_one_metre_ahead_is_readable():
     image = sim.car.camera.capture(0)
     marker = np.asarray(PILImage.open(DATA / "models/ar_tags/marker1/materials/marker1.png").convert("L"))
     n = marker.shape[0] // 8
-    expected = marker[n // 2::n, n // 2::n] > 128
+    expected = marker[n // 2 :: n, n // 2 :: n] > 128
     assert np.array_equal(_tag_bits(image), expected)
 
 
@@ -408,11 +431,13 @@ def test_opencv_decodes_the_ar_tag():
 
 # --- no OpenGL --------------------------------------------------------------------------------------------------
 
+
 def _run_python(code: str, env: dict[str, str]) -> subprocess.CompletedProcess:
     """`code` run in a fresh interpreter whose GL choice comes only from `env`; it must exit 0."""
     parent = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "PYOPENGL_PLATFORM")}
-    result = subprocess.run([sys.executable, "-c", code], check=False, capture_output=True, text=True, timeout=120,
-                            env={**parent, **env})
+    result = subprocess.run(
+        [sys.executable, "-c", code], check=False, capture_output=True, text=True, timeout=120, env={**parent, **env}
+    )
     assert result.returncode == 0, result.stderr
     return result
 
@@ -423,18 +448,25 @@ def _python(code: str, env: dict[str, str]) -> str:
 
 
 def _gl_error(env: dict[str, str]) -> str:
-    return _python("from racecar_sim.core.errors import RenderingError\n"
-                   "from racecar_sim.render.gl import create_context\n"
-                   "try:\n    create_context()\nexcept RenderingError as exc:\n    print(exc)\nelse:\n    print('OK')\n",
-                   env)
+    return _python(
+        "from racecar_sim.core.errors import RenderingError\n"
+        "from racecar_sim.render.gl import create_context\n"
+        "try:\n    create_context()\nexcept RenderingError as exc:\n    print(exc)\nelse:\n    print('OK')\n",
+        env,
+    )
 
 
-@pytest.mark.parametrize("env, names", [
-    # no EGL vendor library: EGL cannot start, as on a box without libegl-mesa0 / libgl1-mesa-dri
-    ({"MUJOCO_GL": "egl", "__EGL_VENDOR_LIBRARY_FILENAMES": "/nonexistent/egl_vendor.json"},
-     ["EGL", "libegl1", "libgl1-mesa-dri"]),
-    ({"MUJOCO_GL": "off"}, ["MUJOCO_GL=off", "egl or osmesa"]),
-])
+@pytest.mark.parametrize(
+    "env, names",
+    [
+        # no EGL vendor library: EGL cannot start, as on a box without libegl-mesa0 / libgl1-mesa-dri
+        (
+            {"MUJOCO_GL": "egl", "__EGL_VENDOR_LIBRARY_FILENAMES": "/nonexistent/egl_vendor.json"},
+            ["EGL", "libegl1", "libgl1-mesa-dri"],
+        ),
+        ({"MUJOCO_GL": "off"}, ["MUJOCO_GL=off", "egl or osmesa"]),
+    ],
+)
 def test_no_gl_is_one_line_naming_the_packages_and_the_switch(env, names):
     out = _gl_error(env)
     assert len(out.strip().splitlines()) == 1, out
@@ -449,17 +481,22 @@ def test_missing_osmesa_names_its_package():
     assert len(out.strip().splitlines()) == 1 and "libosmesa6" in out and "--no-camera" in out, out
 
 
-@pytest.mark.parametrize("env", [{"MUJOCO_GL": "osmesa"}, {"__EGL_VENDOR_LIBRARY_FILENAMES": "/nonexistent/egl.json"}],
-                         ids=["chosen", "after-egl-fails"])
+@pytest.mark.parametrize(
+    "env",
+    [{"MUJOCO_GL": "osmesa"}, {"__EGL_VENDOR_LIBRARY_FILENAMES": "/nonexistent/egl.json"}],
+    ids=["chosen", "after-egl-fails"],
+)
 def test_osmesa_renders_when_chosen_or_when_egl_fails(env):
     """MuJoCo loads its GL functions once per process, EGL's first: a failed EGL try must not spoil OSMesa."""
     if not library_present("osmesa"):
         pytest.skip("libOSMesa is not installed here (.ci/run installs libosmesa6)")
-    code = ("from racecar_sim import Simulator\n"
-            "sim = Simulator(lidar=False, sensor_noise=False)\n"
-            "image = sim.car.camera.capture(0)\n"
-            "print(sim.car.camera.gl_renderer.split(':')[0], int(image[0, 0, 0]), int(image[-1].mean()))\n"
-            "sim.close()\n")
+    code = (
+        "from racecar_sim import Simulator\n"
+        "sim = Simulator(lidar=False, sensor_noise=False)\n"
+        "image = sim.car.camera.capture(0)\n"
+        "print(sim.car.camera.gl_renderer.split(':')[0], int(image[0, 0, 0]), int(image[-1].mean()))\n"
+        "sim.close()\n"
+    )
     result = _run_python(code, env)
     out = result.stdout
     backend, sky, ground = out.split()
@@ -478,8 +515,9 @@ def test_compiled_frame_noise_is_gazebos_noise_from_the_noise_table():
     clean = camera.capture(2_000_000_000)
     camera.noise = True
     noisy = camera.capture(2_000_000_000)
-    unit = NoiseTable.shared("camera", HEIGHT * WIDTH, np.float32).sample(camera.seed ^ camera._stream_key,
-                                                                           2_000_000_000)
+    unit = NoiseTable.shared("camera", HEIGHT * WIDTH, np.float32).sample(
+        camera.seed ^ camera._stream_key, 2_000_000_000
+    )
     assert np.array_equal(noisy, add_noise(clean, unit, 0.0, 0.007 * 255))  # numpy's reference, value for value
     assert not np.array_equal(noisy, camera.capture(2_033_333_333 - 1)), "another stamp, other noise"
     sim.close()
@@ -493,8 +531,9 @@ def test_render_ahead_publishes_the_same_frames_one_period_later():
     for ahead in (False, True):
         sim = camera_sim("walker", seed=3)
         got: list[tuple[int, int, np.ndarray]] = []
-        sim.subscribe(sim.car.camera.spec.image_topic, lambda msg, sim=sim: got.append((sim.time_ns, stamp_ns(msg),
-                                                                                    pixels(msg))))
+        sim.subscribe(
+            sim.car.camera.spec.image_topic, lambda msg, sim=sim: got.append((sim.time_ns, stamp_ns(msg), pixels(msg)))
+        )
         sim.car.camera.render_ahead(ahead)
         sim.run_until(0.2)
         sim.car.camera.flush()

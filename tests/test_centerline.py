@@ -42,9 +42,16 @@ def cast(sim: Simulator, origin: np.ndarray, yaw: float) -> float:
     """Range of a horizontal ray at lidar height seeing only collision geoms, the car's base excluded."""
     geomgroup = np.zeros(6, dtype=np.uint8)
     geomgroup[COLLISION_GROUP] = 1
-    return mujoco.mj_ray(sim.model, sim.data, np.array([*origin, LIDAR_HEIGHT]),
-                         np.array([math.cos(yaw), math.sin(yaw), 0.0]), geomgroup, 1,
-                         sim.model.body(sim.car.robot.root).id, np.zeros(1, dtype=np.int32))
+    return mujoco.mj_ray(
+        sim.model,
+        sim.data,
+        np.array([*origin, LIDAR_HEIGHT]),
+        np.array([math.cos(yaw), math.sin(yaw), 0.0]),
+        geomgroup,
+        1,
+        sim.model.body(sim.car.robot.root).id,
+        np.zeros(1, dtype=np.int32),
+    )
 
 
 def inside_polygon(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
@@ -82,8 +89,12 @@ def in_any_box(points: np.ndarray, geoms: list, slack: float = 0.0) -> np.ndarra
 
 L_SHAPE = np.array([[0, 0], [4, 0], [4, 2], [2, 2], [2, 4], [0, 4]], dtype=float)  # anticlockwise
 TRIANGLE = np.array([[0, 0], [4, 0], [0, 2.3]])  # a 30 degree corner at (4, 0)
-POLYGONS = {"L": L_SHAPE, "L clockwise": L_SHAPE[::-1], "triangle": TRIANGLE,
-            "rotated L": L_SHAPE @ np.array([[math.cos(0.5), math.sin(0.5)], [-math.sin(0.5), math.cos(0.5)]])}
+POLYGONS = {
+    "L": L_SHAPE,
+    "L clockwise": L_SHAPE[::-1],
+    "triangle": TRIANGLE,
+    "rotated L": L_SHAPE @ np.array([[math.cos(0.5), math.sin(0.5)], [-math.sin(0.5), math.cos(0.5)]]),
+}
 
 
 def wall_side_angles(points: np.ndarray, walls_outside: bool) -> np.ndarray:
@@ -142,10 +153,14 @@ def test_border_walls_fill_the_band_beside_the_line_and_nothing_else(polygon, wa
 def test_simplify_keeps_corners_and_stays_within_tolerance():
     line = np.c_[np.linspace(0, 10, 1000), np.zeros(1000)]
     np.testing.assert_array_equal(simplify(line, 0.01), [[0, 0], [10, 0]])
-    square = np.concatenate([np.c_[np.linspace(0, 1, 50, endpoint=False), np.zeros(50)],
-                             np.c_[np.ones(50), np.linspace(0, 1, 50, endpoint=False)],
-                             np.c_[np.linspace(1, 0, 50, endpoint=False), np.ones(50)],
-                             np.c_[np.zeros(50), np.linspace(1, 0, 50, endpoint=False)]])
+    square = np.concatenate(
+        [
+            np.c_[np.linspace(0, 1, 50, endpoint=False), np.zeros(50)],
+            np.c_[np.ones(50), np.linspace(0, 1, 50, endpoint=False)],
+            np.c_[np.linspace(1, 0, 50, endpoint=False), np.ones(50)],
+            np.c_[np.zeros(50), np.linspace(1, 0, 50, endpoint=False)],
+        ]
+    )
     assert sorted(map(tuple, simplify(square, 0.01, closed=True))) == [(0, 0), (0, 1), (1, 0), (1, 1)]
     angles = np.linspace(0, 2 * math.pi, 1000, endpoint=False)
     circle = 7 * np.c_[np.cos(angles), np.sin(angles)]
@@ -173,6 +188,7 @@ def test_offset_polyline_makes_square_corners_on_a_square_road():
 
 # --- loading a track ----------------------------------------------------------------------------------------------
 
+
 def test_circle_track_walls_stand_at_the_csv_widths(tmp_path):
     w_right, w_left = 0.8, 1.2  # anticlockwise: left is the inner border
     world = load_world(circle_csv(tmp_path, w_right, w_left), wall_height=0.5)
@@ -196,8 +212,9 @@ def test_circle_track_walls_stand_at_the_csv_widths(tmp_path):
 class PurePursuit:
     """Steers base_link (the rear axle) toward the centerline point `lookahead` metres ahead, at constant speed."""
 
-    def __init__(self, sim: Simulator, path: np.ndarray, speed: float, lookahead: float = 1.0,
-                 rate: float = 20.0) -> None:
+    def __init__(
+        self, sim: Simulator, path: np.ndarray, speed: float, lookahead: float = 1.0, rate: float = 20.0
+    ) -> None:
         self.sim, self.path, self.speed, self.lookahead = sim, path, speed, lookahead
         self.pose: tuple[float, float, float] | None = None
         sim.subscribe("/vesc/odom", self.on_odom)
@@ -251,8 +268,9 @@ class LapWatch:
 def test_car_laps_the_circle_track_without_touching_a_wall(tmp_path):
     width, speed = 1.0, 1.0
     sim = Simulator(world=str(circle_csv(tmp_path, width, width)))
-    path = np.array([[float(v) for v in line.split(",")[:2]]
-                     for line in (tmp_path / "circle.csv").read_text().splitlines()[1:]])
+    path = np.array(
+        [[float(v) for v in line.split(",")[:2]] for line in (tmp_path / "circle.csv").read_text().splitlines()[1:]]
+    )
     PurePursuit(sim, path, speed)
     watch = LapWatch(sim)
     assert len(watch.walls) > 100
@@ -281,12 +299,18 @@ GOOD = "0, 0, 1, 1\n5, 0, 1, 1\n5, 5, 1, 1\n0, 5, 1, 1\n"
 BAD_TRACKS = {
     "two_columns.csv": ("0, 0\n5, 0\n5, 5\n", "line 1: expected 4 comma-separated columns"),
     "no_widths.csv": ("# x_m, y_m\n0, 0\n5, 0\n5, 5\n", "line 1: no track-width columns"),
-    "ragged.csv": ("x,y,w_right,w_left\n0, 0, 1, 1\n5, 0, 1\n5, 5, 1, 1\n",
-                   "line 3: 3 comma-separated columns, the header (line 1) has 4"),
-    "bad_after_header.csv": ("x,y,w_right,w_left\n0, 0, 1, 1\n5, 0, 1, wide\n5, 5, 1, 1\n",
-                             "line 3: w_left: not a number"),
-    "bad_semicolon.csv": ("# x_m; y_m; w_tr_right_m; w_tr_left_m\n0;0;1;1\n5;nan;1;1\n5;5;1;1\n",
-                          "line 3: y: must be finite"),
+    "ragged.csv": (
+        "x,y,w_right,w_left\n0, 0, 1, 1\n5, 0, 1\n5, 5, 1, 1\n",
+        "line 3: 3 comma-separated columns, the header (line 1) has 4",
+    ),
+    "bad_after_header.csv": (
+        "x,y,w_right,w_left\n0, 0, 1, 1\n5, 0, 1, wide\n5, 5, 1, 1\n",
+        "line 3: w_left: not a number",
+    ),
+    "bad_semicolon.csv": (
+        "# x_m; y_m; w_tr_right_m; w_tr_left_m\n0;0;1;1\n5;nan;1;1\n5;5;1;1\n",
+        "line 3: y: must be finite",
+    ),
     "nan.csv": ("0, 0, 1, 1\n5, nan, 1, 1\n5, 5, 1, 1\n", "line 2: y: must be finite"),
     "inf.csv": ("0, 0, 1, 1\n5, 0, inf, 1\n5, 5, 1, 1\n", "line 2: w_right: must be finite"),
     "word.csv": ("0, 0, 1, 1\n5, 0, 1, wide\n5, 5, 1, 1\n", "line 2: w_left: not a number"),
@@ -348,14 +372,17 @@ def walls_of(world) -> list[tuple]:
     return sorted((tuple(np.round(g.pos, 9)), tuple(np.round(g.size, 9))) for g in world.bodies[-1].geoms if g.collides)
 
 
-@pytest.mark.parametrize(("header", "delimiter", "order"), [
-    ("x,y,w_right,w_left\n", ",", (0, 1, 2, 3)),  # a plain header row
-    ("x_m, y_m, w_tr_right_m, w_tr_left_m\n", ",", (0, 1, 2, 3)),
-    ("# x_m,y_m,w_tr_right_m,w_tr_left_m\n", ",", (0, 1, 2, 3)),  # the F1TENTH centerline header
-    ("# x_m; y_m; w_tr_right_m; w_tr_left_m\n", ";", (0, 1, 2, 3)),  # semicolons
-    ("# w_tr_left_m,x_m,w_tr_right_m,y_m\n", ",", (3, 0, 2, 1)),  # columns found by name, in any order
-    ("# id\n# x_m, y_m, w_tr_right_m, w_tr_left_m\n\n", ",", (0, 1, 2, 3)),  # the last # line is the header
-])
+@pytest.mark.parametrize(
+    ("header", "delimiter", "order"),
+    [
+        ("x,y,w_right,w_left\n", ",", (0, 1, 2, 3)),  # a plain header row
+        ("x_m, y_m, w_tr_right_m, w_tr_left_m\n", ",", (0, 1, 2, 3)),
+        ("# x_m,y_m,w_tr_right_m,w_tr_left_m\n", ",", (0, 1, 2, 3)),  # the F1TENTH centerline header
+        ("# x_m; y_m; w_tr_right_m; w_tr_left_m\n", ";", (0, 1, 2, 3)),  # semicolons
+        ("# w_tr_left_m,x_m,w_tr_right_m,y_m\n", ",", (3, 0, 2, 1)),  # columns found by name, in any order
+        ("# id\n# x_m, y_m, w_tr_right_m, w_tr_left_m\n\n", ",", (0, 1, 2, 3)),  # the last # line is the header
+    ],
+)
 def test_track_headers_and_delimiters(tmp_path, header, delimiter, order):
     (tmp_path / "plain.csv").write_text(square_track(""))
     (tmp_path / "headed.csv").write_text(square_track(header, delimiter, order))

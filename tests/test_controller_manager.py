@@ -150,8 +150,15 @@ def test_with_every_wheel_controller_stopped_the_car_decelerates_only_by_the_ext
     d.xfrc_applied[sim.car.state.body_id, 0] = -drag
     inertia = np.zeros((m.nv, m.nv))
     mujoco.mj_fullM(m, d, inertia)
-    dofs = [m.joint(j).dofadr[0] for j in ("left_rear_wheel_joint", "right_rear_wheel_joint",
-                                           "left_front_wheel_joint", "right_front_wheel_joint")]
+    dofs = [
+        m.joint(j).dofadr[0]
+        for j in (
+            "left_rear_wheel_joint",
+            "right_rear_wheel_joint",
+            "left_front_wheel_joint",
+            "right_front_wheel_joint",
+        )
+    ]
     mass = m.body_subtreemass[sim.car.state.body_id] + sum(inertia[i, i] for i in dofs) / RADIUS**2
     v0, t0 = forward_speed(sim), sim.time
     sim.run_until(t0 + 0.4)
@@ -405,16 +412,31 @@ def test_state_with_an_i_term_matches_the_actuator(tmp_path):
 
 def test_state_message_cdr_matches_rosbags():
     store = get_typestore(Stores.ROS2_HUMBLE)
-    for msgtype in ("control_msgs/msg/JointControllerState", "controller_manager_msgs/msg/HardwareInterfaceResources",
-                    "controller_manager_msgs/msg/ControllerState"):
+    for msgtype in (
+        "control_msgs/msg/JointControllerState",
+        "controller_manager_msgs/msg/HardwareInterfaceResources",
+        "controller_manager_msgs/msg/ControllerState",
+    ):
         store.register(get_types_from_msg(idl.get_spec(msgtype).text, msgtype))
-    state = msgs.JointControllerState(msgs.Header.at(1_230_000_000), 20.0, 19.5, 0.0, 0.5, 0.0025, 0.5, 1.0, 0.0, 0.0,
-                                      0.0, False)
+    state = msgs.JointControllerState(
+        msgs.Header.at(1_230_000_000), 20.0, 19.5, 0.0, 0.5, 0.0025, 0.5, 1.0, 0.0, 0.0, 0.0, False
+    )
     reference = store.types["control_msgs/msg/JointControllerState"](
-        header=store.types["std_msgs/msg/Header"](stamp=store.types["builtin_interfaces/msg/Time"](1, 230_000_000),
-                                                  frame_id=""),
-        set_point=20.0, process_value=19.5, process_value_dot=0.0, error=0.5, time_step=0.0025, command=0.5, p=1.0,
-        i=0.0, d=0.0, i_clamp=0.0, antiwindup=False)
+        header=store.types["std_msgs/msg/Header"](
+            stamp=store.types["builtin_interfaces/msg/Time"](1, 230_000_000), frame_id=""
+        ),
+        set_point=20.0,
+        process_value=19.5,
+        process_value_dot=0.0,
+        error=0.5,
+        time_step=0.0025,
+        command=0.5,
+        p=1.0,
+        i=0.0,
+        d=0.0,
+        i_clamp=0.0,
+        antiwindup=False,
+    )
     assert msgs.serialize(state) == store.serialize_cdr(reference, "control_msgs/msg/JointControllerState")
     cs = msgs.ControllerState("a", "running", VELOCITY, [msgs.HardwareInterfaceResources("hw", ["j1", "j2"])])
     assert msgs.deserialize(msgs.serialize(cs), "controller_manager_msgs/ControllerState") == cs
@@ -422,23 +444,31 @@ def test_state_message_cdr_matches_rosbags():
 
 
 def test_recording_writes_the_state_topics_with_their_schema(sim, tmp_path: Path):
-    from rosbags.highlevel import AnyReader  # noqa: PLC0415
+    from rosbags.highlevel import AnyReader
 
     path = tmp_path / "run.mcap"
     recorder = sim.record(path)
     sim.run_until(0.1)
     recorder.close()
     with AnyReader([path], default_typestore=get_typestore(Stores.EMPTY)) as reader:  # schemas from the file
-        rows = [(c.topic, reader.deserialize(raw, c.msgtype)) for c, _, raw in reader.messages()
-                if c.topic == f"/racecar/{HINGES[0]}/state"]
+        rows = [
+            (c.topic, reader.deserialize(raw, c.msgtype))
+            for c, _, raw in reader.messages()
+            if c.topic == f"/racecar/{HINGES[0]}/state"
+        ]
     assert len(rows) == 10
     assert rows[-1][1].p == 1.0 and rows[-1][1].d == 0.5 and rows[-1][1].time_step == sim.model.opt.timestep
 
 
 # --- a fleet -----------------------------------------------------------------------------------------------------
 def test_each_car_of_a_fleet_has_its_own_controller_manager():
-    sim = Simulator(world="empty", cars=[Car("car1", camera=False, lidar=False),
-                                         Car("car2", spawn=Spawn(0, 3, 0.05, 0), camera=False, lidar=False)])
+    sim = Simulator(
+        world="empty",
+        cars=[
+            Car("car1", camera=False, lidar=False),
+            Car("car2", spawn=Spawn(0, 3, 0.05, 0), camera=False, lidar=False),
+        ],
+    )
     car1, car2 = sim.cars
     for car in (car1, car2):
         assert set(listed(sim, f"/{car.name}").values()) == {"running"}

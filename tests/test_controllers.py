@@ -8,9 +8,9 @@ import pytest
 import yaml
 
 from racecar_sim import Simulator
+from racecar_sim.control.controllers import load_controller_config
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.description import load_robot, package_path
-from racecar_sim.control.controllers import load_controller_config
 
 SHIPPED = package_path("racecar_control") / "config" / "racecar_control.yaml"
 HINGE = "left_steering_hinge_position_controller"

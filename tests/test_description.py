@@ -124,8 +124,9 @@ def test_mujoco_model_merges_fixed_links_like_gazebo():
     base = m.body("base_link")
     assert base.mass[0] == pytest.approx(4.13003)  # chassis + laser + the three camera links
     # centre of mass of the merged base: mass-weighted mean of its parts (original_stack.md §1.4)
-    expected_com = (4.0 * np.array([0.1477, 0, 0.05]) + 0.13 * np.array([0.265, 0, 0.125])
-                    + 1e-5 * (np.array([0.39, 0, 0.09]) * 3)) / 4.13003
+    expected_com = (
+        4.0 * np.array([0.1477, 0, 0.05]) + 0.13 * np.array([0.265, 0, 0.125]) + 1e-5 * (np.array([0.39, 0, 0.09]) * 3)
+    ) / 4.13003
     np.testing.assert_allclose(base.ipos, expected_com, atol=1e-6)
     assert m.body_subtreemass[base.id] == pytest.approx(5.69223)
     for h in HINGES:
@@ -164,18 +165,26 @@ def test_malformed_urdf_names_the_problem():
     with pytest.raises(DescriptionError, match="malformed XML"):
         parse_urdf("<robot><link name='a'></robot>", source="bad.urdf")
     with pytest.raises(DescriptionError, match="joint j: link 'nowhere' is not defined"):
-        parse_urdf("<robot name='r'><link name='a'/><joint name='j' type='fixed'><parent link='a'/>"
-                   "<child link='nowhere'/></joint></robot>", source="bad.urdf")
+        parse_urdf(
+            "<robot name='r'><link name='a'/><joint name='j' type='fixed'><parent link='a'/>"
+            "<child link='nowhere'/></joint></robot>",
+            source="bad.urdf",
+        )
     with pytest.raises(DescriptionError, match="mass -1.0 must be positive"):
-        parse_urdf("<robot name='r'><link name='a'><inertial><mass value='-1'/>"
-                   "<inertia ixx='1' iyy='1' izz='1'/></inertial></link></robot>", source="bad.urdf")
+        parse_urdf(
+            "<robot name='r'><link name='a'><inertial><mass value='-1'/>"
+            "<inertia ixx='1' iyy='1' izz='1'/></inertial></link></robot>",
+            source="bad.urdf",
+        )
 
 
 def test_describe_cli_prints_urdf_and_table():
-    urdf = subprocess.run([sys.executable, "-m", "racecar_sim", "describe", "--urdf"], capture_output=True, text=True,
-                          check=True).stdout
+    urdf = subprocess.run(
+        [sys.executable, "-m", "racecar_sim", "describe", "--urdf"], capture_output=True, text=True, check=True
+    ).stdout
     assert parse_urdf(urdf).joints["left_steering_hinge_joint"].limit.upper == 1.0
-    table = subprocess.run([sys.executable, "-m", "racecar_sim", "describe"], capture_output=True, text=True,
-                           check=True).stdout
+    table = subprocess.run(
+        [sys.executable, "-m", "racecar_sim", "describe"], capture_output=True, text=True, check=True
+    ).stdout
     assert "wheelbase 0.3250 m" in table and "total mass 5.69223 kg" in table
     assert "left_steering_hinge_joint    revolute" in table

@@ -11,8 +11,8 @@ import textwrap
 
 import numpy as np
 import pytest
-from conftest import Log
 
+from conftest import Log
 from racecar_sim import Simulator
 from racecar_sim.core.errors import RenderingError
 from racecar_sim.drivers import ConstantCommand
@@ -164,8 +164,9 @@ def test_a_depth_camera_gives_the_distance_to_the_wall_ahead(user_xacro, tmp_pat
     world = tmp_path / "walls.world"
     world.write_text(WALLS_WORLD)
     try:
-        sim = Simulator(world=str(world), xacro=user_xacro, camera=True, lidar=False, seed=3,
-                        spawn=Spawn(0, 0, 0.05, 0))
+        sim = Simulator(
+            world=str(world), xacro=user_xacro, camera=True, lidar=False, seed=3, spawn=Spawn(0, 0, 0.05, 0)
+        )
     except RenderingError as exc:
         pytest.skip(str(exc))
     with sim:
@@ -198,9 +199,14 @@ def test_the_original_car_gets_exactly_todays_sensors():
 
 def test_an_unknown_plugin_is_a_warning_naming_it_and_the_file(tmp_path, caplog):
     path = tmp_path / "odd.xacro"
-    path.write_text(USER_XACRO.replace("</robot>", textwrap.dedent("""\
+    path.write_text(
+        USER_XACRO.replace(
+            "</robot>",
+            textwrap.dedent("""\
         <gazebo><plugin name="mystery" filename="libmystery_plugin.so"><x>1</x></plugin></gazebo>
-        </robot>""")))
+        </robot>"""),
+        )
+    )
     with caplog.at_level("WARNING", logger="racecar_sim"):
         with Simulator(world="empty", xacro=path, camera=False, lidar=False):
             pass
@@ -224,10 +230,32 @@ def test_the_cli_leaves_out_a_sensor_named_by_no_sensor(user_xacro, tmp_path):
     from mcap.reader import make_reader
 
     out = tmp_path / "run"
-    result = subprocess.run([sys.executable, "-m", "racecar_sim", "run", "--world", "empty", "--xacro", str(user_xacro),
-                             "--driver", "constant", "--duration", "1", "--no-camera", "--no-sensor", "rear_hokuyo",
-                             "--out", str(out), "--no-video", "--no-summary"], capture_output=True, text=True,
-                            timeout=300)
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "racecar_sim",
+            "run",
+            "--world",
+            "empty",
+            "--xacro",
+            str(user_xacro),
+            "--driver",
+            "constant",
+            "--duration",
+            "1",
+            "--no-camera",
+            "--no-sensor",
+            "rear_hokuyo",
+            "--out",
+            str(out),
+            "--no-video",
+            "--no-summary",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert result.returncode == 0, result.stderr
     with open(out / "run.mcap", "rb") as f:
         topics = {channel.topic for channel in make_reader(f).get_summary().channels.values()}

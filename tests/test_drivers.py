@@ -14,8 +14,7 @@ import pytest
 from racecar_sim import Simulator
 from racecar_sim.bus import Bus
 from racecar_sim.core.errors import ConfigError
-from racecar_sim.drivers import (PurePursuit, WallFollower, load_waypoints, pure_pursuit_config,
-                                 wall_follow_config)
+from racecar_sim.drivers import PurePursuit, WallFollower, load_waypoints, pure_pursuit_config, wall_follow_config
 from racecar_sim.drivers.odom import planar_pose
 from racecar_sim.msgs import AckermannDriveStamped, Header, LaserScan
 
@@ -148,9 +147,11 @@ def test_raceline_and_headed_csvs_are_paths(tmp_path):
     np.testing.assert_array_equal(waypoints.points, [[0, 0], [3, 0], [6, 0], [6, 6], [0, 6]])
     np.testing.assert_array_equal(waypoints.speeds, [1.5, 1.2, 1.0, 1.0, 1.0])
     assert waypoints.closed
-    for name, text in (("plain.csv", "x,y,speed\n0,0,1\n4,0,2\n8,2,3\n"),
-                       ("renamed.csv", "# speed_mps, y_m, x_m\n1, 0, 0\n2, 0, 4\n3, 2, 8\n"),
-                       ("centerline.csv", "x_m, y_m, w_tr_right_m, w_tr_left_m\n0, 0, 1, 1\n4, 0, 1, 1\n8, 2, 1, 1\n")):
+    for name, text in (
+        ("plain.csv", "x,y,speed\n0,0,1\n4,0,2\n8,2,3\n"),
+        ("renamed.csv", "# speed_mps, y_m, x_m\n1, 0, 0\n2, 0, 4\n3, 2, 8\n"),
+        ("centerline.csv", "x_m, y_m, w_tr_right_m, w_tr_left_m\n0, 0, 1, 1\n4, 0, 1, 1\n8, 2, 1, 1\n"),
+    ):
         (tmp_path / name).write_text(text)
         path = load_waypoints(tmp_path / name)
         np.testing.assert_array_equal(path.points, [[0, 0], [4, 0], [8, 2]])
@@ -162,10 +163,30 @@ def test_raceline_and_headed_csvs_are_paths(tmp_path):
 
 def test_cli_pure_pursuit_follows_a_raceline(tmp_path):
     (tmp_path / "Track_raceline.csv").write_text(RACELINE)
-    result = subprocess.run([sys.executable, "-m", "racecar_sim", "run", "--world", "empty", "--no-camera",
-                             "--no-record", "--no-summary", "--driver", "pure-pursuit",
-                             "--path", str(tmp_path / "Track_raceline.csv"), "--duration", "4", "--out", str(tmp_path)],
-                            capture_output=True, text=True, timeout=120)
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "racecar_sim",
+            "run",
+            "--world",
+            "empty",
+            "--no-camera",
+            "--no-record",
+            "--no-summary",
+            "--driver",
+            "pure-pursuit",
+            "--path",
+            str(tmp_path / "Track_raceline.csv"),
+            "--duration",
+            "4",
+            "--out",
+            str(tmp_path),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert result.returncode == 0, result.stderr
     distance = float(next(line for line in result.stdout.splitlines() if line.startswith("distance")).split()[1])
     assert 3.0 < distance < 4 * 1.5  # at the raceline's speeds, 1.5 m/s at most
@@ -179,8 +200,18 @@ def synthetic_wall_scan(distance: float, approach: float, side: str, stamp_ns: i
     cos = np.cos(angles - normal)
     ranges = np.where(cos > 1e-6, distance / np.maximum(cos, 1e-6), np.inf)
     ranges = np.where(ranges <= 10.0, ranges, np.inf).astype(np.float32)
-    return LaserScan(Header.at(stamp_ns, "laser"), -2.3561944902, 2.3561944902, 0.0043633231, 0.0, 0.025, 0.1, 10.0,
-                     ranges, np.zeros(1081, np.float32))
+    return LaserScan(
+        Header.at(stamp_ns, "laser"),
+        -2.3561944902,
+        2.3561944902,
+        0.0043633231,
+        0.0,
+        0.025,
+        0.1,
+        10.0,
+        ranges,
+        np.zeros(1081, np.float32),
+    )
 
 
 @pytest.mark.parametrize("side", ["left", "right"])
@@ -226,11 +257,29 @@ def test_driver_settings_are_checked(tmp_path):
 
 
 def test_cli_driver_errors_are_one_line(tmp_path):
-    for args, expected in ((["--driver", "pure-pursuit"], "needs --path"),
-                           (["--driver", "wall-follow", "--no-lidar"], "steers by the lidar"),
-                           (["--driver", "pure-pursuit", "--path", str(tmp_path / "none.csv")], "none.csv")):
-        result = subprocess.run([sys.executable, "-m", "racecar_sim", "run", "--world", "empty", "--no-camera",
-                                 "--duration", "0.1", "--out", str(tmp_path), *args],
-                                capture_output=True, text=True, timeout=120)
+    for args, expected in (
+        (["--driver", "pure-pursuit"], "needs --path"),
+        (["--driver", "wall-follow", "--no-lidar"], "steers by the lidar"),
+        (["--driver", "pure-pursuit", "--path", str(tmp_path / "none.csv")], "none.csv"),
+    ):
+        result = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "racecar_sim",
+                "run",
+                "--world",
+                "empty",
+                "--no-camera",
+                "--duration",
+                "0.1",
+                "--out",
+                str(tmp_path),
+                *args,
+            ],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
         assert result.returncode == 2 and len(result.stderr.strip().splitlines()) == 1, result.stderr
         assert expected in result.stderr

@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 import pytest
-from conftest import fit_circle, ground_speed, positions
 
+from conftest import fit_circle, ground_speed, positions
 from racecar_sim import Simulator
 from racecar_sim.description import VehicleGeometry, load_robot
 
@@ -77,6 +77,7 @@ def test_mit_2017_profile_steers_both_hinges_alike():
         topic = f"/racecar/{side}_steering_hinge_position_controller/command"
         sim.subscribe(topic, lambda msg, side=side: commands.__setitem__(side, msg.data))
     from racecar_sim.drivers import ConstantCommand
+
     ConstantCommand(sim.bus, sim.scheduler, 0.0, 0.3)
     states = []
     sim.subscribe("/racecar/joint_states", states.append)

@@ -96,13 +96,22 @@ def test_warp_device_without_gpu_is_one_line_error():
 def test_batched_cast_of_tilted_scans_matches_mujoco_rays():
     """A pitched or rolled car's scan reaches the floor box's top and passes over or under the walls' edges: the
     batched cast (sides checked against the heights a box spans, top faces) gives MuJoCo's own 3-D ray casts."""
-    tilts = [(0.0, 0.0), (1.0, 0.0), (2.0, 0.0), (-2.0, 0.0), (0.0, 3.0), (4.0, -1.5), (6.0, 0.0), (-15.0, 0.0)]  # pitch, roll
+    tilts = [
+        (0.0, 0.0),
+        (1.0, 0.0),
+        (2.0, 0.0),
+        (-2.0, 0.0),
+        (0.0, 3.0),
+        (4.0, -1.5),
+        (6.0, 0.0),
+        (-15.0, 0.0),
+    ]  # pitch, roll
     batch = DriveBatch(len(tilts), world="walker", seeds=0)
     lidar, root = batch.lidar, batch.root_qpos
     qpos = np.repeat(batch.template.data.qpos[None], len(tilts), axis=0)
     for k, (pitch, roll) in enumerate(np.radians(tilts)):
-        qpos[k, root:root + 2] += [0.7 * k, 0.1 * k]
-        qpos[k, root + 3:root + 7] = [np.cos(0.15 * k), 0, 0, np.sin(0.15 * k)]
+        qpos[k, root : root + 2] += [0.7 * k, 0.1 * k]
+        qpos[k, root + 3 : root + 7] = [np.cos(0.15 * k), 0, 0, np.sin(0.15 * k)]
     level = lidar.true_ranges(qpos)
     for k, (pitch, roll) in enumerate(np.radians(tilts)):
         cp, sp, cr, sr = np.cos(pitch / 2), np.sin(pitch / 2), np.cos(roll / 2), np.sin(roll / 2)
@@ -110,8 +119,12 @@ def test_batched_cast_of_tilted_scans_matches_mujoco_rays():
         tilt = np.array([cp * cr, cp * sr, sp * cr, -sp * sr])
         w0, x0, y0, z0 = yaw
         w1, x1, y1, z1 = tilt
-        qpos[k, root + 3:root + 7] = [w0 * w1 - x0 * x1 - y0 * y1 - z0 * z1, w0 * x1 + x0 * w1 + y0 * z1 - z0 * y1,
-                                      w0 * y1 - x0 * z1 + y0 * w1 + z0 * x1, w0 * z1 + x0 * y1 - y0 * x1 + z0 * w1]
+        qpos[k, root + 3 : root + 7] = [
+            w0 * w1 - x0 * x1 - y0 * y1 - z0 * z1,
+            w0 * x1 + x0 * w1 + y0 * z1 - z0 * y1,
+            w0 * y1 - x0 * z1 + y0 * w1 + z0 * x1,
+            w0 * z1 + x0 * y1 - y0 * x1 + z0 * w1,
+        ]
     ranges = lidar.true_ranges(qpos)
     model = copy.copy(batch.model)
     data = mujoco.MjData(model)

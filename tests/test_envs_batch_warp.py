@@ -25,12 +25,14 @@ from racecar_sim.runtime.simulator import Simulator
 
 STEPS = 200  # 0.5 s at the default preset's 2.5 ms
 # wheel velocity setpoints (rad/s: rear left/right, front left/right) and steering hinge angles (rad)
-CTRLS = np.array([[0, 0, 0, 0, 0, 0], [20, 20, 20, 20, 0, 0], [15, 15, 15, 15, 0.3, 0.3],
-                  [-10, -10, -10, -10, -0.25, -0.25]], float)
+CTRLS = np.array(
+    [[0, 0, 0, 0, 0, 0], [20, 20, 20, 20, 0, 0], [15, 15, 15, 15, 0.3, 0.3], [-10, -10, -10, -10, -0.25, -0.25]], float
+)
 
-needs_warp = pytest.mark.skipif(importlib.util.find_spec("mujoco_warp") is None
-                                or os.environ.get("RACECAR_SIM_TEST_WARP") == "0",
-                                reason="needs mujoco-warp (the [gpu] extra); RACECAR_SIM_TEST_WARP=0 skips it")
+needs_warp = pytest.mark.skipif(
+    importlib.util.find_spec("mujoco_warp") is None or os.environ.get("RACECAR_SIM_TEST_WARP") == "0",
+    reason="needs mujoco-warp (the [gpu] extra); RACECAR_SIM_TEST_WARP=0 skips it",
+)
 
 
 @pytest.fixture(scope="module")
@@ -83,7 +85,7 @@ def test_warp_worlds_match_cpu_mujoco(sim):
     qpos, qvel = worlds.qpos(), worlds.qvel()
     expected = _cpu_rollout(model, data, CTRLS, STEPS)
     for w, d in enumerate(expected):
-        np.testing.assert_allclose(qpos[w, root:root + 3], d.qpos[root:root + 3], atol=1e-5, err_msg=f"world {w}")
+        np.testing.assert_allclose(qpos[w, root : root + 3], d.qpos[root : root + 3], atol=1e-5, err_msg=f"world {w}")
         np.testing.assert_allclose(qpos[w], d.qpos, atol=1e-3, err_msg=f"world {w}")
         np.testing.assert_allclose(qvel[w], d.qvel, atol=1e-3, err_msg=f"world {w}")
     xpos, xmat = worlds.body_pose(sim.car.state.body_id)
@@ -99,8 +101,8 @@ def test_warp_worlds_match_cpu_mujoco(sim):
     # the start, all at rest
     start = np.tile(data.qpos, (len(CTRLS), 1))
     start[[1, 3], root + 2] -= 0.05
-    start[1, root + 3:root + 7] = [np.sqrt(0.5), np.sqrt(0.5), 0.0, 0.0]
-    start[3, root + 3:root + 7] = [0.0, 1.0, 0.0, 0.0]
+    start[1, root + 3 : root + 7] = [np.sqrt(0.5), np.sqrt(0.5), 0.0, 0.0]
+    start[3, root + 3 : root + 7] = [0.0, 1.0, 0.0, 0.0]
     worlds.reset(start, np.zeros((len(CTRLS), model.nv)))
     worlds.step(1)
     wheels = [model.body(sim.car.names.mj(w.link)).id for w in sim.car.servo.geometry.wheels]
@@ -129,16 +131,19 @@ def test_drive_batch_on_warp_matches_the_cpu_batch():
     after one (also at 50 Hz, where all worlds check at the period's end); this walk (seed 10) has none.
     Seen: car bases within 3.2e-7 m, speeds within 2.8e-6 m/s. Tolerances: 1e-4 m, 1e-4 m/s; same flags."""
     actions = np.clip(np.cumsum(np.random.default_rng(10).normal(0, 0.1, size=(20, 4, 2)), 0), -1, 1)
-    batches = [DriveBatch(4, world="empty", seeds=[3, 4, 5, 6], control_rate=20.0, max_episode_steps=3,
-                          device=device) for device in ("cpu", "warp-cpu")]
+    batches = [
+        DriveBatch(4, world="empty", seeds=[3, 4, 5, 6], control_rate=20.0, max_episode_steps=3, device=device)
+        for device in ("cpu", "warp-cpu")
+    ]
     cpu, gpu = batches
     for batch in batches:
         batch.reset()
         batch.steps[1::2] = -100  # worlds 1 and 3 go on
     root = slice(cpu.root_qpos, cpu.root_qpos + 3)
     for k in range(len(actions)):
-        (_, _, cpu_terminated, cpu_truncated, _), (_, _, terminated, truncated, _) = (b.step(actions[k])
-                                                                                      for b in batches)
+        (_, _, cpu_terminated, cpu_truncated, _), (_, _, terminated, truncated, _) = (
+            b.step(actions[k]) for b in batches
+        )
         np.testing.assert_array_equal(terminated, cpu_terminated, err_msg=f"step {k}")
         np.testing.assert_array_equal(truncated, cpu_truncated, err_msg=f"step {k}")
         np.testing.assert_allclose(gpu.qpos[:, root], cpu.qpos[:, root], atol=1e-4, err_msg=f"step {k}")

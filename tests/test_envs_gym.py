@@ -26,14 +26,15 @@ from racecar_sim.worlds import world_names
 try:
     shared_context()
     GL_MISSING = ""
-except Exception as exc:  # noqa: BLE001 - the reason is the skip message
+except Exception as exc:
     GL_MISSING = str(exc)
 needs_gl = pytest.mark.skipif(bool(GL_MISSING), reason=GL_MISSING)
 FORWARD = np.array([1.0, 0.0], np.float32)
 
 
-def actions(count: int, seed: int = 7, low: tuple[float, float] = (-0.3, -1.0),
-            high: tuple[float, float] = (1.0, 1.0)) -> np.ndarray:
+def actions(
+    count: int, seed: int = 7, low: tuple[float, float] = (-0.3, -1.0), high: tuple[float, float] = (1.0, 1.0)
+) -> np.ndarray:
     """A fixed, varied action sequence (float32, within the normalised box)."""
     return np.random.default_rng(seed).uniform(low, high, (count, 2)).astype(np.float32)
 
@@ -201,8 +202,10 @@ def test_distance_driven_without_a_centerline_and_a_track_csv_centerline(tmp_pat
     radius = 6.0
     angles = np.linspace(0.0, 2 * math.pi, 120, endpoint=False)
     track = tmp_path / "circle.csv"
-    track.write_text("x,y,w_right,w_left\n" + "".join(
-        f"{radius * math.cos(a):.9f},{radius * math.sin(a):.9f},1.0,1.0\n" for a in angles))
+    track.write_text(
+        "x,y,w_right,w_left\n"
+        + "".join(f"{radius * math.cos(a):.9f},{radius * math.sin(a):.9f},1.0,1.0\n" for a in angles)
+    )
     env = gym.make(DRIVE_ID, world=track, action="raw")
     env.reset(seed=0)
     steer = math.atan(0.325 / radius)

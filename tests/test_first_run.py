@@ -15,17 +15,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from conftest import NAVIGATION, Log, ground_speed
 from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore
 
+from conftest import NAVIGATION, Log, ground_speed
 from racecar_sim import Simulator
 from racecar_sim.control.controllers import load_controller_config
 from racecar_sim.control.mux import load_mux_inputs
 from racecar_sim.core.errors import ConfigError, PhysicsError
 from racecar_sim.core.tables import table_entry
-from racecar_sim.drivers import ConstantCommand
 from racecar_sim.description import load_robot, package_path
+from racecar_sim.drivers import ConstantCommand
 from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Float64, Header
 from racecar_sim.physics import PhysicsPreset
 
@@ -59,8 +59,20 @@ def messages(path: Path, topic: str) -> list:
 
 # --- 2. the flags users type pick the driver they mean ------------------------------------------------------
 def test_steering_without_driver_means_the_constant_command(tmp_path):
-    result = run_cli("run", "--world", "empty", "--speed", "1.0", "--steering", "0.2", "--duration", "2",
-                     "--out", str(tmp_path), *QUIET)
+    result = run_cli(
+        "run",
+        "--world",
+        "empty",
+        "--speed",
+        "1.0",
+        "--steering",
+        "0.2",
+        "--duration",
+        "2",
+        "--out",
+        str(tmp_path),
+        *QUIET,
+    )
     assert result.returncode == 0, result.stderr
     assert "driver constant" in result.stdout
     commands = messages(tmp_path / "run.mcap", NAVIGATION)
@@ -74,8 +86,20 @@ def test_steering_without_driver_means_the_constant_command(tmp_path):
 
 def test_speed_zero_stands_still_with_the_constant_driver(tmp_path):
     for extra in ([], ["--driver", "constant"]):
-        result = run_cli("run", "--world", "empty", "--speed", "0", "--duration", "2", "--out", str(tmp_path),
-                         "--overwrite", *QUIET, *extra)  # the second run replaces the first's run.mcap
+        result = run_cli(
+            "run",
+            "--world",
+            "empty",
+            "--speed",
+            "0",
+            "--duration",
+            "2",
+            "--out",
+            str(tmp_path),
+            "--overwrite",
+            *QUIET,
+            *extra,
+        )  # the second run replaces the first's run.mcap
         assert result.returncode == 0, result.stderr
         assert "driver constant" in result.stdout
         odom = messages(tmp_path / "run.mcap", "/vesc/odom")
@@ -88,7 +112,9 @@ def test_an_option_for_another_driver_is_an_error_naming_both():
     assert "--side" in line and "constant" in line and "wall-follow" in line
     line = one_line_error("run", "--driver", "wall-follow", "--steering", "0.1")
     assert "--steering" in line and "wall-follow" in line
-    line = one_line_error("run", "--rate", "5", "--distance", "1.0")  # --rate picks constant; --distance is wall-follow's
+    line = one_line_error(
+        "run", "--rate", "5", "--distance", "1.0"
+    )  # --rate picks constant; --distance is wall-follow's
     assert "--distance" in line and "constant" in line
     line = one_line_error("run", "--driver", "pure-pursuit", "--rate", "10")
     assert "--rate" in line and "pure-pursuit" in line
@@ -102,8 +128,24 @@ def test_no_options_still_run_wall_follow(tmp_path):
 
 
 def test_seed_physics_and_profile_reach_the_simulator(tmp_path):
-    result = run_cli("run", "--world", "empty", "--driver", "constant", "--duration", "0.5", "--seed", "5",
-                     "--physics", "gazebo", "--profile", "mit-2017", "--no-record", *QUIET, cwd=tmp_path)
+    result = run_cli(
+        "run",
+        "--world",
+        "empty",
+        "--driver",
+        "constant",
+        "--duration",
+        "0.5",
+        "--seed",
+        "5",
+        "--physics",
+        "gazebo",
+        "--profile",
+        "mit-2017",
+        "--no-record",
+        *QUIET,
+        cwd=tmp_path,
+    )
     assert result.returncode == 0, result.stderr
     assert "profile mit-2017, physics gazebo (step 1 ms), seed 5" in result.stdout
 
@@ -231,8 +273,10 @@ def test_mux_and_table_files_reject_non_finite_values(tmp_path):
     with pytest.raises(ConfigError, match="priority"):
         load_mux_inputs(mux)
     presets = tmp_path / "presets.yaml"
-    presets.write_text("bad:\n  timestep: .nan\n  integrator: implicitfast\n  solver: newton\n  iterations: 50\n"
-                       "  cone: pyramidal\n  contact_timeconst: 0.005\n")
+    presets.write_text(
+        "bad:\n  timestep: .nan\n  integrator: implicitfast\n  solver: newton\n  iterations: 50\n"
+        "  cone: pyramidal\n  contact_timeconst: 0.005\n"
+    )
     with pytest.raises(ConfigError, match=r"presets.yaml: physics preset 'bad': timestep"):
         table_entry(presets, "bad", PhysicsPreset, "physics preset")
 
@@ -276,8 +320,21 @@ def test_diverging_physics_on_the_cli_is_one_line_and_the_recording_is_closed(tm
     world = tmp_path / "heavy.world"
     world.write_text(DIVERGING_WORLD)
     record = tmp_path / "run.mcap"
-    result = run_cli("run", "--world", str(world), "--driver", "constant", "--duration", "2", "--no-lidar",
-                     "--record", str(record), "--out", str(tmp_path / "out"), *QUIET)
+    result = run_cli(
+        "run",
+        "--world",
+        str(world),
+        "--driver",
+        "constant",
+        "--duration",
+        "2",
+        "--no-lidar",
+        "--record",
+        str(record),
+        "--out",
+        str(tmp_path / "out"),
+        *QUIET,
+    )
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and "diverged" in lines[0] and "Traceback" not in result.stderr, result.stderr
@@ -312,9 +369,26 @@ def test_progress_bar_ends_at_its_total_without_tqdm_warnings(tmp_path):
     pexpect = pytest.importorskip("pexpect")
     # 5.001 s is not a whole number of 2.5 ms steps: the sim ends past the bar's total, which tqdm used to
     # clamp with a warning and show as a negative remaining time
-    child = pexpect.spawn(sys.executable, ["-m", "racecar_sim", "run", "--world", "empty", "--driver", "constant",
-                                           "--duration", "5.001", "--no-record", *QUIET], cwd=str(tmp_path),
-                          timeout=120, encoding="utf-8", dimensions=(24, 160))
+    child = pexpect.spawn(
+        sys.executable,
+        [
+            "-m",
+            "racecar_sim",
+            "run",
+            "--world",
+            "empty",
+            "--driver",
+            "constant",
+            "--duration",
+            "5.001",
+            "--no-record",
+            *QUIET,
+        ],
+        cwd=str(tmp_path),
+        timeout=120,
+        encoding="utf-8",
+        dimensions=(24, 160),
+    )
     child.expect(pexpect.EOF)
     child.close()
     assert child.exitstatus == 0, child.before
@@ -323,7 +397,9 @@ def test_progress_bar_ends_at_its_total_without_tqdm_warnings(tmp_path):
     assert "5.0/5.0 sim s" in child.before
 
 
-@pytest.mark.parametrize("field, value", [("speed", float("nan")), ("repeat_rate", 0.0), ("bindings", {"w": [1, math.inf]})])
+@pytest.mark.parametrize(
+    "field, value", [("speed", float("nan")), ("repeat_rate", 0.0), ("bindings", {"w": [1, math.inf]})]
+)
 def test_bad_teleop_config_names_the_file_and_field(tmp_path, field, value):
     from racecar_sim.control.teleop import DEFAULTS, load_teleop_config
 

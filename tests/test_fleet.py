@@ -7,10 +7,10 @@ import math
 
 import numpy as np
 import pytest
-from conftest import Log
 from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore
 
+from conftest import Log
 from racecar_sim import Car, Simulator, Spawn
 from racecar_sim.core.errors import ConfigError, WorldError
 from racecar_sim.drivers import ConstantCommand
@@ -98,15 +98,19 @@ def test_the_namespaced_tf_tree_is_complete(corridor):
 
 def drive_towards(sim: Simulator, car: Car, speed: float) -> None:
     def send(now_ns: int) -> None:
-        sim.publish(car.topic("/vesc/ackermann_cmd_mux/input/navigation"),
-                    AckermannDriveStamped(Header.at(now_ns, car.names.frame("base_link")), AckermannDrive(speed=speed)))
+        sim.publish(
+            car.topic("/vesc/ackermann_cmd_mux/input/navigation"),
+            AckermannDriveStamped(Header.at(now_ns, car.names.frame("base_link")), AckermannDrive(speed=speed)),
+        )
 
     sim.scheduler.every(20.0, send, f"{car.name} driver")
 
 
 def test_two_cars_driven_head_on_collide_and_the_collision_names_both(corridor):
-    cars = [Car("red", spawn=Spawn(0.0, 0.0, 0.05, 0.0), camera=False),
-            Car("blue", spawn=Spawn(3.0, 0.0, 0.05, math.pi), camera=False)]
+    cars = [
+        Car("red", spawn=Spawn(0.0, 0.0, 0.05, 0.0), camera=False),
+        Car("blue", spawn=Spawn(3.0, 0.0, 0.05, math.pi), camera=False),
+    ]
     sim = Simulator(world=corridor, cars=cars)
     events: list[Collision] = []
     sim.on_collision(events.append)
@@ -159,8 +163,9 @@ def test_fleet_errors_are_one_line_config_errors(corridor):
     with pytest.raises(ConfigError, match="camera"):  # a single-car option next to cars=[...] would be ignored
         Simulator(world=corridor, camera=False, cars=column(2))
     with pytest.raises(WorldError, match="car2"):  # spawned into the first car
-        Simulator(world=corridor, cars=[Car("car1", camera=False), Car("car2", spawn=Spawn(0.1, 0, 0.05, 0),
-                                                                       camera=False)])
+        Simulator(
+            world=corridor, cars=[Car("car1", camera=False), Car("car2", spawn=Spawn(0.1, 0, 0.05, 0), camera=False)]
+        )
 
 
 # --- a reset that keeps every node --------------------------------------------------------------------------------
@@ -174,8 +179,10 @@ class UserDriver:
 
     def drive(self, now_ns: int) -> None:
         self.sent += 1
-        self.sim.publish("/vesc/ackermann_cmd_mux/input/navigation",
-                         AckermannDriveStamped(Header.at(now_ns, "base_link"), AckermannDrive(speed=1.0)))
+        self.sim.publish(
+            "/vesc/ackermann_cmd_mux/input/navigation",
+            AckermannDriveStamped(Header.at(now_ns, "base_link"), AckermannDrive(speed=1.0)),
+        )
 
     def reset(self) -> None:
         self.resets += 1

@@ -15,14 +15,14 @@ import pytest
 from PIL import Image
 from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore
-from test_foxglove import SLICE, FoxgloveClient, until
-from test_viewer import display, find_window, hold, needs_x, x_env, xdotool  # noqa: F401 (display: a fixture)
 
 from racecar_sim import Car, Simulator, Spawn
-from racecar_sim.cli.run import fleet_spawns
 from racecar_sim.bridges.foxglove.bridge import FoxgloveBridge
+from racecar_sim.cli.run import fleet_spawns
 from racecar_sim.plots.summary import DPI, FIGSIZE, SIDE, WIDE, fleet_color, save_summary, summary_figure
 from racecar_sim.worlds import load_world
+from test_foxglove import SLICE, FoxgloveClient, until
+from test_viewer import display, find_window, hold, needs_x, x_env, xdotool  # noqa: F401 (display: a fixture)
 
 CLI = [sys.executable, "-m", "racecar_sim"]
 QUIET = ["--no-camera", "--no-summary"]
@@ -53,11 +53,11 @@ def first_pose(odom: list) -> tuple[float, float, float]:
 
 def colour_pixels(rgb: np.ndarray, colour: str, box: tuple[float, float, float, float], tol: int = 8) -> int:
     """How many pixels within `tol` of a '#rrggbb' colour lie in `box` (figure fractions: left, bottom, w, h)."""
-    target = np.array([int(colour[i:i + 2], 16) for i in (1, 3, 5)])
+    target = np.array([int(colour[i : i + 2], 16) for i in (1, 3, 5)])
     height, width = rgb.shape[:2]
     left, bottom, w, h = box
     rows = slice(round((1 - bottom - h) * height), round((1 - bottom) * height))
-    part = rgb[rows, round(left * width):round((left + w) * width)]
+    part = rgb[rows, round(left * width) : round((left + w) * width)]
     return int((np.abs(part - target).max(axis=2) <= tol).sum())
 
 
@@ -65,15 +65,28 @@ def circle_track(folder: Path) -> Path:
     """An anticlockwise circle of radius R about the origin, 2 m wide, starting at (R, 0)."""
     angles = np.linspace(0.0, 2 * math.pi, 120, endpoint=False)
     path = folder / "circle.csv"
-    path.write_text("# x_m, y_m, w_tr_right_m, w_tr_left_m\n"
-                    + "".join(f"{R * math.cos(a):.9f}, {R * math.sin(a):.9f}, 1.0, 1.0\n" for a in angles))
+    path.write_text(
+        "# x_m, y_m, w_tr_right_m, w_tr_left_m\n"
+        + "".join(f"{R * math.cos(a):.9f}, {R * math.sin(a):.9f}, 1.0, 1.0\n" for a in angles)
+    )
     return path
 
 
 def test_three_cars_in_the_tunnel_record_every_cars_topics_and_draw_every_path(tmp_path):
     record = tmp_path / "fleet.mcap"
-    result = run_cli("--world", "tunnel", "--cars", "3", "--no-camera", "--duration", "3", "--record", str(record),
-                     "--out", str(tmp_path))
+    result = run_cli(
+        "--world",
+        "tunnel",
+        "--cars",
+        "3",
+        "--no-camera",
+        "--duration",
+        "3",
+        "--record",
+        str(record),
+        "--out",
+        str(tmp_path),
+    )
     assert result.returncode == 0, result.stderr
     counts, odom = read_bag(record)
     for k in (1, 2, 3):
@@ -101,8 +114,22 @@ def test_three_cars_in_the_tunnel_record_every_cars_topics_and_draw_every_path(t
 
 def test_car_spacing_sets_the_gap(tmp_path):
     record = tmp_path / "gap.mcap"
-    result = run_cli("--world", "empty", "--cars", "3", "--car-spacing", "2.0", *STILL, *QUIET, "--duration", "0.2",
-                     "--record", str(record), "--out", str(tmp_path))
+    result = run_cli(
+        "--world",
+        "empty",
+        "--cars",
+        "3",
+        "--car-spacing",
+        "2.0",
+        *STILL,
+        *QUIET,
+        "--duration",
+        "0.2",
+        "--record",
+        str(record),
+        "--out",
+        str(tmp_path),
+    )
     assert result.returncode == 0, result.stderr
     _, odom = read_bag(record)
     xs = [first_pose(odom[f"/car{k}/vesc/odom"])[0] for k in (1, 2, 3)]
@@ -112,8 +139,20 @@ def test_car_spacing_sets_the_gap(tmp_path):
 def test_a_track_csv_lines_the_cars_up_along_its_centerline(tmp_path):
     track = circle_track(tmp_path)
     record = tmp_path / "track.mcap"
-    result = run_cli("--world", str(track), "--cars", "4", *STILL, *QUIET, "--duration", "0.2", "--record",
-                     str(record), "--out", str(tmp_path))
+    result = run_cli(
+        "--world",
+        str(track),
+        "--cars",
+        "4",
+        *STILL,
+        *QUIET,
+        "--duration",
+        "0.2",
+        "--record",
+        str(record),
+        "--out",
+        str(tmp_path),
+    )
     assert result.returncode == 0, result.stderr
     _, odom = read_bag(record)
     starts = np.array([first_pose(odom[f"/car{k}/vesc/odom"]) for k in (1, 2, 3, 4)])
@@ -136,19 +175,30 @@ def test_fleet_spawns_walk_back_along_a_polyline():
     assert [s.yaw for s in spawns] == pytest.approx([0.0, -math.pi / 2, -math.pi / 2, math.pi])
     assert {s.z for s in spawns} == {0.05}
     world.spawn = Spawn(1.0, 2.0, 0.1, math.pi / 2)  # no centerline: straight back along the heading
-    np.testing.assert_allclose([(s.x, s.y, s.z, s.yaw) for s in fleet_spawns(world, 3, 1.5)],
-                               [(1, 2, 0.1, math.pi / 2), (1, 0.5, 0.1, math.pi / 2), (1, -1, 0.1, math.pi / 2)],
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        [(s.x, s.y, s.z, s.yaw) for s in fleet_spawns(world, 3, 1.5)],
+        [(1, 2, 0.1, math.pi / 2), (1, 0.5, 0.1, math.pi / 2), (1, -1, 0.1, math.pi / 2)],
+        atol=1e-12,
+    )
 
 
-@pytest.mark.parametrize("options, message", [
-    # walker's course bends 7 m behind the start line: car2 8 m back is in the bend's wall ...
-    (["--cars", "2", "--car-spacing", "8"], "car2's spawn pose (-8, 0, 0.05, 0) is inside an obstacle: the car's "
-                                            "left_front_wheel_collision is 0.11 m into walker_racecourse::"),
-    # ... and car7 9 m back is past it, on the infield's floor but on the far side of the wall from car6
-    (["--cars", "8"], "car7's spawn pose (-9, 0, 0.05, 0) is on the far side of walker_racecourse::wall_left_8/"
-                      "collision from car6"),
-])
+@pytest.mark.parametrize(
+    "options, message",
+    [
+        # walker's course bends 7 m behind the start line: car2 8 m back is in the bend's wall ...
+        (
+            ["--cars", "2", "--car-spacing", "8"],
+            "car2's spawn pose (-8, 0, 0.05, 0) is inside an obstacle: the car's "
+            "left_front_wheel_collision is 0.11 m into walker_racecourse::",
+        ),
+        # ... and car7 9 m back is past it, on the infield's floor but on the far side of the wall from car6
+        (
+            ["--cars", "8"],
+            "car7's spawn pose (-9, 0, 0.05, 0) is on the far side of walker_racecourse::wall_left_8/"
+            "collision from car6",
+        ),
+    ],
+)
 def test_a_car_put_into_or_behind_a_wall_is_one_line_naming_it(tmp_path, options, message):
     result = run_cli("--world", "walker", *options, *QUIET, "--duration", "1", "--no-record", "--out", str(tmp_path))
     assert result.returncode == 2
@@ -162,17 +212,30 @@ def test_a_car_put_into_or_behind_a_wall_is_one_line_naming_it(tmp_path, options
 
 
 def test_eight_cars_fit_in_the_tunnel(tmp_path):
-    result = run_cli("--world", "tunnel", "--cars", "8", *QUIET, "--duration", "0.5", "--no-record",
-                     "--out", str(tmp_path))
+    result = run_cli(
+        "--world", "tunnel", "--cars", "8", *QUIET, "--duration", "0.5", "--no-record", "--out", str(tmp_path)
+    )
     assert result.returncode == 0, result.stderr
     assert [line.split()[0] for line in result.stdout.splitlines() if line.startswith("car") and "m/s" in line] == [
-        f"car{k}" for k in range(1, 9)]
+        f"car{k}" for k in range(1, 9)
+    ]
 
 
 def test_without_cars_the_names_and_summary_are_the_originals(tmp_path):
     record = tmp_path / "one.mcap"
-    result = run_cli("--world", "empty", "--driver", "constant", *QUIET, "--duration", "1", "--record", str(record),
-                     "--out", str(tmp_path))
+    result = run_cli(
+        "--world",
+        "empty",
+        "--driver",
+        "constant",
+        *QUIET,
+        "--duration",
+        "1",
+        "--record",
+        str(record),
+        "--out",
+        str(tmp_path),
+    )
     assert result.returncode == 0, result.stderr
     counts, _ = read_bag(record)
     assert counts["/scan"] == 40 and counts["/vesc/odom"] == 20
@@ -221,11 +284,17 @@ def test_foxglove_serves_every_cars_topics_and_frames():
             assert scan.header.frame_id == "car2/laser"
             static = typestore.deserialize_cdr(client.messages["/tf_static"][-1][1], "tf2_msgs/msg/TFMessage")
             frames = {(t.header.frame_id, t.child_frame_id) for t in static.transforms}
-            assert {("car1/base_link", "car1/chassis"), ("car2/base_link", "car2/chassis"),
-                    ("car2/chassis", "car2/laser")} <= frames
+            assert {
+                ("car1/base_link", "car1/chassis"),
+                ("car2/base_link", "car2/chassis"),
+                ("car2/chassis", "car2/laser"),
+            } <= frames
             until(lambda: len(client.messages["/tf"]) > 20, step, "a second of /tf")
-            moving = {t.child_frame_id for _, raw in client.messages["/tf"]
-                      for t in typestore.deserialize_cdr(raw, "tf2_msgs/msg/TFMessage").transforms}
+            moving = {
+                t.child_frame_id
+                for _, raw in client.messages["/tf"]
+                for t in typestore.deserialize_cdr(raw, "tf2_msgs/msg/TFMessage").transforms
+            }
             assert {"car1/left_front_wheel", "car2/left_front_wheel", "car2/odom"} <= moving
     finally:
         bridge.close()
@@ -236,10 +305,31 @@ def test_foxglove_serves_every_cars_topics_and_frames():
 def test_the_viewer_follows_the_next_car_and_wasd_drives_it(display, tmp_path):  # noqa: F811 (the fixture)
     record, stderr = tmp_path / "viewer.mcap", tmp_path / "stderr.txt"
     with stderr.open("w") as err:
-        proc = subprocess.Popen([*CLI, "run", "--world", "empty", "--cars", "2", "--car-spacing", "3", *STILL,
-                                 "--viewer", *QUIET,
-                                 "--duration", "12", "--record", str(record), "--out", str(tmp_path)],
-                                env=x_env(display), stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=err)
+        proc = subprocess.Popen(
+            [
+                *CLI,
+                "run",
+                "--world",
+                "empty",
+                "--cars",
+                "2",
+                "--car-spacing",
+                "3",
+                *STILL,
+                "--viewer",
+                *QUIET,
+                "--duration",
+                "12",
+                "--record",
+                str(record),
+                "--out",
+                str(tmp_path),
+            ],
+            env=x_env(display),
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            stderr=err,
+        )
         try:
             window = find_window(display, proc, stderr)
             time.sleep(1.0)

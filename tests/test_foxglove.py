@@ -23,10 +23,10 @@ from websockets.exceptions import InvalidStatus
 from websockets.sync.client import connect
 
 from racecar_sim import Simulator
-from racecar_sim.bus import Bus
-from racecar_sim.core.errors import ConfigError, RacecarSimError
 from racecar_sim.bridges.foxglove import bridge as foxglove_bridge
 from racecar_sim.bridges.foxglove.bridge import FoxgloveBridge
+from racecar_sim.bus import Bus
+from racecar_sim.core.errors import ConfigError, RacecarSimError
 from racecar_sim.msgs import String, deserialize
 
 SUBPROTOCOL = "foxglove.sdk.v1"
@@ -131,8 +131,12 @@ def late_client_sees_scan_and_tf_static(sim: Simulator, client: FoxgloveClient) 
 
     until(lambda: all(t in client.channels for t in wanted), step, f"{wanted} to be advertised")
     assert client.server_info is not None and client.server_info["name"] == "racecar_sim"
-    for topic, schema in [("/vesc/odom", "nav_msgs/msg/Odometry"), ("/tf", "tf2_msgs/msg/TFMessage"),
-                          ("/tf_static", "tf2_msgs/msg/TFMessage"), ("/scan", "sensor_msgs/msg/LaserScan")]:
+    for topic, schema in [
+        ("/vesc/odom", "nav_msgs/msg/Odometry"),
+        ("/tf", "tf2_msgs/msg/TFMessage"),
+        ("/tf_static", "tf2_msgs/msg/TFMessage"),
+        ("/scan", "sensor_msgs/msg/LaserScan"),
+    ]:
         channel = client.channels[topic]
         assert (channel["encoding"], channel["schemaEncoding"], channel["schemaName"]) == ("cdr", "ros2msg", schema)
     assert "float32[] ranges" in client.channels["/scan"]["schema"]
@@ -143,8 +147,9 @@ def late_client_sees_scan_and_tf_static(sim: Simulator, client: FoxgloveClient) 
     check_scan(payload)
     stamp = deserialize(payload, "sensor_msgs/msg/LaserScan").header.stamp
     assert log_time == stamp.sec * 10**9 + stamp.nanosec  # log time is sim time
-    static = get_typestore(Stores.ROS2_HUMBLE).deserialize_cdr(client.messages["/tf_static"][0][1],
-                                                               "tf2_msgs/msg/TFMessage")
+    static = get_typestore(Stores.ROS2_HUMBLE).deserialize_cdr(
+        client.messages["/tf_static"][0][1], "tf2_msgs/msg/TFMessage"
+    )
     assert {t.child_frame_id for t in static.transforms} >= {"laser"}
 
 
@@ -180,7 +185,7 @@ def _listening_addresses(port: int) -> set[str]:
                 continue
             raw = bytes.fromhex(address)
             # The kernel prints each 32-bit word in host (little-endian) order.
-            raw = b"".join(raw[i:i + 4][::-1] for i in range(0, len(raw), 4))
+            raw = b"".join(raw[i : i + 4][::-1] for i in range(0, len(raw), 4))
             addresses.add(socket.inet_ntop(family, raw))
     return addresses
 
@@ -231,8 +236,11 @@ def test_a_foxglove_websocket_v1_client_is_told_which_subprotocol_to_speak(caplo
         with pytest.raises(InvalidStatus) as refused:
             connect(f"ws://127.0.0.1:{bridge.port}", subprotocols=["foxglove.websocket.v1"], open_timeout=TIMEOUT)
         assert refused.value.response.status_code == 400
-        until(lambda: any("handshake failed" in r.getMessage() for r in caplog.records), lambda: time.sleep(0.05),
-              "the SDK to log the failed handshake")
+        until(
+            lambda: any("handshake failed" in r.getMessage() for r in caplog.records),
+            lambda: time.sleep(0.05),
+            "the SDK to log the failed handshake",
+        )
     [record] = [r for r in caplog.records if "handshake failed" in r.getMessage()]
     message = record.getMessage()
     assert record.levelno == logging.WARNING and "\n" not in message
@@ -243,9 +251,27 @@ def test_a_foxglove_websocket_v1_client_is_told_which_subprotocol_to_speak(caplo
 
 
 def test_cli_run_serves_scan_until_sigterm(tmp_path):
-    proc = subprocess.Popen([sys.executable, "-m", "racecar_sim", "run", "--world", "empty", "--no-camera",
-                             "--duration", "20", "--realtime", "--foxglove", "0", "--out", str(tmp_path)],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "racecar_sim",
+            "run",
+            "--world",
+            "empty",
+            "--no-camera",
+            "--duration",
+            "20",
+            "--realtime",
+            "--foxglove",
+            "0",
+            "--out",
+            str(tmp_path),
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     lines: queue.Queue[str] = queue.Queue()
     stderr: list[str] = []
 

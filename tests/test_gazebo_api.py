@@ -8,10 +8,10 @@ import math
 
 import numpy as np
 import pytest
-from conftest import Log
 from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore
 
+from conftest import Log
 from racecar_sim import Car, Simulator, Spawn
 from racecar_sim.core.transforms import quat_from_axis_angle
 from racecar_sim.description import DEFAULT_XACRO, expand_xacro
@@ -209,16 +209,18 @@ def test_set_model_state_teleports_the_car_and_its_next_scan_sees_the_new_pose(t
         np.testing.assert_allclose(scan[near], predicted[near], atol=5e-3)
         assert np.isinf(scan[predicted > spec.range_max + 0.5]).all()
     # a reference frame: 1 m ahead of where the car stands now
-    res = sim.bus.call("/gazebo/set_model_state",
-                       SetModelStateRequest(ModelState("racecar", _pose(1.0, 0.0, 0.0), Twist(), "racecar")))
+    res = sim.bus.call(
+        "/gazebo/set_model_state", SetModelStateRequest(ModelState("racecar", _pose(1.0, 0.0, 0.0), Twist(), "racecar"))
+    )
     assert res.success and _position(sim, "racecar")[:2] == pytest.approx((3.5, 0.0), abs=1e-4)
 
 
 def test_set_model_state_moves_a_cone_and_gives_it_a_twist():
     sim = _sim("cones")
     twist = Twist(Vector3(0.5, 0.0, 0.0))
-    res = sim.bus.call("/gazebo/set_model_state",
-                       SetModelStateRequest(ModelState("cone_3", _pose(3.0, 2.0, 0.1), twist)))
+    res = sim.bus.call(
+        "/gazebo/set_model_state", SetModelStateRequest(ModelState("cone_3", _pose(3.0, 2.0, 0.1), twist))
+    )
     assert res.success
     assert _position(sim, "cone_3") == pytest.approx((3.0, 2.0, 0.1), abs=1e-9)
     state = sim.bus.call("/gazebo/get_model_state", GetModelStateRequest("cone_3"))
@@ -239,8 +241,9 @@ def test_spawn_urdf_model_adds_a_second_car_that_drives():
     assert [car.model_name for car in sim.cars] == ["racecar", "car2"]
     assert sim.gazebo.model_names == ["ground_plane", "racecar", "car2"]
     log = Log(sim, "/car2/vesc/odom", "/vesc/odom", "/car2/scan")
-    ConstantCommand(sim.bus, sim.scheduler, speed=1.0, steering_angle=0.0,
-                    topic="/car2/vesc/ackermann_cmd_mux/input/navigation")
+    ConstantCommand(
+        sim.bus, sim.scheduler, speed=1.0, steering_angle=0.0, topic="/car2/vesc/ackermann_cmd_mux/input/navigation"
+    )
     sim.run_until(2.5)
     odom = log["/car2/vesc/odom"]
     assert len(odom) == 40 and _stamp(odom[0]) == 550_000_000  # its timers start when it is spawned
@@ -273,21 +276,31 @@ def test_delete_model_takes_a_car_and_its_nodes_away():
 def test_spawn_sdf_model_box_appears_in_the_scan_and_delete_takes_it_away():
     sim = _sim(sensor_noise=False)
     assert np.isinf(_scan(sim)[AHEAD])
-    res = sim.bus.call("/gazebo/spawn_sdf_model",
-                       SpawnModelRequest("box1", BOX.format(name="box", static="true"), "", _pose(2.0, 0.0, 0.25)))
+    res = sim.bus.call(
+        "/gazebo/spawn_sdf_model",
+        SpawnModelRequest("box1", BOX.format(name="box", static="true"), "", _pose(2.0, 0.0, 0.25)),
+    )
     assert res.success, res.status_message
     assert sim.gazebo.model_names == ["ground_plane", "racecar", "box1"]  # renamed to model_name
     assert _scan(sim)[AHEAD] == pytest.approx(2.0 - 0.25 - LASER[0], abs=2e-3)
     assert sim.bus.call("/gazebo/delete_model", DeleteModelRequest("box1")).success
     assert np.isinf(_scan(sim)[AHEAD])
     # a free box: pushable, seen where it stands, relative to a reference frame
-    res = sim.bus.call("/gazebo/spawn_sdf_model", SpawnModelRequest(
-        "", BOX.format(name="crate", static="false"), "", _pose(1.5, 0.0, 0.25), "racecar::base_link"))
+    res = sim.bus.call(
+        "/gazebo/spawn_sdf_model",
+        SpawnModelRequest(
+            "", BOX.format(name="crate", static="false"), "", _pose(1.5, 0.0, 0.25), "racecar::base_link"
+        ),
+    )
     assert res.success, res.status_message
     assert _scan(sim)[AHEAD] == pytest.approx(1.5 - 0.25 - LASER[0], abs=5e-3)
     assert _position(sim, "crate")[:2] == pytest.approx((1.5, 0.0), abs=1e-3)
-    assert sim.bus.call("/gazebo/spawn_sdf_model", SpawnModelRequest("crate", BOX.format(name="x", static="true"),
-                                                                       "", _pose(3, 3))).success is False
+    assert (
+        sim.bus.call(
+            "/gazebo/spawn_sdf_model", SpawnModelRequest("crate", BOX.format(name="x", static="true"), "", _pose(3, 3))
+        ).success
+        is False
+    )
 
 
 def test_delete_model_removes_a_cone_from_the_lidars_view():

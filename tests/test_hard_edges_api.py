@@ -41,14 +41,17 @@ def sim() -> Simulator:
     return Simulator(world="empty", camera=False, lidar=False)
 
 
-@pytest.mark.parametrize(("topic", "expected"), [
-    (NAVIGATION, "ackermann_msgs/AckermannDriveStamped"),  # a relay
-    ("/vesc/high_level/ackermann_cmd_mux/input/nav_1", "ackermann_msgs/AckermannDriveStamped"),  # a mux input
-    ("/vesc/low_level/ackermann_cmd_mux/input/safety", "ackermann_msgs/AckermannDriveStamped"),
-    ("/vesc/low_level/ackermann_cmd_mux/output", "ackermann_msgs/AckermannDriveStamped"),  # servo_commands' input
-    ("/racecar/left_rear_wheel_velocity_controller/command", "std_msgs/Float64"),
-    ("/gazebo/set_model_state", "gazebo_msgs/ModelState"),
-])
+@pytest.mark.parametrize(
+    ("topic", "expected"),
+    [
+        (NAVIGATION, "ackermann_msgs/AckermannDriveStamped"),  # a relay
+        ("/vesc/high_level/ackermann_cmd_mux/input/nav_1", "ackermann_msgs/AckermannDriveStamped"),  # a mux input
+        ("/vesc/low_level/ackermann_cmd_mux/input/safety", "ackermann_msgs/AckermannDriveStamped"),
+        ("/vesc/low_level/ackermann_cmd_mux/output", "ackermann_msgs/AckermannDriveStamped"),  # servo_commands' input
+        ("/racecar/left_rear_wheel_velocity_controller/command", "std_msgs/Float64"),
+        ("/gazebo/set_model_state", "gazebo_msgs/ModelState"),
+    ],
+)
 def test_a_message_of_the_wrong_type_on_a_command_topic_is_dropped_with_one_warning(sim, caplog, topic, expected):
     sim.reset()
     qpos = sim.data.qpos.copy()
@@ -94,12 +97,15 @@ def drive_env() -> DriveEnv:
     env.close()
 
 
-@pytest.mark.parametrize(("action", "error", "words"), [
-    (np.zeros(3), ConfigError, ["shape (3,) given", "Box(-1.0, 1.0, (2,), float32)", "takes shape (2,)"]),
-    (np.zeros((1, 2)), ConfigError, ["shape (1, 2) given", "takes shape (2,)"]),
-    ("go", ConfigError, ["action 'go' is not an array of numbers", "Box(-1.0, 1.0, (2,), float32)"]),
-    ([math.nan, 0.0], CommandError, ["action [nan, 0.0] holds a NaN", "Box(-1.0, 1.0, (2,), float32)"]),
-])
+@pytest.mark.parametrize(
+    ("action", "error", "words"),
+    [
+        (np.zeros(3), ConfigError, ["shape (3,) given", "Box(-1.0, 1.0, (2,), float32)", "takes shape (2,)"]),
+        (np.zeros((1, 2)), ConfigError, ["shape (1, 2) given", "takes shape (2,)"]),
+        ("go", ConfigError, ["action 'go' is not an array of numbers", "Box(-1.0, 1.0, (2,), float32)"]),
+        ([math.nan, 0.0], CommandError, ["action [nan, 0.0] holds a NaN", "Box(-1.0, 1.0, (2,), float32)"]),
+    ],
+)
 def test_drive_env_refuses_a_malformed_action_in_one_line(drive_env, action, error, words):
     before = drive_env.sim.time_ns
     with pytest.raises(error) as err:
@@ -131,8 +137,11 @@ def test_race_env_and_batch_refuse_a_malformed_action(tmp_path):
     batch = DriveBatch(2, world="empty", lidar=False, seeds=0)
     try:
         batch.reset()
-        with pytest.raises(ConfigError, match=r"DriveBatch.step \(2 worlds\): action of shape \(2,\) given; it takes "
-                                              r"shape \(2, 2\), a row per world"):
+        with pytest.raises(
+            ConfigError,
+            match=r"DriveBatch.step \(2 worlds\): action of shape \(2,\) given; it takes "
+            r"shape \(2, 2\), a row per world",
+        ):
             batch.step(np.zeros(2))
         with pytest.raises(CommandError, match=r"DriveBatch.step \(2 worlds\): action .* holds a NaN"):
             batch.step(np.array([[0.0, 0.0], [math.nan, 0.0]]))
@@ -157,10 +166,12 @@ def test_sim_reset_checks_the_spawn_as_the_constructor_and_leaves_the_sim_as_it_
     sim.publish(NAVIGATION, AckermannDriveStamped(drive=AckermannDrive(speed=1.0)))
     sim.run_for(0.3)
     qpos, qvel, now, seed = sim.data.qpos.copy(), sim.data.qvel.copy(), sim.time_ns, sim.seed
-    cases = [(Spawn(100, 100, 0.05, 0), WorldError, "spawn pose (100, 100, 0.05, 0) has no ground under it"),
-             (Spawn(0, 0, -1.0, 0), WorldError, "is below the ground"),
-             (Spawn(math.nan, 0, 0.05, 0), ConfigError, "reset spawn for racecar: x must be a finite number, got nan"),
-             ({"car9": Spawn()}, ConfigError, "reset spawn: no car named 'car9'")]
+    cases = [
+        (Spawn(100, 100, 0.05, 0), WorldError, "spawn pose (100, 100, 0.05, 0) has no ground under it"),
+        (Spawn(0, 0, -1.0, 0), WorldError, "is below the ground"),
+        (Spawn(math.nan, 0, 0.05, 0), ConfigError, "reset spawn for racecar: x must be a finite number, got nan"),
+        ({"car9": Spawn()}, ConfigError, "reset spawn: no car named 'car9'"),
+    ]
     for spawn, error, words in cases:
         with pytest.raises(error) as err:
             sim.reset(seed=seed + 1, spawn=spawn)
@@ -172,17 +183,21 @@ def test_sim_reset_checks_the_spawn_as_the_constructor_and_leaves_the_sim_as_it_
 
 
 def test_sim_reset_refuses_a_car_put_onto_another():
-    fleet = Simulator(world="empty", cars=[Car("car1", lidar=False, camera=False),
-                                           Car("car2", spawn=Spawn(-1.5, 0, 0.05, 0), lidar=False, camera=False)])
+    fleet = Simulator(
+        world="empty",
+        cars=[
+            Car("car1", lidar=False, camera=False),
+            Car("car2", spawn=Spawn(-1.5, 0, 0.05, 0), lidar=False, camera=False),
+        ],
+    )
     with pytest.raises(WorldError, match=r"car2.s spawn pose \(0.1, 0, 0.05, 0\) is .* car1/"):
         fleet.reset(spawn={"car2": Spawn(0.1, 0, 0.05, 0)})
     fleet.reset(spawn=[Spawn(0, 0, 0.05, 0), Spawn(-2.0, 0, 0.05, 0)])
 
 
 def test_sim_reset_sees_a_maps_held_out_walls(tmp_path):
-    from test_near_walls import speckled_room  # a map of many boxes: the walls near the cars are placed at a reset
-
     from racecar_sim.physics.near_walls import WallBoxes
+    from test_near_walls import speckled_room  # a map of many boxes: the walls near the cars are placed at a reset
 
     sim = Simulator(world=str(speckled_room(tmp_path)), camera=False, lidar=False)
     boxes = WallBoxes.of(sim.model)
@@ -201,34 +216,46 @@ def _exploits(marker: Path) -> dict[str, str]:
     """The probe's escapes from eval()'s restricted builtins, with no double underscore: a running generator's
     frame leads back to the module that called eval(), its globals and its real builtins."""
     frame = "[[(g := (g.gi_frame.f_back.f_back.{} for _ in [0])) for _ in [0]], list(g)][1][0]"
-    return {"shell": frame.format("f_globals") + f"['os'].system('touch {marker}')",
-            "builtins": frame.format("f_builtins") + f"['open']('{marker}', 'w')"}
+    return {
+        "shell": frame.format("f_globals") + f"['os'].system('touch {marker}')",
+        "builtins": frame.format("f_builtins") + f"['open']('{marker}', 'w')",
+    }
 
 
 @pytest.mark.parametrize("kind", ["shell", "builtins"])
 def test_a_launch_file_eval_cannot_escape_to_a_shell(tmp_path, kind):
     marker = tmp_path / "marker"
     path = tmp_path / "evil.launch"
-    path.write_text(f"<launch>\n  <arg name='a' default='1'/>\n"
-                    f"  <param name='p' value={quoteattr('$(eval ' + _exploits(marker)[kind] + ')')}/>\n</launch>\n")
-    result = subprocess.run([sys.executable, "-m", "racecar_sim", "launch", str(path), "--duration", "0.1",
-                             "--no-camera", "--no-lidar"], capture_output=True, text=True, timeout=120, check=False)
+    path.write_text(
+        f"<launch>\n  <arg name='a' default='1'/>\n"
+        f"  <param name='p' value={quoteattr('$(eval ' + _exploits(marker)[kind] + ')')}/>\n</launch>\n"
+    )
+    result = subprocess.run(
+        [sys.executable, "-m", "racecar_sim", "launch", str(path), "--duration", "0.1", "--no-camera", "--no-lidar"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
     assert not marker.exists(), "the launch file ran code"
     assert result.returncode == 2, result.stderr
     lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith(f"racecar-sim: error: {path}:3: <param name=\"p\">: $(eval ")
+    assert len(lines) == 1 and lines[0].startswith(f'racecar-sim: error: {path}:3: <param name="p">: $(eval ')
     assert "is not allowed; $(eval) takes expressions only" in lines[0]
 
 
-@pytest.mark.parametrize(("expression", "refused"), [
-    ("'abc'.upper()", "attribute access `'abc'.upper`"),
-    ("(x for x in [1])", "a generator"),
-    ("[x for x in [1]]", "a comprehension"),
-    ("(lambda: 1)()", "a lambda"),
-    ("(y := 1)", "an assignment (:=)"),
-    ("f'{1}'", "an f-string"),
-    ("[1][0](2)", "[1][0] is not a function $(eval) may call"),
-])
+@pytest.mark.parametrize(
+    ("expression", "refused"),
+    [
+        ("'abc'.upper()", "attribute access `'abc'.upper`"),
+        ("(x for x in [1])", "a generator"),
+        ("[x for x in [1]]", "a comprehension"),
+        ("(lambda: 1)()", "a lambda"),
+        ("(y := 1)", "an assignment (:=)"),
+        ("f'{1}'", "an f-string"),
+        ("[1][0](2)", "[1][0] is not a function $(eval) may call"),
+    ],
+)
 def test_eval_refuses_everything_but_expressions(expression, refused):
     with pytest.raises(SubstitutionError) as err:
         resolve(f"$(eval {expression})", Context({}, Path("/x.launch")))
@@ -285,7 +312,7 @@ def _listening(pids: list[int]) -> list[tuple[int, str, int]]:
                     continue
                 address, port = fields[1].split(":")
                 raw = bytes.fromhex(address)
-                raw = b"".join(raw[i:i + 4][::-1] for i in range(0, len(raw), 4))  # host-order 32-bit words
+                raw = b"".join(raw[i : i + 4][::-1] for i in range(0, len(raw), 4))  # host-order 32-bit words
                 found.append((owner[fields[9]], socket.inet_ntop(family, raw), int(port, 16)))
     return found
 

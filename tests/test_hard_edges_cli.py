@@ -21,7 +21,9 @@ from racecar_sim.cli import run as run_module
 from racecar_sim.cli.main import main
 from racecar_sim.cli.spawns import MAX_CARS
 from racecar_sim.physics import builder
-from racecar_sim.runtime import Car, car as car_module, simulator as simulator_module
+from racecar_sim.runtime import Car
+from racecar_sim.runtime import car as car_module
+from racecar_sim.runtime import simulator as simulator_module
 from racecar_sim.sweep import load_sweep
 from racecar_sim.sweep.spec import MAX_EPISODES
 
@@ -74,8 +76,9 @@ def test_a_rate_above_the_physics_rate_names_the_range(tmp_path):
 
 # --- 2. --cars: a real limit, the row checked before the cars are built, and a build that is not N² -------------------
 def test_more_cars_than_the_limit_are_refused_at_once(tmp_path):
-    line = one_error_line(cli("run", "--world", "empty", "--cars", "1000", *QUIET, "--no-record", cwd=tmp_path,
-                              timeout=60))
+    line = one_error_line(
+        cli("run", "--world", "empty", "--cars", "1000", *QUIET, "--no-record", cwd=tmp_path, timeout=60)
+    )
     assert line.startswith("racecar-sim run: error: argument --cars: '1000' must be from 1 to ")
     assert str(MAX_CARS) in line
 
@@ -99,17 +102,20 @@ def test_a_fleet_expands_its_xacro_and_ranks_its_friction_once(monkeypatch):
         def wrapper(*args, **kwargs):
             calls[name] += 1
             return function(*args, **kwargs)
+
         return wrapper
 
     monkeypatch.setattr(car_module, "load_robot", counted("xacro", car_module.load_robot))
     monkeypatch.setattr(builder, "friction_min_rule", counted("friction", builder.friction_min_rule))
-    monkeypatch.setattr(simulator_module, "friction_min_rule", counted("friction", builder.friction_min_rule),
-                        raising=False)
+    monkeypatch.setattr(
+        simulator_module, "friction_min_rule", counted("friction", builder.friction_min_rule), raising=False
+    )
     counts = []
     for size in (1, 6):
         calls.update(xacro=0, friction=0)
-        cars = [Car(f"car{k + 1}", spawn=Spawn(-1.5 * k, 0.0, 0.05, 0.0), camera=False, lidar=False)
-                for k in range(size)]
+        cars = [
+            Car(f"car{k + 1}", spawn=Spawn(-1.5 * k, 0.0, 0.05, 0.0), camera=False, lidar=False) for k in range(size)
+        ]
         with Simulator(world="empty", cars=cars) as sim:
             assert len(sim.cars) == size and sim.cars[-1].robot is sim.cars[0].robot
         counts.append(dict(calls))
@@ -117,16 +123,31 @@ def test_a_fleet_expands_its_xacro_and_ranks_its_friction_once(monkeypatch):
 
 
 # --- 3. --car-spacing and --spawn: one line naming the option (and the car) ----------------------------------------
-@pytest.mark.parametrize("options, starts, has", [
-    (["--cars", "2", "--car-spacing", "1e6"], "--cars 2 --car-spacing 1e+06: walker (racecar_walker.world): ",
-     "car2's spawn pose (-1e+06, 0, 0.05, 0) has no ground under it"),
-    (["--cars", "2", "--car-spacing", "1e300"], "--cars 2 --car-spacing 1e+300: walker (racecar_walker.world): ",
-     "car2's spawn pose (-1e+300, 0, 0.05, 0) is beyond 1e+09 m from the origin"),
-    (["--cars", "3", "--car-spacing", "0.2"], "--car-spacing 0.2: walker (racecar_walker.world): ",
-     "car3's spawn pose (-0.4, 0, 0.05, 0) is inside an obstacle"),
-    (["--spawn", "1e9,0,0"], "--spawn: walker (racecar_walker.world): ",
-     "spawn pose (1e+09, 0, 0.05, 0) has no ground under it"),
-])
+@pytest.mark.parametrize(
+    "options, starts, has",
+    [
+        (
+            ["--cars", "2", "--car-spacing", "1e6"],
+            "--cars 2 --car-spacing 1e+06: walker (racecar_walker.world): ",
+            "car2's spawn pose (-1e+06, 0, 0.05, 0) has no ground under it",
+        ),
+        (
+            ["--cars", "2", "--car-spacing", "1e300"],
+            "--cars 2 --car-spacing 1e+300: walker (racecar_walker.world): ",
+            "car2's spawn pose (-1e+300, 0, 0.05, 0) is beyond 1e+09 m from the origin",
+        ),
+        (
+            ["--cars", "3", "--car-spacing", "0.2"],
+            "--car-spacing 0.2: walker (racecar_walker.world): ",
+            "car3's spawn pose (-0.4, 0, 0.05, 0) is inside an obstacle",
+        ),
+        (
+            ["--spawn", "1e9,0,0"],
+            "--spawn: walker (racecar_walker.world): ",
+            "spawn pose (1e+09, 0, 0.05, 0) has no ground under it",
+        ),
+    ],
+)
 def test_a_car_spacing_or_spawn_off_the_world_names_the_option(tmp_path, options, starts, has):
     line = one_error_line(cli("run", *options, *QUIET, "--no-record", "--duration", "0.1", cwd=tmp_path))
     assert line.startswith(f"racecar-sim: error: {starts}") and has in line
@@ -139,8 +160,9 @@ def test_a_spawn_beyond_the_largest_coordinate_is_refused_by_the_option(capsys):
 
 
 # --- 4. --model-path ------------------------------------------------------------------------------------------------
-@pytest.mark.parametrize("command", [["run", *QUIET, "--no-record", "--duration", "0.1"],
-                                     ["worlds", "--show", "empty"]])
+@pytest.mark.parametrize(
+    "command", [["run", *QUIET, "--no-record", "--duration", "0.1"], ["worlds", "--show", "empty"]]
+)
 def test_a_model_path_that_does_not_exist_is_refused(tmp_path, command):
     line = one_error_line(cli(*command, "--model-path", "/does/not/exist", cwd=tmp_path))
     assert line.startswith("racecar-sim: error: --model-path /does/not/exist: no such folder")
@@ -150,8 +172,10 @@ def test_a_model_path_that_does_not_exist_is_refused(tmp_path, command):
 # --- 5. worlds --show --spawn: the check `run` does -----------------------------------------------------------------
 def test_worlds_show_checks_the_spawn_as_run_does(tmp_path):
     line = one_error_line(cli("worlds", "--show", "walker", "--spawn", "100,100,0", "--out", "w.png", cwd=tmp_path))
-    assert line == ("racecar-sim: error: --spawn: walker (racecar_walker.world): spawn pose (100, 100, 0.05, 0) has "
-                    "no ground under it: nothing within 100 m below the left_rear_wheel (the car would fall forever)")
+    assert line == (
+        "racecar-sim: error: --spawn: walker (racecar_walker.world): spawn pose (100, 100, 0.05, 0) has "
+        "no ground under it: nothing within 100 m below the left_rear_wheel (the car would fall forever)"
+    )
     assert not (tmp_path / "w.png").exists()
 
 
@@ -162,29 +186,36 @@ def test_bench_quick_without_speed_is_the_quick_form(tmp_path):
     assert "2 sim s, best of 1 (--quick" in result.stdout
 
 
-@pytest.mark.parametrize("compare, why", [("/does/not/exist", "no such folder"),
-                                          (str(SRC), "is this checkout's own src folder"),
-                                          (".", "not a src folder")])
+@pytest.mark.parametrize(
+    "compare, why",
+    [("/does/not/exist", "no such folder"), (str(SRC), "is this checkout's own src folder"), (".", "not a src folder")],
+)
 def test_bench_compare_must_be_another_checkouts_src(tmp_path, compare, why):
     line = one_error_line(cli("bench", "--speed", "--quick", "--compare", compare, cwd=tmp_path, timeout=60))
     assert line.startswith(f"racecar-sim: error: --compare {compare}: {why}")
 
 
 # --- 7. sweep: the grid counted before anything is made --------------------------------------------------------------
-@pytest.mark.parametrize("grid, says", [
-    ("seeds: 1000000000\ndrivers: [constant]\n", f"seeds: 1000000000 seeds are more than the {MAX_EPISODES}"),
-    ("seeds: 1000\ndrivers:\n  - driver: constant\n    params: {speed: &v [0, 1, 2, 3, 4, 5, 6, 7, 8, 9], "
-     "steering: *v, rate: [1, 2, 3, 4, 5, 6, 7, 8, 9, 10]}\n",
-     f"drivers[0].params: the grid is 1000000 episodes (worlds x seeds 1000 x driver combinations 1000), more than "
-     f"the {MAX_EPISODES} a sweep runs"),
-])
+@pytest.mark.parametrize(
+    "grid, says",
+    [
+        ("seeds: 1000000000\ndrivers: [constant]\n", f"seeds: 1000000000 seeds are more than the {MAX_EPISODES}"),
+        (
+            "seeds: 1000\ndrivers:\n  - driver: constant\n    params: {speed: &v [0, 1, 2, 3, 4, 5, 6, 7, 8, 9], "
+            "steering: *v, rate: [1, 2, 3, 4, 5, 6, 7, 8, 9, 10]}\n",
+            f"drivers[0].params: the grid is 1000000 episodes (worlds x seeds 1000 x driver combinations 1000), more than "
+            f"the {MAX_EPISODES} a sweep runs",
+        ),
+    ],
+)
 def test_a_sweep_grid_too_big_is_refused_before_any_work(tmp_path, grid, says):
     (tmp_path / "big.yaml").write_text("duration: 1\nworlds: [walker]\n" + grid)
     start = time.monotonic()
     line = one_error_line(cli("sweep", "big.yaml", "--local", "--out", "out", cwd=tmp_path, timeout=60))
     assert time.monotonic() - start < 20
-    assert line == f"racecar-sim: error: big.yaml: {says}" or (line.startswith("racecar-sim: error: big.yaml: ")
-                                                                  and says in line)
+    assert line == f"racecar-sim: error: big.yaml: {says}" or (
+        line.startswith("racecar-sim: error: big.yaml: ") and says in line
+    )
     assert not (tmp_path / "out").exists()
 
 
@@ -201,8 +232,10 @@ def test_a_sweep_grid_is_counted_and_made_one_episode_at_a_time(tmp_path):
 # --- 8. a recording is never overwritten silently ---------------------------------------------------------------------
 def test_two_runs_recording_to_one_path_at_once_never_both_write_it(tmp_path):
     command = [*CLI, "run", *QUIET, "--duration", "3", "--record", "same.mcap"]
-    runs = [subprocess.Popen(command, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-            for _ in range(2)]
+    runs = [
+        subprocess.Popen(command, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        for _ in range(2)
+    ]
     results = [(run.wait(timeout=120), *run.communicate()) for run in runs]
     codes = sorted(code for code, _, _ in results)
     assert codes == [0, 2], results
@@ -220,8 +253,10 @@ def test_an_existing_recording_is_replaced_only_with_overwrite(tmp_path):
     assert first.returncode == 0, first.stderr
     before = (tmp_path / "a.mcap").read_bytes()
     line = one_error_line(cli("run", *QUIET, "--duration", "1", "--record", "a.mcap", cwd=tmp_path))
-    assert line == ("racecar-sim: error: --record a.mcap: the file exists and a recording is never replaced unless "
-                    "asked: give --overwrite to replace it, or another file name")
+    assert line == (
+        "racecar-sim: error: --record a.mcap: the file exists and a recording is never replaced unless "
+        "asked: give --overwrite to replace it, or another file name"
+    )
     assert (tmp_path / "a.mcap").read_bytes() == before
     again = cli("run", *QUIET, "--duration", "1", "--record", "a.mcap", "--overwrite", cwd=tmp_path)
     assert again.returncode == 0, again.stderr
@@ -231,7 +266,7 @@ def test_an_existing_recording_is_replaced_only_with_overwrite(tmp_path):
 def test_two_runs_in_the_same_second_get_a_folder_each(tmp_path, monkeypatch, capsys):
     class Now(dt.datetime):
         @classmethod
-        def now(cls, tz=None):  # noqa: ANN206 - datetime's signature
+        def now(cls, tz=None):
             return cls(2026, 1, 2, 3, 4, 5)
 
     monkeypatch.chdir(tmp_path)
@@ -248,13 +283,20 @@ def test_two_runs_in_the_same_second_get_a_folder_each(tmp_path, monkeypatch, ca
 def test_teleop_refuses_an_existing_recording(tmp_path):
     pexpect = pytest.importorskip("pexpect")
     (tmp_path / "old.mcap").write_bytes(b"kept")
-    child = pexpect.spawn(sys.executable, ["-m", "racecar_sim", "teleop", "--no-camera", "--duration", "0.2",
-                                           "--record", "old.mcap"], cwd=str(tmp_path), timeout=60, encoding="utf-8")
+    child = pexpect.spawn(
+        sys.executable,
+        ["-m", "racecar_sim", "teleop", "--no-camera", "--duration", "0.2", "--record", "old.mcap"],
+        cwd=str(tmp_path),
+        timeout=60,
+        encoding="utf-8",
+    )
     output = child.read()
     child.close()
     assert child.exitstatus == 2, output
-    assert output.strip() == ("racecar-sim: error: --record old.mcap: the file exists and a recording is never "
-                              "replaced unless asked: give --overwrite to replace it, or another file name")
+    assert output.strip() == (
+        "racecar-sim: error: --record old.mcap: the file exists and a recording is never "
+        "replaced unless asked: give --overwrite to replace it, or another file name"
+    )
     assert (tmp_path / "old.mcap").read_bytes() == b"kept"
 
 
@@ -284,12 +326,14 @@ def _file_size_limit(limit: int):
     def limit_files() -> None:
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails with EFBIG instead of killing
         resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
     return limit_files
 
 
 def test_a_full_disk_stops_the_run_in_one_line_and_recover_mends_the_file(tmp_path):
-    result = cli("run", *QUIET, "--duration", "60", "--record", "run.mcap", cwd=tmp_path,
-                 preexec_fn=_file_size_limit(1_000_000))
+    result = cli(
+        "run", *QUIET, "--duration", "60", "--record", "run.mcap", cwd=tmp_path, preexec_fn=_file_size_limit(1_000_000)
+    )
     line = one_error_line(result)
     assert line.startswith("racecar-sim: error: run.mcap: the recording stopped at sim time ")
     assert "cannot write the file (File too large); it keeps the messages up to sim time " in line
@@ -304,5 +348,7 @@ def test_a_full_disk_stops_the_run_in_one_line_and_recover_mends_the_file(tmp_pa
 
 def test_dev_full_is_one_line_saying_nothing_was_kept(tmp_path):
     line = one_error_line(cli("run", *QUIET, "--duration", "1", "--record", "/dev/full", "--overwrite", cwd=tmp_path))
-    assert line == ("racecar-sim: error: /dev/full: the recording stopped at its start: cannot write the file (No "
-                    "space left on device); it keeps no message")
+    assert line == (
+        "racecar-sim: error: /dev/full: the recording stopped at its start: cannot write the file (No "
+        "space left on device); it keeps no message"
+    )

@@ -37,9 +37,11 @@ def cli_error(capsys: pytest.CaptureFixture, tmp_path: Path, *args: str) -> str:
 
 
 def box_model(name: str, size: str, pose: str, static: bool = True, inertial: str = "") -> str:
-    return (f'<model name="{name}"><static>{str(static).lower()}</static><pose>{pose}</pose><link name="link">'
-            f'{inertial}<collision name="c"><geometry><box><size>{size}</size></box></geometry></collision>'
-            f'<visual name="v"><geometry><box><size>{size}</size></box></geometry></visual></link></model>')
+    return (
+        f'<model name="{name}"><static>{str(static).lower()}</static><pose>{pose}</pose><link name="link">'
+        f'{inertial}<collision name="c"><geometry><box><size>{size}</size></box></geometry></collision>'
+        f'<visual name="v"><geometry><box><size>{size}</size></box></geometry></visual></link></model>'
+    )
 
 
 def world_file(folder: Path, name: str, *models: str) -> Path:
@@ -49,6 +51,7 @@ def world_file(folder: Path, name: str, *models: str) -> Path:
 
 
 # --- 1. the lidar's grid does not grow with the size of a box -------------------------------------------------------
+
 
 def tilted_scan(sim: Simulator) -> np.ndarray:
     """A scan from 0.3 m up, pitched 0.1 rad down: its beams reach the ground 3 m ahead."""
@@ -69,18 +72,27 @@ def test_a_ground_box_of_any_size_is_a_few_long_walls_and_the_lidar_sees_it_as_a
 
 def test_a_1e9_m_ground_box_runs_from_the_cli(tmp_path, capsys):
     path = world_file(tmp_path, "big.sdf", box_model("ground", "1e9 1e9 0.1", "0 0 -0.05 0 0 0"))
-    code = main(["run", "--world", str(path), "--duration", "0.2", "--no-camera", "--no-record", "--out",
-                 str(tmp_path / "out")])
+    code = main(
+        ["run", "--world", str(path), "--duration", "0.2", "--no-camera", "--no-record", "--out", str(tmp_path / "out")]
+    )
     assert code == 0, capsys.readouterr().err
 
 
 def test_long_walls_give_the_scans_of_walls_registered_in_every_cell(tmp_path, monkeypatch):
     long_wall = box_model("long", "3000 0.2 1", "0 2 0.5 0 0 0.3")
-    round_pad = ('<model name="pad"><static>true</static><pose>0 250 0.5 0 0 0</pose><link name="l"><collision '
-                 'name="c"><geometry><cylinder><radius>200</radius><length>1</length></cylinder></geometry>'
-                 '</collision></link></model>')
-    sim = Simulator(world=str(world_file(tmp_path, "long.sdf", GROUND, long_wall, round_pad,
-                                         box_model("block", "1 1 1", "4 0 0.5 0 0 0.7"))), camera=False)
+    round_pad = (
+        '<model name="pad"><static>true</static><pose>0 250 0.5 0 0 0</pose><link name="l"><collision '
+        'name="c"><geometry><cylinder><radius>200</radius><length>1</length></cylinder></geometry>'
+        "</collision></link></model>"
+    )
+    sim = Simulator(
+        world=str(
+            world_file(
+                tmp_path, "long.sdf", GROUND, long_wall, round_pad, box_model("block", "1 1 1", "4 0 0.5 0 0 0.7")
+            )
+        ),
+        camera=False,
+    )
     caster = sim.car.lidar.caster
     assert caster.grid.empty.segments.shape[1] == 2 and caster.grid.empty.circles.shape[1] == 1
     monkeypatch.setattr(raycast_grid, "LONG_CELLS", 10**12)
@@ -124,6 +136,7 @@ def test_a_box_beyond_the_largest_coordinate_is_one_line(tmp_path, capsys):
 
 # --- 2. <include> loops ---------------------------------------------------------------------------------------------
 
+
 def model_folder(root: Path, name: str, body: str) -> None:
     (root / name).mkdir(parents=True)
     (root / name / "model.sdf").write_text(f'<sdf version="1.6"><model name="{name}">{body}</model></sdf>')
@@ -152,9 +165,15 @@ def test_models_nested_a_thousand_deep_are_one_line_not_a_recursion_error(tmp_pa
 
 # --- 3. two models of one name --------------------------------------------------------------------------------------
 
+
 def test_two_models_of_one_name_are_one_line_naming_the_file_and_the_model(tmp_path, capsys):
-    path = world_file(tmp_path, "twins.sdf", GROUND, box_model("twin", "1 1 1", "3 0 0.5 0 0 0"),
-                      box_model("twin", "1 1 1", "-3 0 0.5 0 0 0"))
+    path = world_file(
+        tmp_path,
+        "twins.sdf",
+        GROUND,
+        box_model("twin", "1 1 1", "3 0 0.5 0 0 0"),
+        box_model("twin", "1 1 1", "-3 0 0.5 0 0 0"),
+    )
     line = cli_error(capsys, tmp_path, "--world", str(path))
     assert "twins.sdf" in line and "two models named 'twin'" in line
 
@@ -170,13 +189,18 @@ def test_two_geoms_of_one_name_in_a_world_built_in_python_are_a_world_error(tmp_
 
 # --- 4. a map image too large to decode -----------------------------------------------------------------------------
 
+
 def png_header(width: int, height: int) -> bytes:
     """A PNG that is only its header: enough for anything that looks at the size before decoding."""
+
     def chunk(kind: bytes, data: bytes) -> bytes:
         return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
 
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0))
-            + chunk(b"IEND", b""))
+    return (
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0))
+        + chunk(b"IEND", b"")
+    )
 
 
 @pytest.mark.parametrize("image", ["huge.png", "huge.pgm", "wide.pgm"])
@@ -192,9 +216,11 @@ def test_a_map_image_larger_than_the_largest_map_is_one_line_before_decoding(tmp
 
 def test_an_albedo_map_larger_than_the_largest_texture_is_one_line(tmp_path, capsys):
     (tmp_path / "skin.png").write_bytes(png_header(20000, 20000))
-    painted = ('<model name="crate"><static>true</static><pose>5 0 0.5 0 0 0</pose><link name="link"><visual '
-               'name="v"><geometry><box><size>1 1 1</size></box></geometry><material><pbr><metal><albedo_map>'
-               'skin.png</albedo_map></metal></pbr></material></visual></link></model>')
+    painted = (
+        '<model name="crate"><static>true</static><pose>5 0 0.5 0 0 0</pose><link name="link"><visual '
+        'name="v"><geometry><box><size>1 1 1</size></box></geometry><material><pbr><metal><albedo_map>'
+        "skin.png</albedo_map></metal></pbr></material></visual></link></model>"
+    )
     line = cli_error(capsys, tmp_path, "--world", str(world_file(tmp_path, "painted.sdf", GROUND, painted)))
     assert "painted.sdf: crate::link/v <albedo_map>:" in line and "skin.png is 20000 x 20000 pixels" in line
     assert "largest texture taken" in line
@@ -209,13 +235,21 @@ def test_a_map_reaching_beyond_the_largest_coordinate_is_one_line(tmp_path, caps
 
 # --- 5. values MuJoCo refuses, refused where the file is read -------------------------------------------------------
 
-@pytest.mark.parametrize("inertial, field", [
-    ("<inertial><mass>-1</mass></inertial>", "<inertial><mass> must be positive"),
-    ("<inertial><mass>1</mass><inertia><ixx>-1</ixx><iyy>1</iyy><izz>1</izz></inertia></inertial>",
-     "<inertial><inertia>: a body's inertia must be positive definite"),
-    ("<inertial><mass>1</mass><inertia><ixx>1</ixx><iyy>1</iyy><izz>5</izz></inertia></inertial>",
-     "<inertial><inertia>: principal moments 1, 1, 5 break the triangle inequality"),
-])
+
+@pytest.mark.parametrize(
+    "inertial, field",
+    [
+        ("<inertial><mass>-1</mass></inertial>", "<inertial><mass> must be positive"),
+        (
+            "<inertial><mass>1</mass><inertia><ixx>-1</ixx><iyy>1</iyy><izz>1</izz></inertia></inertial>",
+            "<inertial><inertia>: a body's inertia must be positive definite",
+        ),
+        (
+            "<inertial><mass>1</mass><inertia><ixx>1</ixx><iyy>1</iyy><izz>5</izz></inertia></inertial>",
+            "<inertial><inertia>: principal moments 1, 1, 5 break the triangle inequality",
+        ),
+    ],
+)
 def test_a_bad_sdf_inertia_is_one_line_naming_the_file_and_the_model(tmp_path, capsys, inertial, field):
     path = world_file(tmp_path, "inertia.sdf", GROUND, box_model("blk", "1 1 1", "3 0 0.5 0 0 0", False, inertial))
     line = cli_error(capsys, tmp_path, "--world", str(path))
@@ -223,10 +257,14 @@ def test_a_bad_sdf_inertia_is_one_line_naming_the_file_and_the_model(tmp_path, c
 
 
 def test_a_free_model_with_a_one_triangle_mesh_is_one_line_naming_the_file_and_the_model(tmp_path, capsys):
-    (tmp_path / "tri.stl").write_text("solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n"
-                                      "vertex 0 1 0\nendloop\nendfacet\nendsolid t\n")
-    sheet = ('<model name="sheet"><pose>3 0 0.5 0 0 0</pose><link name="link"><collision name="c"><geometry><mesh>'
-             '<uri>tri.stl</uri></mesh></geometry></collision></link></model>')
+    (tmp_path / "tri.stl").write_text(
+        "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n"
+        "vertex 0 1 0\nendloop\nendfacet\nendsolid t\n"
+    )
+    sheet = (
+        '<model name="sheet"><pose>3 0 0.5 0 0 0</pose><link name="link"><collision name="c"><geometry><mesh>'
+        "<uri>tri.stl</uri></mesh></geometry></collision></link></model>"
+    )
     line = cli_error(capsys, tmp_path, "--world", str(world_file(tmp_path, "sheet.sdf", GROUND, sheet)))
     assert "sheet.sdf: sheet::link/c <mesh><uri>tri.stl</uri>" in line and "flat" in line
     assert "mesh0" not in line and "racecar.xacro" not in line
@@ -235,8 +273,15 @@ def test_a_free_model_with_a_one_triangle_mesh_is_one_line_naming_the_file_and_t
 def test_mujocos_own_refusal_of_a_world_is_one_line_naming_the_world_and_the_model():
     world = load_world("empty")  # built in Python: nothing read it from a file
     triangle = Mesh(np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]), np.array([[0, 1, 2]], np.int32))
-    world.bodies.append(WorldBody("sheet::link", np.array([3.0, 0.0, 0.5]), IDENTITY, static=False,
-                                  geoms=[WorldGeom("sheet::link/c", "mesh", (), np.zeros(3), IDENTITY, mesh=triangle)]))
+    world.bodies.append(
+        WorldBody(
+            "sheet::link",
+            np.array([3.0, 0.0, 0.5]),
+            IDENTITY,
+            static=False,
+            geoms=[WorldGeom("sheet::link/c", "mesh", (), np.zeros(3), IDENTITY, mesh=triangle)],
+        )
+    )
     with pytest.raises(RacecarSimError) as error:
         Simulator(world=world, camera=False)
     message = str(error.value)
@@ -259,12 +304,14 @@ def test_a_1e308_m_wall_height_is_one_line_naming_the_option(tmp_path, capsys):
 
 # --- 6. map_server's numbers ----------------------------------------------------------------------------------------
 
+
 def test_a_map_yaml_with_5e_2_reads_it_as_0_05_as_map_server_does(tmp_path):
     room = np.full((40, 40), 254, np.uint8)
     room[0, :] = 0  # one wall along the top row
     Image.fromarray(room).save(tmp_path / "room.pgm")
-    (tmp_path / "map.yaml").write_text("image: room.pgm\nresolution: 5e-2\norigin: [-1e0, -1.0, 0]\n"
-                                       "occupied_thresh: 65e-2\n")
+    (tmp_path / "map.yaml").write_text(
+        "image: room.pgm\nresolution: 5e-2\norigin: [-1e0, -1.0, 0]\noccupied_thresh: 65e-2\n"
+    )
     world = load_world(tmp_path / "map.yaml")
     walls = [geom for body in world.bodies if body.name == "map" for geom in body.geoms if geom.collides]
     assert len(walls) == 1 and walls[0].size[:2] == pytest.approx((2.0, 0.05))

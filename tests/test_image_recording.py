@@ -59,8 +59,12 @@ def psnr(a: np.ndarray, b: np.ndarray) -> float:
 def test_compressed_images_round_trip_through_rosbags_to_the_rendered_frames(tmp_path):
     sim = Simulator(world="walker", seed=5)
     frames: list[tuple[int, np.ndarray]] = []
-    sim.subscribe(IMAGE, lambda m: frames.append((m.header.stamp.sec * 10**9 + m.header.stamp.nanosec,
-                                                  np.asarray(m.data).reshape(480, 640, 3).copy())))
+    sim.subscribe(
+        IMAGE,
+        lambda m: frames.append(
+            (m.header.stamp.sec * 10**9 + m.header.stamp.nanosec, np.asarray(m.data).reshape(480, 640, 3).copy())
+        ),
+    )
     ConstantCommand(sim.bus, sim.scheduler, 1.0, 0.1)
     path = tmp_path / "run.mcap"
     with RunRecording(sim.bus, lambda: sim.time_ns, path, image_topics=[IMAGE]):
@@ -93,7 +97,9 @@ def test_jpeg_is_deterministic_and_decodes_in_both_encodings():
     for msg in (first, compress_image(as_rgb)):
         assert psnr(decompress_image(msg), bgr) > 30.0
         assert psnr(cv2.imdecode(np.frombuffer(msg.data, np.uint8), cv2.IMREAD_COLOR), bgr) > 30.0
-    assert compressed_topic("/car2/camera/zed/rgb/image_rect_color") == "/car2/camera/zed/rgb/image_rect_color/compressed"
+    assert (
+        compressed_topic("/car2/camera/zed/rgb/image_rect_color") == "/car2/camera/zed/rgb/image_rect_color/compressed"
+    )
     with pytest.raises(ValueError, match="mono8"):
         compress_image(Image(header, 1, 1, "mono8", 0, 1, b"\x00"))
 
@@ -103,8 +109,13 @@ def test_main_job_records_compressed_images_byte_identical_for_a_seed(tmp_path):
     paths = []
     for name in ("a", "b"):
         out = tmp_path / name
-        result = subprocess.run([*CLI, "run", "--duration", "1", "--seed", "3", "--out", str(out), "--no-summary"],
-                                check=False, capture_output=True, text=True, timeout=300)
+        result = subprocess.run(
+            [*CLI, "run", "--duration", "1", "--seed", "3", "--out", str(out), "--no-summary"],
+            check=False,
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
         assert result.returncode == 0, result.stderr
         paths.append(out / "run.mcap")
         assert (out / "camera.mp4").stat().st_size > 0
@@ -118,15 +129,22 @@ def test_main_job_records_compressed_images_byte_identical_for_a_seed(tmp_path):
 
 @needs_gl
 def test_raw_images_flag_records_the_raw_image(tmp_path):
-    result = subprocess.run([*CLI, "run", "--duration", "0.2", "--out", str(tmp_path), "--no-summary", "--no-video",
-                             "--raw-images"], check=False, capture_output=True, text=True, timeout=300)
+    result = subprocess.run(
+        [*CLI, "run", "--duration", "0.2", "--out", str(tmp_path), "--no-summary", "--no-video", "--raw-images"],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert result.returncode == 0, result.stderr
     counts, types, _ = read(tmp_path / "run.mcap")
     assert COMPRESSED not in counts and counts[IMAGE] == 6 and types[IMAGE] == "sensor_msgs/msg/Image"
 
 
 def test_raw_images_without_a_recording_is_one_line():
-    result = subprocess.run([*CLI, "run", "--raw-images", "--no-record"], check=False, capture_output=True, text=True, timeout=120)
+    result = subprocess.run(
+        [*CLI, "run", "--raw-images", "--no-record"], check=False, capture_output=True, text=True, timeout=120
+    )
     assert result.returncode == 2 and "--raw-images" in result.stderr and "Traceback" not in result.stderr
 
 

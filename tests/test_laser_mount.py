@@ -18,9 +18,9 @@ def test_mount_gives_the_site_pose_mujoco_computes_at_any_car_pose():
     rows = []
     for _ in range(20):
         data.qpos[:] = sim.data.qpos
-        data.qpos[mount.qpos_adr:mount.qpos_adr + 3] = rng.uniform(-20, 20, 3)
+        data.qpos[mount.qpos_adr : mount.qpos_adr + 3] = rng.uniform(-20, 20, 3)
         q = rng.normal(size=4)
-        data.qpos[mount.qpos_adr + 3:mount.qpos_adr + 7] = q / np.linalg.norm(q)
+        data.qpos[mount.qpos_adr + 3 : mount.qpos_adr + 7] = q / np.linalg.norm(q)
         mujoco.mj_kinematics(model, data)
         site = data.site_xmat[lidar._site].reshape(3, 3)
         expected_origin = data.site_xpos[lidar._site] + site @ lidar._offset

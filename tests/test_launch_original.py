@@ -18,8 +18,10 @@ from racecar_sim.launch import LaunchRun, load_launch, map_plan
 from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header
 
 GAZEBO_SRC, RACECAR_SRC = os.environ.get("RACECAR_GAZEBO_SRC"), os.environ.get("RACECAR_SRC")
-pytestmark = pytest.mark.skipif(not (GAZEBO_SRC and RACECAR_SRC),
-                                reason="RACECAR_GAZEBO_SRC and RACECAR_SRC name no checkouts of the original repositories")
+pytestmark = pytest.mark.skipif(
+    not (GAZEBO_SRC and RACECAR_SRC),
+    reason="RACECAR_GAZEBO_SRC and RACECAR_SRC name no checkouts of the original repositories",
+)
 
 
 @pytest.fixture
@@ -48,8 +50,20 @@ def test_racecar_tunnel_launch_runs_unchanged(originals):
 
 
 def test_racecar_tunnel_launch_from_the_command_line(originals):
-    result = subprocess.run([sys.executable, "-m", "racecar_sim", "launch",
-                             str(originals / "racecar_gazebo" / "launch" / "racecar_tunnel.launch"), "--duration", "2",
-                             "--no-camera"], capture_output=True, text=True, timeout=300)
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "racecar_sim",
+            "launch",
+            str(originals / "racecar_gazebo" / "launch" / "racecar_tunnel.launch"),
+            "--duration",
+            "2",
+            "--no-camera",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert result.returncode == 0, result.stderr
     assert "world racecar_tunnel, cars racecar" in result.stderr and "Traceback" not in result.stderr

@@ -7,15 +7,17 @@ import time
 from pathlib import Path
 
 import pytest
-from ros_package_helpers import write_package_xml
 
 from racecar_sim.bridges.ros1 import ros_available
 from racecar_sim.bridges.ros1.environment import ros_environment
 from racecar_sim.bridges.ros1.master import Master
 from racecar_sim.launch import LaunchRun, load_launch, map_plan
+from ros_package_helpers import write_package_xml
 
-pytestmark = pytest.mark.skipif(not (Path("/usr/bin/roscore").exists() and ros_available()),
-                                reason="ROS 1 is not installed (apt-get install ros-core python3-rospy ...)")
+pytestmark = pytest.mark.skipif(
+    not (Path("/usr/bin/roscore").exists() and ros_available()),
+    reason="ROS 1 is not installed (apt-get install ros-core python3-rospy ...)",
+)
 # a user's driver node: publishes its private ~speed on a relative topic the launch remaps onto the mux input
 DRIVER = """#!/usr/bin/env python3
 import rospy
@@ -119,8 +121,21 @@ def test_a_carless_launch_file_joins_a_running_sim(master, tmp_path, monkeypatch
     launch = None
     try:
         bridge.start()
-        launch = subprocess.Popen([sys.executable, "-m", "racecar_sim", "launch", str(tmp_path / "teleop.launch"),
-                                   "--ros", "--duration", "60", "speed:=0.9"], stderr=subprocess.PIPE, text=True)
+        launch = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "racecar_sim",
+                "launch",
+                str(tmp_path / "teleop.launch"),
+                "--ros",
+                "--duration",
+                "60",
+                "speed:=0.9",
+            ],
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         end = time.monotonic() + 60
         while sim.car.state.base_pose()[0][0] < 0.5 and time.monotonic() < end and launch.poll() is None:
             sim.run_for(0.05)

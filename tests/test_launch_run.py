@@ -16,9 +16,11 @@ from racecar_sim.description import package_path
 from racecar_sim.launch import LaunchRun, load_launch, map_plan
 from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Float64, Header
 
-CONTROLLERS = ("left_rear_wheel_velocity_controller right_rear_wheel_velocity_controller "
-               "left_front_wheel_velocity_controller right_front_wheel_velocity_controller "
-               "left_steering_hinge_position_controller right_steering_hinge_position_controller joint_state_controller")
+CONTROLLERS = (
+    "left_rear_wheel_velocity_controller right_rear_wheel_velocity_controller "
+    "left_front_wheel_velocity_controller right_front_wheel_velocity_controller "
+    "left_steering_hinge_position_controller right_steering_hinge_position_controller joint_state_controller"
+)
 GROUND_WORLD = """<?xml version="1.0"?>
 <sdf version="1.4"><world name="flat">
   <model name="ground_plane"><static>true</static><link name="link"><collision name="collision">
@@ -100,9 +102,11 @@ FLEET = """<?xml version="1.0"?>
 def package(root: Path, name: str, files: dict[str, str]) -> Path:
     folder = root / name
     folder.mkdir(parents=True)
-    (folder / "package.xml").write_text(f"<package format='2'><name>{name}</name><version>1.0.0</version>"
-                                        "<description>d</description><maintainer email='a@b.c'>m</maintainer>"
-                                        "<license>BSD</license></package>\n")
+    (folder / "package.xml").write_text(
+        f"<package format='2'><name>{name}</name><version>1.0.0</version>"
+        "<description>d</description><maintainer email='a@b.c'>m</maintainer>"
+        "<license>BSD</license></package>\n"
+    )
     for relative, text in files.items():
         (folder / relative).parent.mkdir(parents=True, exist_ok=True)
         (folder / relative).write_text(text)
@@ -121,12 +125,26 @@ def original_packages(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     """racecar_gazebo and racecar_control as in the original repository (launch files, a world, the YAML) on
     ROS_PACKAGE_PATH; gazebo_ros, racecar, ackermann_cmd_mux, xacro, ... are the sim's stand-ins."""
     src = tmp_path / "src"
-    package(src, "racecar_gazebo", {"launch/racecar.launch": RACECAR, "worlds/flat.world": GROUND_WORLD,
-                                    "launch/racecar_flat.launch": '<launch><include file="$(find racecar_gazebo)/launch/'
-                                    'racecar.launch"><arg name="world_name" value="flat"/></include></launch>'})
-    package(src, "racecar_control", {
-        "launch/racecar_control.launch": RACECAR_CONTROL,
-        "config/racecar_control.yaml": (package_path("racecar_control") / "config/racecar_control.yaml").read_text()})
+    package(
+        src,
+        "racecar_gazebo",
+        {
+            "launch/racecar.launch": RACECAR,
+            "worlds/flat.world": GROUND_WORLD,
+            "launch/racecar_flat.launch": '<launch><include file="$(find racecar_gazebo)/launch/'
+            'racecar.launch"><arg name="world_name" value="flat"/></include></launch>',
+        },
+    )
+    package(
+        src,
+        "racecar_control",
+        {
+            "launch/racecar_control.launch": RACECAR_CONTROL,
+            "config/racecar_control.yaml": (
+                package_path("racecar_control") / "config/racecar_control.yaml"
+            ).read_text(),
+        },
+    )
     monkeypatch.setenv("ROS_PACKAGE_PATH", str(src))
     return src
 
@@ -164,9 +182,26 @@ def test_groups_with_a_spawn_each_run_two_namespaced_cars(fleet_launch):
 
 
 def test_command_line_args_override_defaults(fleet_launch, tmp_path):
-    result = subprocess.run([sys.executable, "-m", "racecar_sim", "launch", str(fleet_launch), "x1:=3", "speed:=0.5",
-                             "--duration", "1", "--no-camera", "--no-lidar", "--out", str(tmp_path / "out")],
-                            capture_output=True, text=True, timeout=120)
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "racecar_sim",
+            "launch",
+            str(fleet_launch),
+            "x1:=3",
+            "speed:=0.5",
+            "--duration",
+            "1",
+            "--no-camera",
+            "--no-lidar",
+            "--out",
+            str(tmp_path / "out"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert result.returncode == 0, result.stderr
     xs = {m[0]: float(m[1]) for m in re.findall(r"^(car\d)\s+x ([-\d.]+) m", result.stdout, re.M)}
     assert 3.1 < xs["car1"] < 3.5 and 1.5 < xs["car2"] < 1.8
@@ -212,8 +247,9 @@ def test_a_users_own_mux_yamls_are_read(original_packages):
 def test_a_launch_without_servo_commands_has_no_sim_servo(original_packages):
     control = original_packages / "racecar_control" / "launch" / "racecar_control.launch"
     text = control.read_text()
-    control.write_text(re.sub(r'  <node pkg="racecar_control" type="servo_commands.py".*?</node>\n', "", text,
-                              flags=re.S))
+    control.write_text(
+        re.sub(r'  <node pkg="racecar_control" type="servo_commands.py".*?</node>\n', "", text, flags=re.S)
+    )
     setup = map_plan(load_launch(original_packages / "racecar_gazebo" / "launch" / "racecar_flat.launch"), camera=False)
     with LaunchRun(setup) as run:
         sim = run.sim
@@ -223,15 +259,19 @@ def test_a_launch_without_servo_commands_has_no_sim_servo(original_packages):
         assert sim.bus.count("/racecar/left_rear_wheel_velocity_controller/command") == 0
         assert abs(sim.car.state.base_pose()[0][0]) < 0.01  # nothing turns the mux output into wheel commands
         # what a user's own servo node would publish drives the car
-        wheels = [f"/racecar/{side}_{end}_wheel_velocity_controller/command" for side in ("left", "right")
-                  for end in ("rear", "front")]
+        wheels = [
+            f"/racecar/{side}_{end}_wheel_velocity_controller/command"
+            for side in ("left", "right")
+            for end in ("rear", "front")
+        ]
         sim.scheduler.every(20.0, lambda t: [sim.publish(w, Float64(10.0)) for w in wheels], "user servo")
         sim.run_until(1.5)
         assert sim.car.state.base_pose()[0][0] > 0.3
 
 
 def test_sim_drivers_and_keyboard_teleop_from_the_launch(tmp_path):
-    (tmp_path / "drivers.launch").write_text("""<launch>
+    (tmp_path / "drivers.launch").write_text(
+        """<launch>
   <param name="robot_description" command="$(find xacro)/xacro '$(find racecar_description)/urdf/racecar.xacro'"/>
   <node name="spawn" pkg="gazebo_ros" type="spawn_model" args="-urdf -param robot_description"/>
   <rosparam file="$(find racecar_control)/config/racecar_control.yaml" command="load"/>
@@ -243,7 +283,9 @@ def test_sim_drivers_and_keyboard_teleop_from_the_launch(tmp_path):
   <node pkg="racecar_sim" type="wall_follow" name="follower"><param name="side" value="left"/>
     <param name="distance" value="0.7"/></node>
   <node pkg="racecar_control" type="keyboard_teleop.py" name="keyboard_teleop"/>
-</launch>""" % CONTROLLERS)
+</launch>"""
+        % CONTROLLERS
+    )
     setup = map_plan(load_launch(tmp_path / "drivers.launch"), camera=False, lidar=False)
     assert setup.teleop_topics == ["/vesc/ackermann_cmd_mux/input/teleop"]
     with LaunchRun(setup) as run:

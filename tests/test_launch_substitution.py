@@ -55,9 +55,11 @@ def test_env_and_optenv(monkeypatch):
 def test_find_goes_through_ros_package_path_first(tmp_path, monkeypatch):
     own = tmp_path / "src" / "racecar_control"  # a user's own copy of a package racecar-sim also ships
     own.mkdir(parents=True)
-    (own / "package.xml").write_text("<package format='2'><name>racecar_control</name><version>1.0.0</version>"
-                                     "<description>d</description><maintainer email='a@b.c'>m</maintainer>"
-                                     "<license>BSD</license></package>")
+    (own / "package.xml").write_text(
+        "<package format='2'><name>racecar_control</name><version>1.0.0</version>"
+        "<description>d</description><maintainer email='a@b.c'>m</maintainer>"
+        "<license>BSD</license></package>"
+    )
     monkeypatch.setenv("ROS_PACKAGE_PATH", str(tmp_path / "src"))
     assert resolve("$(find racecar_control)/config/x.yaml", ctx()) == f"{own}/config/x.yaml"
     assert resolve("$(eval find('racecar_control'))", ctx()) == str(own)
@@ -77,9 +79,20 @@ def test_dirname_anon_and_unknown_substitutions():
         resolve("$(arg missing)", c)
 
 
-@pytest.mark.parametrize(("text", "kind", "value"), [
-    ("1", "auto", 1), ("1.5", "auto", 1.5), ("True", "auto", True), ("false", "auto", False), ("abc", "auto", "abc"),
-    ("1", "str", "1"), ("2", "double", 2.0), ("0", "bool", False), ("[1, 2]", "yaml", [1, 2])])
+@pytest.mark.parametrize(
+    ("text", "kind", "value"),
+    [
+        ("1", "auto", 1),
+        ("1.5", "auto", 1.5),
+        ("True", "auto", True),
+        ("false", "auto", False),
+        ("abc", "auto", "abc"),
+        ("1", "str", "1"),
+        ("2", "double", 2.0),
+        ("0", "bool", False),
+        ("[1, 2]", "yaml", [1, 2]),
+    ],
+)
 def test_param_types_convert_as_roslaunch(text, kind, value):
     result = convert_value(text, kind)
     assert result == value and type(result) is type(value)

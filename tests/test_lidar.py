@@ -51,16 +51,28 @@ def _box(name: str, x: float, y: float, sx: float, sy: float) -> str:
 def room_world(tmp_path, half: float, pillar: bool = True, wall: float = 0.2) -> str:
     """An SDF box room of inner half-side `half` (m) centred on the origin, walls 1 m tall, and a pillar."""
     span, c = 2 * half + 2 * wall, half + wall / 2
-    walls = (_box("north", 0, c, span, wall) + _box("south", 0, -c, span, wall)
-             + _box("east", c, 0, wall, span) + _box("west", -c, 0, wall, span))
+    walls = (
+        _box("north", 0, c, span, wall)
+        + _box("south", 0, -c, span, wall)
+        + _box("east", c, 0, wall, span)
+        + _box("west", -c, 0, wall, span)
+    )
     x, y, r = PILLAR
-    column = (f"<model name='pillar'><static>true</static><pose>{x} {y} 0.5 0 0 0</pose><link name='l'>"
-              f"<collision name='c'><geometry><cylinder><radius>{r}</radius><length>1</length></cylinder>"
-              f"</geometry></collision></link></model>") if pillar else ""
+    column = (
+        (
+            f"<model name='pillar'><static>true</static><pose>{x} {y} 0.5 0 0 0</pose><link name='l'>"
+            f"<collision name='c'><geometry><cylinder><radius>{r}</radius><length>1</length></cylinder>"
+            f"</geometry></collision></link></model>"
+        )
+        if pillar
+        else ""
+    )
     path = tmp_path / "room.world"
-    path.write_text(f"<?xml version='1.0'?><sdf version='1.6'><world name='room'>"
-                    f"<include><uri>model://ground_plane</uri></include>"
-                    f"<model name='room'><static>true</static>{walls}</model>{column}</world></sdf>")
+    path.write_text(
+        f"<?xml version='1.0'?><sdf version='1.6'><world name='room'>"
+        f"<include><uri>model://ground_plane</uri></include>"
+        f"<model name='room'><static>true</static>{walls}</model>{column}</world></sdf>"
+    )
     return str(path)
 
 
@@ -84,8 +96,10 @@ def room_ranges(origin: np.ndarray, angles: np.ndarray, half: float, pillar: boo
     dx, dy = np.cos(angles), np.sin(angles)
     x0, y0 = origin[:2]
     with np.errstate(divide="ignore"):
-        walls = np.minimum(np.where(dx > 0, (half - x0) / dx, np.where(dx < 0, (-half - x0) / dx, np.inf)),
-                           np.where(dy > 0, (half - y0) / dy, np.where(dy < 0, (-half - y0) / dy, np.inf)))
+        walls = np.minimum(
+            np.where(dx > 0, (half - x0) / dx, np.where(dx < 0, (-half - x0) / dx, np.inf)),
+            np.where(dy > 0, (half - y0) / dy, np.where(dy < 0, (-half - y0) / dy, np.inf)),
+        )
     if not pillar:
         return walls
     cx, cy, r = PILLAR
@@ -176,8 +190,8 @@ def test_objects_nearer_than_range_min_are_not_seen(tmp_path):
 # --- the fast caster against MuJoCo's 3-D casts ----------------------------------------------------------------
 def _place(sim: Simulator, x: float, y: float, z: float, rpy: tuple[float, float, float]) -> None:
     adr = sim.model.jnt_qposadr[sim.model.joint(ROOT_JOINT).id]
-    sim.data.qpos[adr:adr + 3] = (x, y, z)
-    sim.data.qpos[adr + 3:adr + 7] = quat_from_rpy(rpy)
+    sim.data.qpos[adr : adr + 3] = (x, y, z)
+    sim.data.qpos[adr + 3 : adr + 7] = quat_from_rpy(rpy)
 
 
 def _same(a: np.ndarray, b: np.ndarray) -> float:
@@ -186,22 +200,27 @@ def _same(a: np.ndarray, b: np.ndarray) -> float:
         return float(np.max(np.where(np.isinf(a) & np.isinf(b), 0.0, np.abs(a - b))))
 
 
-@pytest.mark.parametrize("world,box", [("tunnel", ((-33, -3), (20, 42))), ("walker", ((-20, -12), (8, 14))),
-                                       ("cones", ((-1, -2), (7, 2)))])
+@pytest.mark.parametrize(
+    "world,box", [("tunnel", ((-33, -3), (20, 42))), ("walker", ((-20, -12), (8, 14))), ("cones", ((-1, -2), (7, 2)))]
+)
 def test_fast_caster_equals_mujoco_3d_casts(world, box):
     sim = lidar_sim(world=world)
     rng = np.random.default_rng(11)
     if world == "cones":  # knock the cones about, and the last one over
         for i in range(1, 6):
             adr = sim.model.jnt_qposadr[sim.model.joint(f"cone_{i}::link::free").id]
-            sim.data.qpos[adr:adr + 2] += rng.normal(0, 0.3, 2)
+            sim.data.qpos[adr : adr + 2] += rng.normal(0, 0.3, 2)
             if i == 5:
-                sim.data.qpos[adr + 3:adr + 7] = quat_from_rpy((1.4, 0.0, 0.5))
+                sim.data.qpos[adr + 3 : adr + 7] = quat_from_rpy((1.4, 0.0, 0.5))
     fast_beams = 0
     for k in range(60):
         tilt = (0.0, 1e-4, 0.02)[k % 3]  # level; suspension sway; a slope that brings the floor into reach
-        _place(sim, *rng.uniform(*box), rng.uniform(-0.15, 0.1),
-               (rng.normal(0, tilt), rng.normal(0, tilt), rng.uniform(-math.pi, math.pi)))
+        _place(
+            sim,
+            *rng.uniform(*box),
+            rng.uniform(-0.15, 0.1),
+            (rng.normal(0, tilt), rng.normal(0, tilt), rng.uniform(-math.pi, math.pi)),
+        )
         fast = sim.car.lidar.true_ranges()
         fast_beams += sim.car.lidar.fan.count - sim.car.lidar.caster.last_3d_beams
         reference = sim.car.lidar.caster.cast(*sim.car.lidar.ray_origin(), mode="3d")
@@ -221,8 +240,9 @@ def test_a_tilted_scan_of_walls_stays_two_dimensional_and_exact():
         assert _same(fast, sim.car.lidar.caster.cast(*sim.car.lidar.ray_origin(), mode="3d")) < 1e-9
 
 
-def _geom(name: str, kind: str, size: tuple, pos: tuple, rpy: tuple = (0.0, 0.0, 0.0),
-          mesh: Mesh | None = None) -> WorldGeom:
+def _geom(
+    name: str, kind: str, size: tuple, pos: tuple, rpy: tuple = (0.0, 0.0, 0.0), mesh: Mesh | None = None
+) -> WorldGeom:
     return WorldGeom(name, kind, size, np.array(pos, float), quat_from_rpy(rpy), mesh=mesh)
 
 
@@ -241,22 +261,38 @@ def zoo_world(rng: np.random.Generator) -> World:
     """Every kind of geom around a 16 m room: pillars, spheres, capsules, tilted boxes and cylinders, an
     L-shaped mesh (a prism), cone meshes (not prisms), low boxes the scan grazes, and free bodies."""
     cone = trimesh.creation.cone(0.3, 0.6)
-    kinds = [("cylinder", (0.3, 1.0), 0.5, (0, 0, 0), None), ("sphere", (0.25,), 0.15, (0, 0, 0), None),
-             ("capsule", (0.1, 0.5), 0.3, (0, 0, 0), None), ("box", (0.5, 0.3, 0.6), 0.2, (0.3, 0.1, 1.0), None),
-             ("cylinder", (0.2, 0.6), 0.2, (0.4, 0, 0), None), ("mesh", (), 0.0, (0, 0, 0.7), _l_prism(0.8)),
-             ("mesh", (), 0.0, (0, 0, 0), Mesh(np.asarray(cone.vertices, float), np.asarray(cone.faces, np.int32))),
-             ("box", (0.6, 0.6, 0.13), 0.065, (0, 0, 0.4), None), ("ellipsoid", (0.2, 0.3, 0.25), 0.2, (0, 0, 0), None)]
-    geoms = [_geom(f"wall{i}", "box", size, (x, y, 0.5)) for i, (x, y, size) in
-             enumerate([(0, 8, (16, 0.2, 1)), (0, -8, (16, 0.2, 1)), (8, 0, (0.2, 16, 1)), (-8, 0, (0.2, 16, 1))])]
+    kinds = [
+        ("cylinder", (0.3, 1.0), 0.5, (0, 0, 0), None),
+        ("sphere", (0.25,), 0.15, (0, 0, 0), None),
+        ("capsule", (0.1, 0.5), 0.3, (0, 0, 0), None),
+        ("box", (0.5, 0.3, 0.6), 0.2, (0.3, 0.1, 1.0), None),
+        ("cylinder", (0.2, 0.6), 0.2, (0.4, 0, 0), None),
+        ("mesh", (), 0.0, (0, 0, 0.7), _l_prism(0.8)),
+        ("mesh", (), 0.0, (0, 0, 0), Mesh(np.asarray(cone.vertices, float), np.asarray(cone.faces, np.int32))),
+        ("box", (0.6, 0.6, 0.13), 0.065, (0, 0, 0.4), None),
+        ("ellipsoid", (0.2, 0.3, 0.25), 0.2, (0, 0, 0), None),
+    ]
+    geoms = [
+        _geom(f"wall{i}", "box", size, (x, y, 0.5))
+        for i, (x, y, size) in enumerate(
+            [(0, 8, (16, 0.2, 1)), (0, -8, (16, 0.2, 1)), (8, 0, (0.2, 16, 1)), (-8, 0, (0.2, 16, 1))]
+        )
+    ]
     for i in range(36):
         kind, size, z, rpy, mesh = kinds[i % len(kinds)]
         geoms.append(_geom(f"{kind}{i}", kind, size, (*rng.uniform(-7, 7, 2), z), rpy, mesh))
     world = load_world("empty")
     world.bodies.append(WorldBody("zoo", np.zeros(3), np.array([1.0, 0, 0, 0]), geoms=geoms))
     for i, (kind, size) in enumerate([("box", (0.3, 0.2, 0.5)), ("cylinder", (0.15, 0.5)), ("sphere", (0.2,))] * 2):
-        world.bodies.append(WorldBody(f"free{i}", np.array([*rng.uniform(-7, 7, 2), 0.3]),
-                                      quat_from_rpy((0, 0, rng.uniform(0, 3))), static=False,
-                                      geoms=[_geom(f"free{i}", kind, size, (0, 0, 0))]))
+        world.bodies.append(
+            WorldBody(
+                f"free{i}",
+                np.array([*rng.uniform(-7, 7, 2), 0.3]),
+                quat_from_rpy((0, 0, rng.uniform(0, 3))),
+                static=False,
+                geoms=[_geom(f"free{i}", kind, size, (0, 0, 0))],
+            )
+        )
     return world
 
 
@@ -265,8 +301,12 @@ def test_fast_caster_equals_mujoco_3d_casts_for_every_kind_of_geom():
     sim = lidar_sim(world=zoo_world(rng))
     for k in range(60):
         tilt = (0.0, 1e-4, 0.003)[k % 3]
-        _place(sim, *rng.uniform(-8, 8, 2), rng.uniform(-0.1, 0.2),
-               (rng.normal(0, tilt), rng.normal(0, tilt), rng.uniform(-math.pi, math.pi)))
+        _place(
+            sim,
+            *rng.uniform(-8, 8, 2),
+            rng.uniform(-0.1, 0.2),
+            (rng.normal(0, tilt), rng.normal(0, tilt), rng.uniform(-math.pi, math.pi)),
+        )
         fast = sim.car.lidar.true_ranges()
         assert _same(fast, sim.car.lidar.caster.cast(*sim.car.lidar.ray_origin(), mode="3d")) < 1e-3, f"pose {k}"
 
@@ -281,8 +321,10 @@ def test_car_never_sees_itself():
     groups = np.zeros(6, np.uint8)
     groups[COLLISION_GROUP] = 1
     mujoco.mj_kinematics(sim.model, sim.data)
-    hit = [mujoco.mj_ray(sim.model, sim.data, origin + 0.1 * d, d, groups, 1, -1, np.zeros(1, np.int32))
-           for d in (rotation[:, :2] @ sim.car.lidar.fan.directions).T]
+    hit = [
+        mujoco.mj_ray(sim.model, sim.data, origin + 0.1 * d, d, groups, 1, -1, np.zeros(1, np.int32))
+        for d in (rotation[:, :2] @ sim.car.lidar.fan.directions).T
+    ]
     assert max(hit) > 0, "without the exclusion some of these beams would hit the car"
 
 
@@ -294,7 +336,7 @@ def test_pushable_cone_is_seen_where_it_is():
     cone = sim.model.body("cone_1::link").id
     assert ahead == pytest.approx(sim.data.xpos[cone][0] - origin[0] - _cone_radius(origin[2]), abs=1e-3)
     adr = sim.model.jnt_qposadr[sim.model.joint("cone_1::link::free").id]
-    sim.data.qpos[adr:adr + 2] = (origin[0] + 0.6, origin[1] + 0.4)  # pushed aside
+    sim.data.qpos[adr : adr + 2] = (origin[0] + 0.6, origin[1] + 0.4)  # pushed aside
     sim.run_for(0.1)
     origin, heading = laser_origin_from_tf(sim)
     offset = sim.data.xpos[cone][:2] - origin[:2]
@@ -330,13 +372,20 @@ def test_spec_reads_every_field():
     assert spec.angle_increment == pytest.approx(2 * 2.3561944902 / 540)
 
 
-@pytest.mark.parametrize("old,new,field", [
-    ("<samples>1081</samples>", "", "samples"), ("<samples>1081</samples>", "<samples>many</samples>", "samples"),
-    ("<min_angle>-2.3561944902</min_angle>", "", "min_angle"), ("<max>10.0</max>", "<max>ten</max>", "max"),
-    ("<min>0.1</min>", "", "min"), ("<update_rate>40</update_rate>", "", "update_rate"),
-    ("<stddev>0.01</stddev>", "<stddev>0.01</stddev><type>uniform</type>", "type"),
-    ("<max>10.0</max>", "<max>0.05</max>", "range"), ("<resolution>1</resolution>", "<resolution>2</resolution>",
-                                                       "resolution")])
+@pytest.mark.parametrize(
+    "old,new,field",
+    [
+        ("<samples>1081</samples>", "", "samples"),
+        ("<samples>1081</samples>", "<samples>many</samples>", "samples"),
+        ("<min_angle>-2.3561944902</min_angle>", "", "min_angle"),
+        ("<max>10.0</max>", "<max>ten</max>", "max"),
+        ("<min>0.1</min>", "", "min"),
+        ("<update_rate>40</update_rate>", "", "update_rate"),
+        ("<stddev>0.01</stddev>", "<stddev>0.01</stddev><type>uniform</type>", "type"),
+        ("<max>10.0</max>", "<max>0.05</max>", "range"),
+        ("<resolution>1</resolution>", "<resolution>2</resolution>", "resolution"),
+    ],
+)
 def test_a_missing_or_bad_field_is_named(old, new, field):
     block = _block(load_robot().sensor("ray"))
     assert old in block
@@ -346,11 +395,13 @@ def test_a_missing_or_bad_field_is_named(old, new, field):
 
 def test_an_edited_description_changes_the_scan(tmp_path):
     robot = load_robot()
-    urdf = (robot.urdf.replace("<samples>1081</samples>", "<samples>361</samples>")
-            .replace("<min_angle>-2.3561944902</min_angle>", "<min_angle>-1.5707963268</min_angle>")
-            .replace("<max_angle>2.3561944902</max_angle>", "<max_angle>1.5707963268</max_angle>")
-            .replace("<pose>0 0 0.0124 0 0 0</pose>", "<pose>0 0 0.0124 0 0 0.5</pose>")
-            .replace("<update_rate>40</update_rate>", "<update_rate>10</update_rate>"))
+    urdf = (
+        robot.urdf.replace("<samples>1081</samples>", "<samples>361</samples>")
+        .replace("<min_angle>-2.3561944902</min_angle>", "<min_angle>-1.5707963268</min_angle>")
+        .replace("<max_angle>2.3561944902</max_angle>", "<max_angle>1.5707963268</max_angle>")
+        .replace("<pose>0 0 0.0124 0 0 0</pose>", "<pose>0 0 0.0124 0 0 0.5</pose>")
+        .replace("<update_rate>40</update_rate>", "<update_rate>10</update_rate>")
+    )
     path = tmp_path / "racecar.urdf"
     path.write_text(urdf)
     sim = lidar_sim(noise=False, world=room_world(tmp_path, 3.0, pillar=False), xacro=path)
@@ -424,9 +475,9 @@ def test_one_call_scan_is_the_step_by_step_scan_bit_for_bit(world):
     one_call = 0
     for k in range(60):
         sim.data.qpos[:] = base
-        sim.data.qpos[adr:adr + 2] += rng.uniform(-3, 3, 2)
+        sim.data.qpos[adr : adr + 2] += rng.uniform(-3, 3, 2)
         tilt = rng.normal(0, 0.02, 2) if k % 2 else (0.0, 0.0)
-        sim.data.qpos[adr + 3:adr + 7] = quat_from_rpy((*tilt, rng.uniform(-np.pi, np.pi)))
+        sim.data.qpos[adr + 3 : adr + 7] = quat_from_rpy((*tilt, rng.uniform(-np.pi, np.pi)))
         calls.clear()
         fused = lidar.scan(k * 25_000_000)
         one_call += not calls

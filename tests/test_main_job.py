@@ -15,8 +15,13 @@ from rosbags.typesys import Stores, get_typestore
 
 
 def test_run_with_no_arguments_writes_the_run_folder(tmp_path):
-    result = subprocess.run([sys.executable, "-m", "racecar_sim", "run", "--duration", "4"], cwd=tmp_path,
-                            capture_output=True, text=True, timeout=300)
+    result = subprocess.run(
+        [sys.executable, "-m", "racecar_sim", "run", "--duration", "4"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert result.returncode == 0, result.stderr
     (folder,) = (tmp_path / "runs").iterdir()
     out = result.stdout

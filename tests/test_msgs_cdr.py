@@ -98,9 +98,7 @@ SAMPLES: dict[str, Callable[[np.random.Generator], Message]] = {
     "geometry_msgs/msg/PoseWithCovariance": lambda rng: msgs.PoseWithCovariance(
         msgs.Pose(msgs.Point(4, 5, 6)), rng.normal(size=36)
     ),
-    "geometry_msgs/msg/PoseStamped": lambda _: msgs.PoseStamped(
-        _stamped(7, "map"), msgs.Pose(msgs.Point(-1, -2, -3))
-    ),
+    "geometry_msgs/msg/PoseStamped": lambda _: msgs.PoseStamped(_stamped(7, "map"), msgs.Pose(msgs.Point(-1, -2, -3))),
     "geometry_msgs/msg/Twist": lambda _: msgs.Twist(msgs.Vector3(1, 0, 0), msgs.Vector3(0, 0, 2)),
     "geometry_msgs/msg/TwistWithCovariance": lambda rng: msgs.TwistWithCovariance(
         msgs.Twist(msgs.Vector3(0.5, 0, 0)), rng.normal(size=36)
@@ -118,40 +116,60 @@ SAMPLES: dict[str, Callable[[np.random.Generator], Message]] = {
     "sensor_msgs/msg/LaserScan": _laser_scan,
     "sensor_msgs/msg/Image": _image,
     "sensor_msgs/msg/CompressedImage": lambda rng: msgs.sensor_msgs.CompressedImage(
-        _stamped(33_000_000, "camera_link"), "bgr8; jpeg compressed bgr8", rng.bytes(1001)),
+        _stamped(33_000_000, "camera_link"), "bgr8; jpeg compressed bgr8", rng.bytes(1001)
+    ),
     "sensor_msgs/msg/RegionOfInterest": lambda _: msgs.RegionOfInterest(1, 2, 3, 4, True),
     "sensor_msgs/msg/CameraInfo": lambda _: _camera_info(),
     "sensor_msgs/msg/Imu": lambda rng: msgs.Imu(
-        _stamped(10_000_000, "imu_link"), msgs.Quaternion(0.0, 0.1, 0.2, 0.97), rng.normal(size=9),
-        msgs.Vector3(0.01, -0.02, 0.5), rng.normal(size=9), msgs.Vector3(0.1, 0.2, 9.81), rng.normal(size=9)),
+        _stamped(10_000_000, "imu_link"),
+        msgs.Quaternion(0.0, 0.1, 0.2, 0.97),
+        rng.normal(size=9),
+        msgs.Vector3(0.01, -0.02, 0.5),
+        rng.normal(size=9),
+        msgs.Vector3(0.1, 0.2, 9.81),
+        rng.normal(size=9),
+    ),
     "sensor_msgs/msg/PointField": lambda _: msgs.PointField("z", 8, msgs.PointField.FLOAT32, 1),
     "sensor_msgs/msg/PointCloud2": lambda rng: msgs.PointCloud2(
-        _stamped(100_000_000, "depth_link"), 1, 3, [msgs.PointField("x", 0, 7, 1), msgs.PointField("y", 4, 7, 1),
-                                                   msgs.PointField("z", 8, 7, 1)],
-        False, 12, 36, rng.normal(size=9).astype("<f4").tobytes(), True),
-    "tf2_msgs/msg/TFMessage": lambda _: msgs.TFMessage(
-        [_transform("base_link", 0.0), _transform("laser", 0.265)]
+        _stamped(100_000_000, "depth_link"),
+        1,
+        3,
+        [msgs.PointField("x", 0, 7, 1), msgs.PointField("y", 4, 7, 1), msgs.PointField("z", 8, 7, 1)],
+        False,
+        12,
+        36,
+        rng.normal(size=9).astype("<f4").tobytes(),
+        True,
     ),
+    "tf2_msgs/msg/TFMessage": lambda _: msgs.TFMessage([_transform("base_link", 0.0), _transform("laser", 0.265)]),
     "rosgraph_msgs/msg/Clock": lambda _: msgs.Clock(msgs.Time(12, 500_000_000)),
     "ackermann_msgs/msg/AckermannDrive": lambda _: msgs.AckermannDrive(0.375, 1.5, 2.0, 0.5, 0.25),
     "ackermann_msgs/msg/AckermannDriveStamped": lambda _: msgs.AckermannDriveStamped(
         _stamped(1_000_000_000, "base_link"), msgs.AckermannDrive(-0.25, speed=1.75)
     ),
     "control_msgs/msg/JointControllerState": lambda _: msgs.JointControllerState(
-        _stamped(1_230_000_000, ""), 20.0, 19.5, 0.25, 0.5, 0.0025, 0.5, 1.0, 0.1, 0.5, 2.0, True),
+        _stamped(1_230_000_000, ""), 20.0, 19.5, 0.25, 0.5, 0.0025, 0.5, 1.0, 0.1, 0.5, 2.0, True
+    ),
     "controller_manager_msgs/msg/HardwareInterfaceResources": lambda _: msgs.HardwareInterfaceResources(
-        "hardware_interface::EffortJointInterface", ["left_rear_wheel_joint", "right_rear_wheel_joint"]),
+        "hardware_interface::EffortJointInterface", ["left_rear_wheel_joint", "right_rear_wheel_joint"]
+    ),
     "controller_manager_msgs/msg/ControllerState": lambda _: msgs.ControllerState(
-        "left_rear_wheel_velocity_controller", "running", "effort_controllers/JointVelocityController",
-        [msgs.HardwareInterfaceResources("hardware_interface::EffortJointInterface", ["left_rear_wheel_joint"])]),
+        "left_rear_wheel_velocity_controller",
+        "running",
+        "effort_controllers/JointVelocityController",
+        [msgs.HardwareInterfaceResources("hardware_interface::EffortJointInterface", ["left_rear_wheel_joint"])],
+    ),
     "gazebo_msgs/msg/ModelState": lambda _: msgs.ModelState(
-        "car2", msgs.Pose(msgs.Point(1, 2, 0.05), msgs.Quaternion(w=1.0)), msgs.Twist(msgs.Vector3(0.5, 0, 0)),
-        "world"),
+        "car2", msgs.Pose(msgs.Point(1, 2, 0.05), msgs.Quaternion(w=1.0)), msgs.Twist(msgs.Vector3(0.5, 0, 0)), "world"
+    ),
     "gazebo_msgs/msg/ModelStates": lambda _: msgs.ModelStates(
-        ["ground_plane", "racecar"], [msgs.Pose(), msgs.Pose(msgs.Point(1, 0, 0))],
-        [msgs.Twist(), msgs.Twist(msgs.Vector3(1, 0, 0))]),
+        ["ground_plane", "racecar"],
+        [msgs.Pose(), msgs.Pose(msgs.Point(1, 0, 0))],
+        [msgs.Twist(), msgs.Twist(msgs.Vector3(1, 0, 0))],
+    ),
     "gazebo_msgs/msg/LinkStates": lambda _: msgs.LinkStates(
-        ["racecar::base_link"], [msgs.Pose(msgs.Point(0, 1, 0))], [msgs.Twist(angular=msgs.Vector3(0, 0, 0.5))]),
+        ["racecar::base_link"], [msgs.Pose(msgs.Point(0, 1, 0))], [msgs.Twist(angular=msgs.Vector3(0, 0, 0.5))]
+    ),
 }
 
 
@@ -159,10 +177,16 @@ SAMPLES: dict[str, Callable[[np.random.Generator], Message]] = {
 def typestore() -> Any:
     """Rosbags' ROS 2 Humble types plus the packages it lacks, registered from our .msg files."""
     store = get_typestore(Stores.ROS2_HUMBLE)
-    for msgtype in ("ackermann_msgs/msg/AckermannDrive", "ackermann_msgs/msg/AckermannDriveStamped",
-                    "control_msgs/msg/JointControllerState", "controller_manager_msgs/msg/HardwareInterfaceResources",
-                    "controller_manager_msgs/msg/ControllerState", "gazebo_msgs/msg/ModelState",
-                    "gazebo_msgs/msg/ModelStates", "gazebo_msgs/msg/LinkStates"):
+    for msgtype in (
+        "ackermann_msgs/msg/AckermannDrive",
+        "ackermann_msgs/msg/AckermannDriveStamped",
+        "control_msgs/msg/JointControllerState",
+        "controller_manager_msgs/msg/HardwareInterfaceResources",
+        "controller_manager_msgs/msg/ControllerState",
+        "gazebo_msgs/msg/ModelState",
+        "gazebo_msgs/msg/ModelStates",
+        "gazebo_msgs/msg/LinkStates",
+    ):
         store.register(get_types_from_msg(idl.get_spec(msgtype).text, msgtype))
     return store
 
@@ -345,13 +369,19 @@ def test_repeated_name_lists_and_pose_arrays_match_rosbags(typestore: Any) -> No
     names = [f"racecar::{'x' * k}_link" for k in range(9)]  # every length modulo 4
     sequence = []
     for links in (names, names, names[:5], names[:5] + ["z"], names):
-        sequence.append(msgs.LinkStates(
-            list(links), [msgs.Pose(msgs.Point(*rng.normal(size=3)), msgs.Quaternion(*rng.normal(size=4)))
-                          for _ in links],
-            [msgs.Twist(msgs.Vector3(*rng.normal(size=3)), msgs.Vector3(*rng.normal(size=3))) for _ in links]))
+        sequence.append(
+            msgs.LinkStates(
+                list(links),
+                [msgs.Pose(msgs.Point(*rng.normal(size=3)), msgs.Quaternion(*rng.normal(size=4))) for _ in links],
+                [msgs.Twist(msgs.Vector3(*rng.normal(size=3)), msgs.Vector3(*rng.normal(size=3))) for _ in links],
+            )
+        )
     for frame in ("", "a", "ab", "abc", "", "abcd"):  # the same joint names after headers of every alignment
-        sequence.append(msgs.JointState(_stamped(5, frame), ["left_rear_wheel_joint", "hinge"],
-                                        np.array([0.5, 1.0]), np.zeros(2), np.zeros(0)))
+        sequence.append(
+            msgs.JointState(
+                _stamped(5, frame), ["left_rear_wheel_joint", "hinge"], np.array([0.5, 1.0]), np.zeros(2), np.zeros(0)
+            )
+        )
     for msg in sequence:
         assert msgs.serialize(msg) == typestore.serialize_cdr(to_rosbags(msg, typestore), msgs.msgtype_of(msg))
     empty = msgs.LinkStates(["a"], [], [])
@@ -420,8 +450,16 @@ def test_both_encoders_compile_from_the_one_field_model(monkeypatch: pytest.Monk
     msg = Probe(_stamped(7_000_000_005, "map"), 1.5, ["a", "bcd"], np.array([-2, 3], np.int16))
     typestore.register(get_types_from_msg(PROBE_MSG, Probe.__msgtype__))
     assert msgs.serialize(msg) == typestore.serialize_cdr(to_rosbags(msg, typestore), Probe.__msgtype__)
-    ros1 = (b"\x2a\0\0\0" + b"\x07\0\0\0\x05\0\0\0" + b"\x03\0\0\0map" + np.float64(1.5).tobytes()
-            + b"\x02\0\0\0" + b"\x01\0\0\0a" + b"\x03\0\0\0bcd" + np.array([-2, 3], "<i2").tobytes())
+    ros1 = (
+        b"\x2a\0\0\0"
+        + b"\x07\0\0\0\x05\0\0\0"
+        + b"\x03\0\0\0map"
+        + np.float64(1.5).tobytes()
+        + b"\x02\0\0\0"
+        + b"\x01\0\0\0a"
+        + b"\x03\0\0\0bcd"
+        + np.array([-2, 3], "<i2").tobytes()
+    )
     assert wire.serialize(msg, 42) == ros1
     model = fields.message_fields(Probe.__msgtype__)
     assert [f.name for f in model] == ["header", "x", "names", "pair"]
@@ -440,8 +478,10 @@ def test_ros1_layout_is_the_field_model(msgtype: str) -> None:
     if msgtype == "std_msgs/msg/Header":
         assert ros1[0] is wire.SEQ and ros1[0].attr is None and all(a is b for a, b in zip(ros1[1:], model))
     elif msgtype.startswith("builtin_interfaces/"):
-        assert [(f.attr, f.type) for f in ros1] == [("sec", "int32" if "Duration" in msgtype else "uint32"),
-                                                    ("nanosec", "int32" if "Duration" in msgtype else "uint32")]
+        assert [(f.attr, f.type) for f in ros1] == [
+            ("sec", "int32" if "Duration" in msgtype else "uint32"),
+            ("nanosec", "int32" if "Duration" in msgtype else "uint32"),
+        ]
     else:
         assert ros1 is model
     pkg, _, name = msgtype.split("/")
@@ -449,7 +489,8 @@ def test_ros1_layout_is_the_field_model(msgtype: str) -> None:
     if shipped.is_file():
         parsed = idl.parse_msg(shipped.read_text(encoding="utf-8"), msgtype).fields
         assert [(f.name, f.type, f.is_array, f.size) for f in parsed] == [
-            (f.name, f.type, f.is_array, f.size) for f in model]
+            (f.name, f.type, f.is_array, f.size) for f in model
+        ]
 
 
 def test_field_spec_attr_defaults_to_the_name() -> None:

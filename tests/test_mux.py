@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from conftest import NAVIGATION, TELEOP, Log, ground_speed
-
 from racecar_sim import Simulator
 from racecar_sim.drivers import ConstantCommand
 from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header

@@ -13,8 +13,8 @@ from PIL import Image
 from racecar_sim import Simulator
 from racecar_sim.core.errors import WorldError
 from racecar_sim.core.transforms import quat_from_axis_angle, quat_to_matrix
-from racecar_sim.drivers import ConstantCommand
 from racecar_sim.description import DEFAULT_XACRO, expand_xacro
+from racecar_sim.drivers import ConstantCommand
 from racecar_sim.msgs import Point, Pose, Quaternion
 from racecar_sim.msgs.gazebo_msgs import DeleteModelRequest, SpawnModelRequest
 from racecar_sim.physics.near_walls import MIN_BOXES, SLACK, WallBoxes
@@ -38,8 +38,10 @@ def speckled_room(folder: Path, seed: int = 3) -> Path:
     occupied[rows[far][:400], cols[far][:400]] = True
     Image.fromarray(np.where(occupied, 0, 254).astype(np.uint8)).save(folder / "speckle.pgm")
     path = folder / "speckle.yaml"
-    path.write_text(f"image: speckle.pgm\nresolution: {RES}\norigin: [{-SIDE / 2}, {-SIDE / 2}, 0.0]\nnegate: 0\n"
-                    "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
+    path.write_text(
+        f"image: speckle.pgm\nresolution: {RES}\norigin: [{-SIDE / 2}, {-SIDE / 2}, 0.0]\nnegate: 0\n"
+        "occupied_thresh: 0.65\nfree_thresh: 0.196\n"
+    )
     return path
 
 
@@ -50,8 +52,10 @@ def room(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def pair(room: Path, **options: object) -> tuple[Simulator, Simulator]:
     """The same world with the walls held out (near) and as geoms (full)."""
-    return (Simulator(world=str(room), camera=False, **options),
-            Simulator(world=str(room), camera=False, near_walls=False, **options))
+    return (
+        Simulator(world=str(room), camera=False, **options),
+        Simulator(world=str(room), camera=False, near_walls=False, **options),
+    )
 
 
 def place(sim: Simulator, x: float, y: float, yaw: float) -> None:
@@ -132,8 +136,9 @@ def test_scans_see_the_held_out_walls_as_the_full_model_does(room):
         np.testing.assert_array_equal(ranges[0], ranges[1])
     origin = np.array([0.3, -0.2, 0.2])
     tilted = quat_to_matrix(quat_from_axis_angle((1.0, 0.3, 0.0), 0.6))  # a crash: the scan plane is steep
-    np.testing.assert_allclose(near.car.lidar.caster.cast(origin, tilted), full.car.lidar.caster.cast(origin, tilted),
-                               rtol=0, atol=1e-12)
+    np.testing.assert_allclose(
+        near.car.lidar.caster.cast(origin, tilted), full.car.lidar.caster.cast(origin, tilted), rtol=0, atol=1e-12
+    )
 
 
 def test_a_spawn_inside_a_held_out_wall_is_refused(room):

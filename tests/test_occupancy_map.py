@@ -39,23 +39,37 @@ def room_image() -> np.ndarray:
     return img
 
 
-def write_map(folder: Path, image: np.ndarray, origin: tuple[float, float, float], negate: int = 0,
-              name: str = "room", suffix: str = ".pgm") -> Path:
+def write_map(
+    folder: Path,
+    image: np.ndarray,
+    origin: tuple[float, float, float],
+    negate: int = 0,
+    name: str = "room",
+    suffix: str = ".pgm",
+) -> Path:
     """room.yaml and its image, as map_saver writes them."""
     Image.fromarray(image).save(folder / f"{name}{suffix}")
     yaml_path = folder / f"{name}.yaml"
-    yaml_path.write_text(f"image: {name}{suffix}\nresolution: {RES}\norigin: [{origin[0]}, {origin[1]}, {origin[2]}]\n"
-                         f"negate: {negate}\noccupied_thresh: 0.65\nfree_thresh: 0.196\n")
+    yaml_path.write_text(
+        f"image: {name}{suffix}\nresolution: {RES}\norigin: [{origin[0]}, {origin[1]}, {origin[2]}]\n"
+        f"negate: {negate}\noccupied_thresh: 0.65\nfree_thresh: 0.196\n"
+    )
     return yaml_path
 
 
 def obstacles_in_map_frame() -> list[tuple[float, float, float, float]]:
     """(xmin, ymin, xmax, ymax) of the walls and the pillar, metres from the map's bottom-left corner."""
+
     def box(r0: int, c0: int, r1: int, c1: int) -> tuple[float, float, float, float]:
         return c0 * RES, (ROWS - r1) * RES, c1 * RES, (ROWS - r0) * RES
 
-    return [box(0, 0, WALL, COLS), box(ROWS - WALL, 0, ROWS, COLS), box(0, 0, ROWS, WALL),
-            box(0, COLS - WALL, ROWS, COLS), box(*PILLAR)]
+    return [
+        box(0, 0, WALL, COLS),
+        box(ROWS - WALL, 0, ROWS, COLS),
+        box(0, 0, ROWS, WALL),
+        box(0, COLS - WALL, ROWS, COLS),
+        box(*PILLAR),
+    ]
 
 
 def expected_range(start: np.ndarray, direction: np.ndarray) -> float:
@@ -77,12 +91,21 @@ def cast(sim: Simulator, x: float, y: float, yaw: float) -> tuple[float, str]:
     geomgroup[COLLISION_GROUP] = 1
     geomid = np.zeros(1, dtype=np.int32)
     base = sim.model.body(sim.car.robot.root).id
-    distance = mujoco.mj_ray(sim.model, sim.data, np.array([x, y, LIDAR_HEIGHT]),
-                             np.array([math.cos(yaw), math.sin(yaw), 0.0]), geomgroup, 1, base, geomid)
+    distance = mujoco.mj_ray(
+        sim.model,
+        sim.data,
+        np.array([x, y, LIDAR_HEIGHT]),
+        np.array([math.cos(yaw), math.sin(yaw), 0.0]),
+        geomgroup,
+        1,
+        base,
+        geomid,
+    )
     return distance, sim.model.geom(geomid[0]).name
 
 
 # --- cell_rectangles ----------------------------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("seed", range(20))
 def test_rectangles_cover_exactly_the_occupied_cells_without_overlap(seed):
@@ -117,8 +140,13 @@ def scanned_map() -> np.ndarray:
     """A scanned map's occupancy (row 0 on top): one-cell walls at several angles, a thick wall, speckle."""
     rng = np.random.default_rng(7)
     grid = np.zeros((160, 200), dtype=bool)
-    for (r0, c0), (r1, c1) in [((5, 5), (5, 195)), ((5, 5), (155, 12)), ((155, 12), (150, 195)),
-                               ((20, 40), (120, 140)), ((30, 150), (140, 170))]:  # 0, 3, 2, 45 and 80 degrees
+    for (r0, c0), (r1, c1) in [
+        ((5, 5), (5, 195)),
+        ((5, 5), (155, 12)),
+        ((155, 12), (150, 195)),
+        ((20, 40), (120, 140)),
+        ((30, 150), (140, 170)),
+    ]:  # 0, 3, 2, 45 and 80 degrees
         n = max(abs(r1 - r0), abs(c1 - c0)) + 1
         grid[np.rint(np.linspace(r0, r1, n)).astype(int), np.rint(np.linspace(c0, c1, n)).astype(int)] = True
     grid[60:64, 20:90] = True
@@ -133,11 +161,18 @@ def test_scanned_map_merges_into_few_boxes_on_exactly_its_occupied_cells(tmp_pat
     geoms, or as the model's held-out walls (physics.near_walls) when they are that many."""
     occupied = scanned_map()
     image = np.where(occupied, OCCUPIED, FREE).astype(np.uint8)
-    sim = Simulator(world=str(write_map(tmp_path, image, (-1.0, -1.0, 0.0), name="scan")), lidar=False,
-                    camera=False, near_walls=near_walls)
+    sim = Simulator(
+        world=str(write_map(tmp_path, image, (-1.0, -1.0, 0.0), name="scan")),
+        lidar=False,
+        camera=False,
+        near_walls=near_walls,
+    )
     model, data = sim.model, sim.data
-    walls = [g for g in range(model.ngeom) if model.geom(g).name.startswith("map_wall")
-             and model.geom_group[g] == COLLISION_GROUP]
+    walls = [
+        g
+        for g in range(model.ngeom)
+        if model.geom(g).name.startswith("map_wall") and model.geom_group[g] == COLLISION_GROUP
+    ]
     assert all(model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX for g in walls)
     held = WallBoxes.of(model)
     assert (held is not None) == near_walls and (len(walls) == 0) == near_walls
@@ -154,7 +189,7 @@ def test_scanned_map_merges_into_few_boxes_on_exactly_its_occupied_cells(tmp_pat
         hi = (pos[:2] + half[:2] - (-1.0, -1.0)) / RES
         np.testing.assert_allclose(np.r_[lo, hi], np.round(np.r_[lo, hi]), atol=1e-6)  # on cell boundaries
         c0, y0, c1, y1 = np.round(np.r_[lo, hi]).astype(int)
-        coverage[rows - y1:rows - y0, c0:c1] += 1
+        coverage[rows - y1 : rows - y0, c0:c1] += 1
     np.testing.assert_array_equal(coverage, occupied.astype(int))
 
 
@@ -163,13 +198,12 @@ def test_the_car_stops_at_the_face_of_the_occupied_cells(tmp_path):
     image = np.full((40, 120), FREE, dtype=np.uint8)
     image[:, 80:83] = OCCUPIED  # the wall's near face at column 80: x = -2 + 80 * 0.05 = 2.0 m
     image[10, 40:60] = OCCUPIED  # a thin wall beside the car's path, so that the map is several boxes
-    sim = Simulator(world=str(write_map(tmp_path, image, (-2.0, -1.0, 0.0), name="wall")), lidar=False,
-                    camera=False)
+    sim = Simulator(world=str(write_map(tmp_path, image, (-2.0, -1.0, 0.0), name="wall")), lidar=False, camera=False)
     ConstantCommand(sim.bus, sim.scheduler, 1.0, 0.0)
     touches = []
     for k in range(40):
         sim.run_until(0.1 * (k + 1))
-        for contact in sim.data.contact[:sim.data.ncon]:
+        for contact in sim.data.contact[: sim.data.ncon]:
             names = [sim.model.geom(g).name for g in contact.geom]
             if any(n.startswith("map_wall") for n in names):
                 touches.append(contact.pos[0] + 0.5 * contact.dist)  # the wall's side of the contact
@@ -178,6 +212,7 @@ def test_the_car_stops_at_the_face_of_the_occupied_cells(tmp_path):
 
 
 # --- loading a map ------------------------------------------------------------------------------------------------
+
 
 def test_room_walls_are_few_boxes_on_the_cells(tmp_path):
     world = load_world(write_map(tmp_path, room_image(), (-2.0, -1.5, 0.0)), wall_height=0.8)
@@ -231,17 +266,21 @@ def test_colour_pixels_are_averaged_like_map_server(tmp_path):
     # magenta averages to 170 (p = 0.33, below 0.45); by luminance it would be 105 (p = 0.59, occupied)
     pixels = np.array([[[0, 0, 0], [255, 0, 255], [255, 255, 255]]], dtype=np.uint8)
     Image.fromarray(pixels).save(tmp_path / "c.png")
-    (tmp_path / "c.yaml").write_text("image: c.png\nresolution: 1.0\norigin: [10, 10, 0]\nnegate: 0\n"
-                                     "occupied_thresh: 0.45\nfree_thresh: 0.1\n")
+    (tmp_path / "c.yaml").write_text(
+        "image: c.png\nresolution: 1.0\norigin: [10, 10, 0]\nnegate: 0\noccupied_thresh: 0.45\nfree_thresh: 0.1\n"
+    )
     (box,) = [g for _, g in load_world(tmp_path / "c.yaml").geoms(collides=True) if g.kind == "box"]
     np.testing.assert_allclose(box.pos[:2], [0.5, 0.5])
 
 
-@pytest.mark.parametrize(("mode", "negate", "expected"), [
-    ("trinary", 0, [True, True, False, False, False]),  # p = 1, 0.69, 0.5, 0.2, 0
-    ("trinary", 1, [False, False, False, True, True]),  # p = 0, 0.31, 0.5, 0.8, 1
-    ("raw", 0, [False, True, False, False, False]),  # percent: 0, 80, 128 (> 100: unknown), 204, 255
-])
+@pytest.mark.parametrize(
+    ("mode", "negate", "expected"),
+    [
+        ("trinary", 0, [True, True, False, False, False]),  # p = 1, 0.69, 0.5, 0.2, 0
+        ("trinary", 1, [False, False, False, True, True]),  # p = 0, 0.31, 0.5, 0.8, 1
+        ("raw", 0, [False, True, False, False, False]),  # percent: 0, 80, 128 (> 100: unknown), 204, 255
+    ],
+)
 def test_map_modes_mark_occupied_cells_as_map_server_does(mode, negate, expected):
     grey = np.array([[0.0, 80.0, 128.0, 204.0, 255.0]])
     meta = {"mode": mode, "negate": negate, "occupied_thresh": 0.65, "free_thresh": 0.196}
@@ -252,8 +291,11 @@ def test_spawn_in_a_wall_is_an_error_naming_the_file(tmp_path):
     """An occupied cell is an obstacle: a car spawned on one is refused, as in every world (issue 10)."""
     path = write_map(tmp_path, room_image(), (0.0, 0.0, 0.0))  # the origin is the bottom-left wall corner
     load_world(path)  # the map itself loads; the car cannot start there
-    with pytest.raises(WorldError, match=r"room\.yaml: spawn pose \(0, 0, 0\.05, 0\) is inside an obstacle: .* into "
-                                         r"map_wall"):
+    with pytest.raises(
+        WorldError,
+        match=r"room\.yaml: spawn pose \(0, 0, 0\.05, 0\) is inside an obstacle: .* into "
+        r"map_wall",
+    ):
         Simulator(world=str(path), lidar=False, camera=False)
 
 
@@ -266,8 +308,10 @@ BAD_MAPS = {
     "nan_origin.yaml": ("image: room.pgm\nresolution: 0.05\norigin: [0, .nan, 0]\n", "origin: "),
     "no_image.yaml": ("resolution: 0.05\norigin: [0, 0, 0]\n", "image: missing"),
     "bad_negate.yaml": ("image: room.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 2\n", "negate: "),
-    "bad_thresh.yaml": ("image: room.pgm\nresolution: 0.05\norigin: [0, 0, 0]\noccupied_thresh: 1.5\n",
-                        "occupied_thresh: "),
+    "bad_thresh.yaml": (
+        "image: room.pgm\nresolution: 0.05\norigin: [0, 0, 0]\noccupied_thresh: 1.5\n",
+        "occupied_thresh: ",
+    ),
 }
 
 

@@ -37,8 +37,23 @@ def _two_sided(rng: np.random.Generator, n: int, zlo: float, zhi: float) -> np.n
     b = a + rng.uniform(-3, 3, (n, 2))
     mid, half = 0.5 * (a + b), 0.5 * np.linalg.norm(b - a, axis=1)
     one = np.ones(n)
-    return np.array([a[:, 0], a[:, 1], b[:, 0], b[:, 1], zlo * one, zhi * one, mid[:, 0], mid[:, 1], half,
-                     mid[:, 0], mid[:, 1], half, 0 * one])
+    return np.array(
+        [
+            a[:, 0],
+            a[:, 1],
+            b[:, 0],
+            b[:, 1],
+            zlo * one,
+            zhi * one,
+            mid[:, 0],
+            mid[:, 1],
+            half,
+            mid[:, 0],
+            mid[:, 1],
+            half,
+            0 * one,
+        ]
+    )
 
 
 def _clutter(rng: np.random.Generator, boxes: int, partial: bool) -> np.ndarray:
@@ -51,8 +66,7 @@ def _clutter(rng: np.random.Generator, boxes: int, partial: bool) -> np.ndarray:
     if partial:
         low = rng.random(boxes) < 0.2
         pos[low, 2], half[low, 2] = 0.15, 0.15
-    segments = np.concatenate([boxes_footprints(pos, rotations, half).segments, _two_sided(rng, 20, 0.0, 2.0)],
-                              axis=1)
+    segments = np.concatenate([boxes_footprints(pos, rotations, half).segments, _two_sided(rng, 20, 0.0, 2.0)], axis=1)
     order = rng.integers(3)
     if order == 0:  # as a grid cell lists them: by tiles (runs, tested as one), near to far from its middle
         return Cell(segments, empty_circles(), empty_circles(), FANS["hokuyo"], tuple(rng.uniform(-3, 3, 2))).segments
@@ -68,8 +82,10 @@ def _bits(ranges: np.ndarray) -> np.ndarray:
 def _tables(segments: np.ndarray, fan: Fan, centre: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
     """The lean table of the walls, and the dense one (its own order)."""
     ordered = segments[:, dense.dense_order(segments, centre)]
-    return (kernels.wall_table(segments, fan.range_min, fan.range_max),
-            dense.dense_table(ordered, fan.range_min, fan.range_max))
+    return (
+        kernels.wall_table(segments, fan.range_min, fan.range_max),
+        dense.dense_table(ordered, fan.range_min, fan.range_max),
+    )
 
 
 @pytest.mark.parametrize("fan_name", FANS)
@@ -83,8 +99,19 @@ def test_the_dense_cast_equals_the_cast_of_every_wall(fan_name: str) -> None:
             origin = np.array([*rng.uniform(-9, 9, 2), 1.0 + rng.uniform(-0.2, 0.2)])
             rotation = _rotation(rng.uniform(-math.pi, math.pi), rng.choice([0.0, 1e-4, 0.05]), rng.uniform(0, 6.3))
             every, dropped = np.full(fan.count, np.inf), np.full(fan.count, np.inf)
-            args = (np.zeros(0), origin, rotation, MAX_TILT_COS, fan.angle_min, fan.inverse_step, fan.count,
-                    fan.turn, fan.range_min, fan.range_max, fan.directions)
+            args = (
+                np.zeros(0),
+                origin,
+                rotation,
+                MAX_TILT_COS,
+                fan.angle_min,
+                fan.inverse_step,
+                fan.count,
+                fan.turn,
+                fan.range_min,
+                fan.range_max,
+                fan.directions,
+            )
             answer = kernels.cast_level(lean, *args, every)
             assert dense.cast_level(culled, *args, dropped) == answer
             assert np.array_equal(_bits(dropped), _bits(every))
@@ -103,9 +130,21 @@ def test_the_dense_cast_refuses_a_partly_covering_wall_within_reach() -> None:
     for at in (0, segments.shape[1] // 2, segments.shape[1]):
         table = dense.dense_table(np.insert(segments, [at], low, axis=1), fan.range_min, fan.range_max)
         ranges = np.full(fan.count, np.inf)
-        assert not dense.cast_level(table, np.zeros(0), np.array([0.0, 0.0, 0.3]), _rotation(0.0, 0.2, 0.0),
-                                    MAX_TILT_COS, fan.angle_min, fan.inverse_step, fan.count, fan.turn,
-                                    fan.range_min, fan.range_max, fan.directions, ranges)
+        assert not dense.cast_level(
+            table,
+            np.zeros(0),
+            np.array([0.0, 0.0, 0.3]),
+            _rotation(0.0, 0.2, 0.0),
+            MAX_TILT_COS,
+            fan.angle_min,
+            fan.inverse_step,
+            fan.count,
+            fan.turn,
+            fan.range_min,
+            fan.range_max,
+            fan.directions,
+            ranges,
+        )
         assert np.isinf(ranges).all()
 
 
@@ -114,6 +153,8 @@ def test_fast_angle_is_within_its_margin() -> None:
     angles = np.linspace(-math.pi, math.pi, 200_001)
     for radius in (1e-3, 1.0, 50.0):
         x, y = radius * np.cos(angles), radius * np.sin(angles)
-        error = [abs(math.remainder(dense._fast_angle(a, b) - math.atan2(b, a), 2 * math.pi)) for a, b in
-                 zip(x[::7].tolist(), y[::7].tolist())]
+        error = [
+            abs(math.remainder(dense._fast_angle(a, b) - math.atan2(b, a), 2 * math.pi))
+            for a, b in zip(x[::7].tolist(), y[::7].tolist())
+        ]
         assert max(error) < 2e-5 < dense._ARC_MARGIN / 4

@@ -46,8 +46,9 @@ Row = tuple[str, int, bytes]  # topic, log time, payload
 
 def record_and_kill(path: Path, at: float = KILL_AT) -> None:
     """A recording process stopped by SIGKILL at sim time `at`: no close(), no footer."""
-    proc = subprocess.Popen([sys.executable, "-c", RECORD_THEN_WAIT, str(path), str(at)], stdout=subprocess.PIPE,
-                            text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-c", RECORD_THEN_WAIT, str(path), str(at)], stdout=subprocess.PIPE, text=True
+    )
     try:
         assert proc.stdout is not None and proc.stdout.readline().strip() == "ready"
     finally:
@@ -70,7 +71,7 @@ def intact_rows(path: Path) -> tuple[list[Row], bool]:
                     topics[record.id] = record.topic
                 elif type(record).__name__ == "Message":
                     rows.append((topics[record.channel_id], record.log_time, record.data))
-        except Exception:  # noqa: BLE001  # whatever the cut makes the reader raise
+        except Exception:  # whatever the cut makes the reader raise
             return rows, True
     return rows, False
 
@@ -112,9 +113,9 @@ def test_sigkill_mid_run_is_recovered_with_every_message_of_the_complete_chunks(
     record_and_kill(broken)
 
     # The problem: no footer, so the readers that start from the summary refuse the file.
-    with pytest.raises(Exception):  # noqa: B017, PT011  # rosbags: "File end magic is invalid."
+    with pytest.raises(Exception):  # noqa: B017  # rosbags: "File end magic is invalid."
         rosbags_rows(broken)
-    with pytest.raises(Exception), broken.open("rb") as f:  # noqa: B017, PT011
+    with pytest.raises(Exception), broken.open("rb") as f:  # noqa: B017
         list(make_reader(f).iter_messages())
     expected, cut = intact_rows(broken)
     assert cut, "the killed file must end without a footer"
@@ -159,13 +160,31 @@ def test_sigkill_mid_run_is_recovered_with_every_message_of_the_complete_chunks(
 def test_cli_run_killed_while_writing_is_recovered(tmp_path: Path) -> None:
     """`racecar-sim run` killed at an arbitrary moment, possibly in the middle of writing a chunk."""
     broken, fixed = tmp_path / "run.mcap", tmp_path / "fixed.mcap"
-    proc = subprocess.Popen([*CLI, "run", "--world", "empty", "--driver", "constant", "--no-camera", "--duration",
-                             "3000", "--record", str(broken), "--out", str(tmp_path), "--no-summary"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    proc = subprocess.Popen(
+        [
+            *CLI,
+            "run",
+            "--world",
+            "empty",
+            "--driver",
+            "constant",
+            "--no-camera",
+            "--duration",
+            "3000",
+            "--record",
+            str(broken),
+            "--out",
+            str(tmp_path),
+            "--no-summary",
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     try:
         deadline = time.time() + 120
-        while time.time() < deadline and proc.poll() is None and (
-                not broken.exists() or broken.stat().st_size < 150_000):
+        while (
+            time.time() < deadline and proc.poll() is None and (not broken.exists() or broken.stat().st_size < 150_000)
+        ):
             time.sleep(0.01)
     finally:
         os.kill(proc.pid, signal.SIGKILL)
@@ -237,8 +256,9 @@ def test_complete_file_is_rewritten_with_the_same_messages(tmp_path: Path) -> No
     with original.open("rb") as a, copy.open("rb") as b:
         sa, sb = make_reader(a).get_summary(), make_reader(b).get_summary()
         assert sa is not None and sb is not None
-        assert [(c.topic, c.message_encoding, c.metadata) for c in sa.channels.values()] == \
-               [(c.topic, c.message_encoding, c.metadata) for c in sb.channels.values()]
+        assert [(c.topic, c.message_encoding, c.metadata) for c in sa.channels.values()] == [
+            (c.topic, c.message_encoding, c.metadata) for c in sb.channels.values()
+        ]
         assert [(s.name, s.data) for s in sa.schemas.values()] == [(s.name, s.data) for s in sb.schemas.values()]
     # In place: the output replaces the input only once it is complete.
     again = recover_mcap(copy, copy)
@@ -299,7 +319,8 @@ def test_recover_to_an_unwritable_place_is_one_line(tmp_path: Path) -> None:
     result = recover_cli(str(source), "-o", "/proc/recovered.mcap")
     assert result.returncode == 2 and "Traceback" not in result.stderr
     assert result.stderr.strip().splitlines() == [
-        "racecar-sim: error: /proc/recovered.mcap: cannot write the recovered file (No such file or directory)"]
+        "racecar-sim: error: /proc/recovered.mcap: cannot write the recovered file (No such file or directory)"
+    ]
 
 
 def test_recorder_rejects_a_directory_or_unwritable_folder_in_one_line(tmp_path: Path) -> None:

@@ -22,8 +22,10 @@ from racecar_sim.bridges.ros1.environment import ros_environment
 from racecar_sim.bridges.ros1.master import Master
 from racecar_sim.runtime import Simulator
 
-pytestmark = pytest.mark.skipif(not (Path("/usr/bin/roscore").exists() and ros_available()),
-                                reason="ROS 1 is not installed (apt-get install ros-core python3-rospy ...)")
+pytestmark = pytest.mark.skipif(
+    not (Path("/usr/bin/roscore").exists() and ros_available()),
+    reason="ROS 1 is not installed (apt-get install ros-core python3-rospy ...)",
+)
 PACE = 0.02  # s of wall time slept per 0.05 s of sim time: ROS processes keep up on a 2-core machine
 NAVIGATION = "/vesc/ackermann_cmd_mux/input/navigation"
 
@@ -55,8 +57,9 @@ def bridged(master: Master, **sim_options) -> tuple[Simulator, RosBridge]:
     return sim, bridge
 
 
-def run_while(sim: Simulator, processes: list[subprocess.Popen], limit: float = 60.0,
-              sim_limit: float | None = None) -> None:
+def run_while(
+    sim: Simulator, processes: list[subprocess.Popen], limit: float = 60.0, sim_limit: float | None = None
+) -> None:
     """Advance the sim (paced) until every process exits, `limit` wall seconds pass, or sim time reaches sim_limit."""
     end = time.monotonic() + limit
     while any(p.poll() is None for p in processes) and time.monotonic() < end:
@@ -94,7 +97,10 @@ def wait_connected(bridge: RosBridge, topic: str, sim: Simulator, limit: float =
 
 
 def test_scan_at_40_hz_of_sim_time_with_ros1_types(master: Master, ros_env: dict, tmp_path: Path) -> None:
-    sub = ros_script(tmp_path, "scan_sub.py", """
+    sub = ros_script(
+        tmp_path,
+        "scan_sub.py",
+        """
         import rospy
         from sensor_msgs.msg import LaserScan
         got = []
@@ -106,7 +112,9 @@ def test_scan_at_40_hz_of_sim_time_with_ros1_types(master: Master, ros_env: dict
             rospy.sleep(rospy.Duration(0, 10_000_000))
         for item in got:
             print(*item)
-    """, ros_env)
+    """,
+        ros_env,
+    )
     sim, bridge = bridged(master)
     try:
         run_while(sim, [sub])
@@ -130,8 +138,19 @@ def test_rostopic_pub_of_ackermann_drives_the_car(master: Master, ros_env: dict)
     sim, bridge = bridged(master)
     odom = []
     sim.subscribe("/vesc/odom", odom.append)
-    pub = subprocess.Popen(["rostopic", "pub", "-r", "20", NAVIGATION, "ackermann_msgs/AckermannDriveStamped",
-                            "{drive: {speed: 1.0, steering_angle: 0.0}}"], env=ros_env, stdout=subprocess.DEVNULL)
+    pub = subprocess.Popen(
+        [
+            "rostopic",
+            "pub",
+            "-r",
+            "20",
+            NAVIGATION,
+            "ackermann_msgs/AckermannDriveStamped",
+            "{drive: {speed: 1.0, steering_angle: 0.0}}",
+        ],
+        env=ros_env,
+        stdout=subprocess.DEVNULL,
+    )
     try:
         end = time.monotonic() + 30
         while bridge.received == 0 and time.monotonic() < end:  # rostopic connects to the bridge
@@ -153,8 +172,12 @@ def test_rostopic_pub_of_ackermann_drives_the_car(master: Master, ros_env: dict)
 def test_rosbag_record_counts_match_sim_time(master: Master, ros_env: dict, tmp_path: Path) -> None:
     bag = tmp_path / "run.bag"
     sim, bridge = bridged(master)
-    record = subprocess.Popen(["rosbag", "record", "-O", str(bag), "/scan", "/vesc/odom"], env=ros_env,
-                              stdout=subprocess.DEVNULL, start_new_session=True)
+    record = subprocess.Popen(
+        ["rosbag", "record", "-O", str(bag), "/scan", "/vesc/odom"],
+        env=ros_env,
+        stdout=subprocess.DEVNULL,
+        start_new_session=True,
+    )
     try:
         wait_connected(bridge, "/scan", sim)
         wait_connected(bridge, "/vesc/odom", sim)
@@ -167,12 +190,23 @@ def test_rosbag_record_counts_match_sim_time(master: Master, ros_env: dict, tmp_
         record.wait(20)
         bridge.close()
         sim.close()
-    reader = subprocess.run([ros_python(), "-c", textwrap.dedent("""
+    reader = subprocess.run(
+        [
+            ros_python(),
+            "-c",
+            textwrap.dedent("""
         import sys, rosbag
         with rosbag.Bag(sys.argv[1]) as bag:
             for topic, msg, t in bag.read_messages():
                 print(topic, msg._type, msg.header.stamp.to_nsec())
-    """), str(bag)], env=ros_env, capture_output=True, text=True, check=True)
+    """),
+            str(bag),
+        ],
+        env=ros_env,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     rows = [line.split() for line in reader.stdout.splitlines()]
     scans = [int(r[2]) / 1e9 for r in rows if r[0] == "/scan"]
     odoms = [int(r[2]) / 1e9 for r in rows if r[0] == "/vesc/odom"]
@@ -188,13 +222,18 @@ def test_rosservice_get_model_state_answers_with_the_pose(master: Master, ros_en
     try:
         sim.run_for(0.5)
         wait_for_service(bridge, "/gazebo/get_model_state")
-        call = subprocess.Popen(["rosservice", "call", "/gazebo/get_model_state", "{model_name: racecar}"],
-                                env=ros_env, stdout=subprocess.PIPE, text=True)
+        call = subprocess.Popen(
+            ["rosservice", "call", "/gazebo/get_model_state", "{model_name: racecar}"],
+            env=ros_env,
+            stdout=subprocess.PIPE,
+            text=True,
+        )
         while call.poll() is None:  # the sim answers only while it runs (or spins)
             bridge.spin_once(0.05)
         out = call.communicate()[0]
-        expected = sim.gazebo.get_model_state(__import__("racecar_sim.msgs.gazebo_msgs", fromlist=["x"])
-                                              .GetModelStateRequest("racecar"))
+        expected = sim.gazebo.get_model_state(
+            __import__("racecar_sim.msgs.gazebo_msgs", fromlist=["x"]).GetModelStateRequest("racecar")
+        )
     finally:
         bridge.close()
         sim.close()
@@ -207,7 +246,10 @@ def test_rosservice_get_model_state_answers_with_the_pose(master: Master, ros_en
 
 
 def test_sim_time_node_follows_clock(master: Master, ros_env: dict, tmp_path: Path) -> None:
-    node = ros_script(tmp_path, "clock_node.py", """
+    node = ros_script(
+        tmp_path,
+        "clock_node.py",
+        """
         import rospy
         from rosgraph_msgs.msg import Clock
         rospy.init_node("sim_time_node")
@@ -217,7 +259,9 @@ def test_sim_time_node_follows_clock(master: Master, ros_env: dict, tmp_path: Pa
             rospy.sleep(0.01)  # sim time: returns as the sim's clock runs
         now = rospy.Time.now()
         print(rospy.get_param("/use_sim_time"), seen[-1].to_sec(), now.to_sec())
-    """, ros_env)
+    """,
+        ros_env,
+    )
     sim, bridge = bridged(master)
     try:
         run_while(sim, [node])
@@ -237,7 +281,10 @@ def test_servo_commands_as_a_ros_node_drives_the_car(master: Master, ros_env: di
     from racecar_sim.runtime.car import Car, CarNodes
 
     # racecar_control's servo_commands.py: wheel speeds from the speed, both hinges from the steering angle
-    servo = ros_script(tmp_path, "servo_commands.py", """
+    servo = ros_script(
+        tmp_path,
+        "servo_commands.py",
+        """
         import rospy
         from std_msgs.msg import Float64
         from ackermann_msgs.msg import AckermannDriveStamped
@@ -255,7 +302,9 @@ def test_servo_commands_as_a_ros_node_drives_the_car(master: Master, ros_env: di
                 pub.publish(data.drive.steering_angle)
         rospy.Subscriber("/vesc/low_level/ackermann_cmd_mux/output", AckermannDriveStamped, on_drive)
         rospy.spin()
-    """, ros_env)
+    """,
+        ros_env,
+    )
     sim = Simulator(world="empty", cars=[Car("", camera=False, nodes=CarNodes(servo_input=None))])
     bridge = RosBridge(sim, master.uri)
     bridge.start()
@@ -269,8 +318,9 @@ def test_servo_commands_as_a_ros_node_drives_the_car(master: Master, ros_env: di
         while sim.time < start_t + 3.0 and time.monotonic() < end:
             sim.run_for(0.05)
             time.sleep(PACE)
-        x = sim.gazebo.get_model_state(__import__("racecar_sim.msgs.gazebo_msgs", fromlist=["x"])
-                                       .GetModelStateRequest("racecar")).pose.position.x
+        x = sim.gazebo.get_model_state(
+            __import__("racecar_sim.msgs.gazebo_msgs", fromlist=["x"]).GetModelStateRequest("racecar")
+        ).pose.position.x
     finally:
         servo.send_signal(signal.SIGINT)
         servo.wait(10)

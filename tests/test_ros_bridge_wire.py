@@ -110,8 +110,18 @@ def sim_messages() -> dict[str, object]:
     header = Header.at(1_234_567_890, "camera")
     found["sensor_msgs/msg/Image"] = Image(header, 2, 3, "bgr8", 0, 9, bytes(range(18)))
     found["sensor_msgs/msg/CameraInfo"] = CameraInfo(
-        header, 480, 640, "plumb_bob", np.arange(5.0), np.arange(9.0), np.eye(3).ravel(), np.arange(12.0), 1, 2,
-        RegionOfInterest(1, 2, 3, 4, True))
+        header,
+        480,
+        640,
+        "plumb_bob",
+        np.arange(5.0),
+        np.arange(9.0),
+        np.eye(3).ravel(),
+        np.arange(12.0),
+        1,
+        2,
+        RegionOfInterest(1, 2, 3, 4, True),
+    )
     return found
 
 
@@ -134,8 +144,13 @@ def test_codec_matches_genpy_both_ways() -> None:
         msgtype = wire.type_of(type(msg))
         batch.append((wire.ros1_name(msgtype), "srv" if "/srv/" in msgtype else "msg", wire.serialize(msg, 42)))
     env = {"PYTHONPATH": str(message_path()), "PATH": "/usr/bin:/bin"}
-    done = subprocess.run([ros_python(), "-c", GENPY_SIDE], input=pickle.dumps(batch, protocol=4), env=env,
-                          capture_output=True, check=True)
+    done = subprocess.run(
+        [ros_python(), "-c", GENPY_SIDE],
+        input=pickle.dumps(batch, protocol=4),
+        env=env,
+        capture_output=True,
+        check=True,
+    )
     for msg, (ros_type, _, ours), (theirs, written) in zip(messages, batch, pickle.loads(done.stdout)):
         assert_same(plain(msg), theirs, ros_type)  # genpy reads our bytes as the same values
         if isinstance(theirs, dict) and isinstance(theirs.get("header"), dict):

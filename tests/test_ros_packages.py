@@ -6,15 +6,11 @@ import os
 from pathlib import Path
 
 import pytest
-from conftest import laser_pose
-from ros_package_helpers import (
-    SHIPPED_URDF,
-    write_description_package,
-    write_package_xml,
-)
 
+from conftest import laser_pose
 from racecar_sim import Simulator
 from racecar_sim.core.errors import ConfigError
+from racecar_sim.description import DEFAULT_XACRO, load_robot, package_path
 from racecar_sim.description.ros_packages import (
     SHIPPED_ROOTS,
     PackageNotFound,
@@ -23,7 +19,11 @@ from racecar_sim.description.ros_packages import (
     gazebo_model_dirs,
     resolve_uri,
 )
-from racecar_sim.description import DEFAULT_XACRO, load_robot, package_path
+from ros_package_helpers import (
+    SHIPPED_URDF,
+    write_description_package,
+    write_package_xml,
+)
 
 WALL_X, WALL_THICKNESS = 2.0, 0.2  # the box_wall model's centre (as included) and thickness, m
 
@@ -82,12 +82,16 @@ def test_add_package_path_prepends_and_refuses_missing_folders(tmp_path, monkeyp
 def test_the_users_racecar_description_shadows_the_shipped_one(tmp_path, monkeypatch):
     """A user's racecar.xacro including its own macros.xacro, with a macro only it defines: once "unknown macro
     name", since $(find racecar_description) always pointed at the shipped copy."""
-    xacro = write_description_package(tmp_path, "racecar_description",
-                                      edit={'<xacro:bumper_geometry x="0.40"/>': '<xacro:user_only_bumper/>'})
+    xacro = write_description_package(
+        tmp_path, "racecar_description", edit={'<xacro:bumper_geometry x="0.40"/>': "<xacro:user_only_bumper/>"}
+    )
     macros = xacro.parent / "macros.xacro"
-    macros.write_text(macros.read_text().replace(
-        "</robot>", '<xacro:macro name="user_only_bumper"><geometry><sphere radius="0.0321"/></geometry>'
-                    "</xacro:macro></robot>"))
+    macros.write_text(
+        macros.read_text().replace(
+            "</robot>",
+            '<xacro:macro name="user_only_bumper"><geometry><sphere radius="0.0321"/></geometry></xacro:macro></robot>',
+        )
+    )
     monkeypatch.setenv("ROS_PACKAGE_PATH", str(tmp_path))
     robot = load_robot(xacro)
     spheres = [v for v in robot.links["chassis_inertia"].visuals if v.geometry.kind == "sphere"]
@@ -98,10 +102,14 @@ def test_the_users_racecar_description_shadows_the_shipped_one(tmp_path, monkeyp
 
 
 def test_gazebo_model_dirs_honour_gazebo_ros_exports(tmp_path, monkeypatch):
-    package = write_package_xml(tmp_path / "ws" / "my_worlds", "my_worlds",
-                                export='<gazebo_ros gazebo_model_path="${prefix}/models"/>')
-    write_package_xml(tmp_path / "ws" / "sub" / "racecar_gazebo", "racecar_gazebo",
-                      export='<gazebo_ros gazebo_model_path="${prefix}/.."/>')  # as the original's package.xml
+    package = write_package_xml(
+        tmp_path / "ws" / "my_worlds", "my_worlds", export='<gazebo_ros gazebo_model_path="${prefix}/models"/>'
+    )
+    write_package_xml(
+        tmp_path / "ws" / "sub" / "racecar_gazebo",
+        "racecar_gazebo",
+        export='<gazebo_ros gazebo_model_path="${prefix}/.."/>',
+    )  # as the original's package.xml
     write_package_xml(tmp_path / "later" / "other", "other")
     monkeypatch.setenv("ROS_PACKAGE_PATH", f"{tmp_path / 'ws'}:{tmp_path / 'later'}")
     monkeypatch.setenv("GAZEBO_MODEL_PATH", str(tmp_path / "gz"))
@@ -125,20 +133,24 @@ def test_a_broken_package_xml_on_the_path_is_one_line(tmp_path, monkeypatch):
 def _box_wall_model(models):
     wall = models / "box_wall"
     wall.mkdir(parents=True)
-    (wall / "model.config").write_text("<?xml version='1.0'?><model><name>box_wall</name><sdf version='1.6'>"
-                                       "model.sdf</sdf></model>")
+    (wall / "model.config").write_text(
+        "<?xml version='1.0'?><model><name>box_wall</name><sdf version='1.6'>model.sdf</sdf></model>"
+    )
     geometry = f"<geometry><box><size>{WALL_THICKNESS} 4 1</size></box></geometry>"
     (wall / "model.sdf").write_text(
         f"<?xml version='1.0'?><sdf version='1.6'><model name='box_wall'><static>true</static>"
         f"<link name='l'><pose>0 0 0.5 0 0 0</pose><collision name='c'>{geometry}</collision>"
-        f"<visual name='v'>{geometry}</visual></link></model></sdf>")
+        f"<visual name='v'>{geometry}</visual></link></model></sdf>"
+    )
 
 
 def _wall_world(tmp_path, uri):
     path = tmp_path / "wall.world"
-    path.write_text(f"<?xml version='1.0'?><sdf version='1.6'><world name='w'>"
-                    f"<include><uri>model://ground_plane</uri></include>"
-                    f"<include><uri>{uri}</uri><pose>{WALL_X} 0 0 0 0 0</pose></include></world></sdf>")
+    path.write_text(
+        f"<?xml version='1.0'?><sdf version='1.6'><world name='w'>"
+        f"<include><uri>model://ground_plane</uri></include>"
+        f"<include><uri>{uri}</uri><pose>{WALL_X} 0 0 0 0 0</pose></include></world></sdf>"
+    )
     return path
 
 
@@ -166,8 +178,9 @@ def test_a_world_finds_model_uris_inside_a_package_on_the_path(tmp_path, monkeyp
 
 
 def test_a_world_finds_models_a_package_exports(tmp_path, monkeypatch):
-    write_package_xml(tmp_path / "ws" / "its_pkg", "its_pkg",
-                      export='<gazebo_ros gazebo_model_path="${prefix}/models"/>')
+    write_package_xml(
+        tmp_path / "ws" / "its_pkg", "its_pkg", export='<gazebo_ros gazebo_model_path="${prefix}/models"/>'
+    )
     _box_wall_model(tmp_path / "ws" / "its_pkg" / "models")
     world = _wall_world(tmp_path, "model://box_wall")
     monkeypatch.setenv("ROS_PACKAGE_PATH", str(tmp_path / "ws"))

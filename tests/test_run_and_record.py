@@ -31,14 +31,27 @@ def run_cli(*args: str, **kwargs) -> subprocess.CompletedProcess:
 
 def payloads(path: Path) -> list[tuple[str, int, bytes]]:
     with open(path, "rb") as f:
-        return [(channel.topic, message.log_time, message.data)
-                for _, channel, message in make_reader(f).iter_messages(log_time_order=True)]
+        return [
+            (channel.topic, message.log_time, message.data)
+            for _, channel, message in make_reader(f).iter_messages(log_time_order=True)
+        ]
 
 
 def test_run_prints_summary_and_records_every_topic(tmp_path):
     out = tmp_path / "circle.mcap"
-    result = run_cli(*CONSTANT, "--duration", "10", "--speed", "1.0", "--steering", "0.2", "--record", str(out),
-                     "--out", str(tmp_path))
+    result = run_cli(
+        *CONSTANT,
+        "--duration",
+        "10",
+        "--speed",
+        "1.0",
+        "--steering",
+        "0.2",
+        "--record",
+        str(out),
+        "--out",
+        str(tmp_path),
+    )
     assert result.returncode == 0, result.stderr
     assert "real-time factor" in result.stdout and "distance" in result.stdout
     distance = float(next(line for line in result.stdout.splitlines() if line.startswith("distance")).split()[1])
@@ -65,8 +78,22 @@ def test_same_seed_gives_identical_recordings(tmp_path):
     files = []
     for name in ("a.mcap", "b.mcap"):
         files.append(tmp_path / name)
-        assert run_cli(*CONSTANT, "--duration", "3", "--steering", "0.3", "--seed", "7", "--record", str(files[-1]),
-                       "--out", str(tmp_path / name[0])).returncode == 0
+        assert (
+            run_cli(
+                *CONSTANT,
+                "--duration",
+                "3",
+                "--steering",
+                "0.3",
+                "--seed",
+                "7",
+                "--record",
+                str(files[-1]),
+                "--out",
+                str(tmp_path / name[0]),
+            ).returncode
+            == 0
+        )
     first, second = payloads(files[0]), payloads(files[1])
     assert len(first) > 1000 and first == second
 
@@ -74,9 +101,13 @@ def test_same_seed_gives_identical_recordings(tmp_path):
 @pytest.mark.skipif(os.name != "posix", reason="signals")
 def test_interrupted_run_leaves_a_readable_recording(tmp_path):
     out = tmp_path / "interrupted.mcap"
-    proc = subprocess.Popen([*CLI, *CONSTANT, "--duration", "3000", "--realtime", "--record", str(out), "--out",
-                             str(tmp_path)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=default_sigint)
+    proc = subprocess.Popen(
+        [*CLI, *CONSTANT, "--duration", "3000", "--realtime", "--record", str(out), "--out", str(tmp_path)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=default_sigint,
+    )
     deadline = time.time() + 60
     while time.time() < deadline and (not out.exists() or out.stat().st_size < 2000):
         time.sleep(0.2)
@@ -89,8 +120,13 @@ def test_interrupted_run_leaves_a_readable_recording(tmp_path):
 
 
 def test_bad_arguments_give_one_line_and_exit_2():
-    for args in (["run", "--speed", "nan"], ["run", "--profile", "fast"], ["run", "--duration", "-1"],
-                 ["run", "--world", "no_such_world"], ["run", "--spawn", "1,2"]):
+    for args in (
+        ["run", "--speed", "nan"],
+        ["run", "--profile", "fast"],
+        ["run", "--duration", "-1"],
+        ["run", "--world", "no_such_world"],
+        ["run", "--spawn", "1,2"],
+    ):
         result = run_cli(*args)
         assert result.returncode == 2, args
         lines = result.stderr.strip().splitlines()

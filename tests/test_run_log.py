@@ -10,8 +10,17 @@ import math
 import numpy as np
 
 from racecar_sim.bus import Bus
-from racecar_sim.msgs import (Header, Odometry, Point, Pose, PoseWithCovariance, Quaternion, Twist, TwistWithCovariance,
-                              Vector3)
+from racecar_sim.msgs import (
+    Header,
+    Odometry,
+    Point,
+    Pose,
+    PoseWithCovariance,
+    Quaternion,
+    Twist,
+    TwistWithCovariance,
+    Vector3,
+)
 from racecar_sim.runtime.run_log import ODOMETRY_RATE, TRAJECTORY_ROWS, RunLog
 from racecar_sim.worlds import load_world
 
@@ -26,9 +35,15 @@ def drive(count: int) -> tuple[RunLog, list[tuple[float, float, float]]]:
     for i in range(count):
         a = 0.001 * i
         x, y, vx, vy = 5.0 * math.cos(a), 5.0 * math.sin(a), -math.sin(a) * (1 + 0.001 * (i % 500)), math.cos(a)
-        bus.publish("/vesc/odom", Odometry(Header.at(i * PERIOD_NS, "map"), "odom",
-                                           PoseWithCovariance(Pose(Point(x, y, 0.0), Quaternion(0.0, 0.0, 0.0, 1.0))),
-                                           TwistWithCovariance(Twist(Vector3(vx, vy, 0.0), Vector3()))))
+        bus.publish(
+            "/vesc/odom",
+            Odometry(
+                Header.at(i * PERIOD_NS, "map"),
+                "odom",
+                PoseWithCovariance(Pose(Point(x, y, 0.0), Quaternion(0.0, 0.0, 0.0, 1.0))),
+                TwistWithCovariance(Twist(Vector3(vx, vy, 0.0), Vector3())),
+            ),
+        )
         rows.append((x, y, math.hypot(vx, vy)))
     return log, rows
 

@@ -8,8 +8,8 @@ from fractions import Fraction
 import pytest
 
 from racecar_sim.bus import Bus
-from racecar_sim.runtime.scheduler import Scheduler
 from racecar_sim.msgs import String
+from racecar_sim.runtime.scheduler import Scheduler
 
 STEP_NS = 1_000_000  # 1 ms physics step
 
@@ -89,8 +89,9 @@ def test_a_restarted_timeout_fires_as_a_fresh_one_shot_would():
                 else:
                     if one_shot is not None:
                         one_shot.cancel()
-                    one_shot = scheduler.at(now + plan[step] * 1_000_000, lambda t: fired.append((t, "timeout")),
-                                            "timeout")
+                    one_shot = scheduler.at(
+                        now + plan[step] * 1_000_000, lambda t: fired.append((t, "timeout")), "timeout"
+                    )
             scheduler.next_time()
             scheduler.run_due(now)
         return fired

@@ -27,8 +27,10 @@ PAD = (-1.5, -1.5, 0.2)  # x, y, mu of a low-friction pad, 1.2 m square, 2 cm ta
 def _box(name: str, pose: str, size: str, mu: float | None = None) -> str:
     surface = f"<surface><friction><ode><mu>{mu}</mu><mu2>{mu}</mu2></ode></friction></surface>" if mu else ""
     geometry = f"<geometry><box><size>{size}</size></box></geometry>"
-    return (f"<link name='{name}'><pose>{pose}</pose><collision name='c'>{geometry}{surface}</collision>"
-            f"<visual name='v'>{geometry}</visual></link>")
+    return (
+        f"<link name='{name}'><pose>{pose}</pose><collision name='c'>{geometry}{surface}</collision>"
+        f"<visual name='v'>{geometry}</visual></link>"
+    )
 
 
 @pytest.fixture
@@ -39,13 +41,18 @@ def world_file(tmp_path):
     crate.mkdir(parents=True)
     (crate / "model.sdf").write_text(
         f"<sdf version='1.6'><model name='crate'><static>true</static><pose>9 9 0 0 0 0</pose>"
-        f"{_box('body', f'0 0 {CRATE_SIZE[2] / 2} 0 0 0', ' '.join(map(str, CRATE_SIZE)), mu=0.7)}</model></sdf>")
+        f"{_box('body', f'0 0 {CRATE_SIZE[2] / 2} 0 0 0', ' '.join(map(str, CRATE_SIZE)), mu=0.7)}</model></sdf>"
+    )
     half = ROOM / 2 + WALL / 2
     span = ROOM + 2 * WALL
-    walls = "".join([_box("north", f"0 {half} 0.5 0 0 0", f"{span} {WALL} 1"),
-                     _box("south", f"0 {-half} 0.5 0 0 0", f"{span} {WALL} 1"),
-                     _box("east", f"{half} 0 0.5 0 0 0", f"{WALL} {span} 1"),
-                     _box("west", f"{-half} 0 0.5 0 0 0", f"{WALL} {span} 1")])
+    walls = "".join(
+        [
+            _box("north", f"0 {half} 0.5 0 0 0", f"{span} {WALL} 1"),
+            _box("south", f"0 {-half} 0.5 0 0 0", f"{span} {WALL} 1"),
+            _box("east", f"{half} 0 0.5 0 0 0", f"{WALL} {span} 1"),
+            _box("west", f"{-half} 0 0.5 0 0 0", f"{WALL} {span} 1"),
+        ]
+    )
     x, y, r, h = PILLAR
     text = f"""<?xml version="1.0"?>
 <sdf version="1.7">
@@ -63,7 +70,7 @@ def world_file(tmp_path):
       <visual name="v"><geometry><mesh><uri>obstacle.stl</uri></mesh></geometry></visual></link></model>
     <include><uri>model://crate</uri><name>crate_1</name>
       <pose>{CRATE_AT[0]} {CRATE_AT[1]} 0 0 0 {CRATE_YAW}</pose></include>
-    <model name="pad"><static>true</static>{_box('link', f'{PAD[0]} {PAD[1]} 0.01 0 0 0', '1.2 1.2 0.02', mu=PAD[2])}</model>
+    <model name="pad"><static>true</static>{_box("link", f"{PAD[0]} {PAD[1]} 0.01 0 0 0", "1.2 1.2 0.02", mu=PAD[2])}</model>
     <model name="block"><pose>{PAD[0] - 0.4} {PAD[1]} 0.07 0 0 0</pose>
       <link name="link"><inertial><mass>2.0</mass><inertia><ixx>0.01</ixx><iyy>0.01</iyy><izz>0.01</izz></inertia>
       </inertial><collision name='c'><geometry><box><size>0.1 0.1 0.1</size></box></geometry></collision>
@@ -78,8 +85,16 @@ def world_file(tmp_path):
 def _ray(model, data, origin, direction) -> float:
     groups = np.zeros(6, np.uint8)
     groups[COLLISION_GROUP] = 1
-    d = mujoco.mj_ray(model, data, np.asarray(origin, float), np.asarray(direction, float) / np.linalg.norm(direction),
-                      groups, 1, -1, np.array([-1], np.int32))
+    d = mujoco.mj_ray(
+        model,
+        data,
+        np.asarray(origin, float),
+        np.asarray(direction, float) / np.linalg.norm(direction),
+        groups,
+        1,
+        -1,
+        np.array([-1], np.int32),
+    )
     return math.inf if d < 0 else d
 
 
@@ -120,18 +135,21 @@ def test_ray_casts_find_each_object(sim):
     assert _ray(m, d, (x, y, 1.2), (0, 0, -1)) == pytest.approx(0.2, abs=1e-6), "the pillar is 1 m tall"
 
 
-@pytest.mark.parametrize("where, top", [(PILLAR[:2], PILLAR[3]), (MESH_AT, MESH_SIZE[2]), (CRATE_AT, CRATE_SIZE[2]),
-                                        ((0.0, 2.0), 0.0)])
+@pytest.mark.parametrize(
+    "where, top", [(PILLAR[:2], PILLAR[3]), (MESH_AT, MESH_SIZE[2]), (CRATE_AT, CRATE_SIZE[2]), ((0.0, 2.0), 0.0)]
+)
 def test_a_dropped_ball_lands_on_each_object(world_file, where, top):
     """Contact, not just ray casts: a free ball dropped over an object comes to rest on its top face."""
     path, models = world_file
     world = load_world(str(path), model_path=[models])
     ball = path.parent / "ball.world"
     radius = 0.05
-    ball.write_text(f"<sdf version='1.6'><world name='b'><model name='ball'><pose>{where[0]} {where[1]} 1.5 0 0 0</pose>"
-                    f"<link name='l'><inertial><mass>0.1</mass><inertia><ixx>1e-4</ixx><iyy>1e-4</iyy><izz>1e-4</izz>"
-                    f"</inertia></inertial><collision name='c'><geometry><sphere><radius>{radius}</radius></sphere>"
-                    f"</geometry></collision></link></model></world></sdf>")
+    ball.write_text(
+        f"<sdf version='1.6'><world name='b'><model name='ball'><pose>{where[0]} {where[1]} 1.5 0 0 0</pose>"
+        f"<link name='l'><inertial><mass>0.1</mass><inertia><ixx>1e-4</ixx><iyy>1e-4</iyy><izz>1e-4</izz>"
+        f"</inertia></inertial><collision name='c'><geometry><sphere><radius>{radius}</radius></sphere>"
+        f"</geometry></collision></link></model></world></sdf>"
+    )
     world.bodies += load_world(str(ball)).bodies
     sim = Simulator(world=world, spawn=None)
     sim.run_until(2.0)
@@ -144,7 +162,7 @@ def test_friction_is_the_smaller_of_the_two_surfaces(sim):
     m, d = sim.model, sim.data
     joint = m.joint("block::link::free")
     sim.run_until(0.5)  # settle on the pad
-    start = d.qpos[joint.qposadr[0]:joint.qposadr[0] + 3].copy()
+    start = d.qpos[joint.qposadr[0] : joint.qposadr[0] + 3].copy()
     d.qvel[joint.dofadr[0]] = 1.0
     sim.run_for(2.0)
     slid = d.qpos[joint.qposadr[0]] - start[0]
@@ -172,10 +190,12 @@ def test_model_path_comes_from_the_environment_too(world_file, monkeypatch):
 
 def test_unsupported_elements_warn_by_name(tmp_path):
     path = tmp_path / "w.world"
-    path.write_text("<sdf version='1.6'><world name='w'><model name='m'><static>true</static><link name='l'>"
-                    "<collision name='c'><geometry><heightmap><uri>h.png</uri></heightmap></geometry></collision>"
-                    "<sensor name='s'/></link><joint name='j' type='fixed'/></model><foo/>"
-                    "<physics><ode><constraints><erp>0.5</erp></constraints></ode></physics></world></sdf>")
+    path.write_text(
+        "<sdf version='1.6'><world name='w'><model name='m'><static>true</static><link name='l'>"
+        "<collision name='c'><geometry><heightmap><uri>h.png</uri></heightmap></geometry></collision>"
+        "<sensor name='s'/></link><joint name='j' type='fixed'/></model><foo/>"
+        "<physics><ode><constraints><erp>0.5</erp></constraints></ode></physics></world></sdf>"
+    )
     with pytest.warns(UserWarning) as record:
         load_sdf(path)
     messages = "\n".join(str(w.message) for w in record)
@@ -189,13 +209,13 @@ def test_unsupported_elements_warn_by_name(tmp_path):
 BAD_WORLDS = {
     "malformed XML": "<sdf><world name='w'><model>",
     "mesh file": "<sdf version='1.6'><world name='w'><model name='m'><link name='l'><collision name='c'><geometry>"
-                 "<mesh><uri>missing.stl</uri></mesh></geometry></collision></link></model></world></sdf>",
+    "<mesh><uri>missing.stl</uri></mesh></geometry></collision></link></model></world></sdf>",
     "is not 6 finite numbers": "<sdf version='1.6'><world name='w'><model name='m'><pose>0 0 nan 0 0 0</pose>"
-                               "</model></world></sdf>",
+    "</model></world></sdf>",
     "model 'nowhere' not found": "<sdf version='1.6'><world name='w'><include><uri>model://nowhere</uri></include>"
-                                 "</world></sdf>",
+    "</world></sdf>",
     "sizes must be positive": "<sdf version='1.6'><world name='w'><model name='m'><link name='l'><collision name='c'>"
-                              "<geometry><box><size>1 0 1</size></box></geometry></collision></link></model></world></sdf>",
+    "<geometry><box><size>1 0 1</size></box></geometry></collision></link></model></world></sdf>",
 }
 
 
@@ -214,7 +234,8 @@ def test_collada_unit_is_honoured(tmp_path):
     (tmp_path / "w.world").write_text(
         "<sdf version='1.6'><world name='w'><model name='m'><static>true</static><link name='l'><visual name='v'>"
         "<geometry><mesh><uri>inches.dae</uri><scale>2 1 1</scale></mesh></geometry></visual></link></model>"
-        "</world></sdf>")
+        "</world></sdf>"
+    )
     (geom,) = load_sdf(tmp_path / "w.world").bodies[0].geoms
     extent = geom.mesh.vertices.max(0) - geom.mesh.vertices.min(0)
     assert extent == pytest.approx((2 * 0.254, 0.508, 0.762))

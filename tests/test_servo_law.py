@@ -43,8 +43,9 @@ def test_one_command_and_an_array_of_them_give_the_same_bits(sim):
 def test_the_node_publishes_the_laws_outputs_and_the_batch_sets_them(sim):
     servo, law = sim.car.servo, sim.car.servo.law
     published: list[tuple[str, float]] = []
-    subscribers = [sim.bus.subscribe(topic, lambda msg, t=topic: published.append((t, msg.data)))
-                   for topic in servo.topics]
+    subscribers = [
+        sim.bus.subscribe(topic, lambda msg, t=topic: published.append((t, msg.data))) for topic in servo.topics
+    ]
     batch = BatchCommands(sim.car)
     ctrl = np.zeros((len(SPEEDS), batch.nu))
     batch.ctrl(SPEEDS, STEERS, ctrl)

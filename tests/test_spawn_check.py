@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import laser_pose
 
+from conftest import laser_pose
 from racecar_sim import Simulator
 from racecar_sim.core.errors import WorldError
 from racecar_sim.core.transforms import compose, quat_rotate, yaw_of
@@ -24,8 +24,13 @@ RUN = ["--duration", "0.5", "--no-camera", "--no-record", "--no-summary", "--no-
 
 
 def run_cli(tmp_path: Path, world: str, spawn: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "racecar_sim", "run", "--world", world, "--spawn", spawn, *RUN],
-                          capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    return subprocess.run(
+        [sys.executable, "-m", "racecar_sim", "run", "--world", world, "--spawn", spawn, *RUN],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=tmp_path,
+    )
 
 
 def one_error_line(result: subprocess.CompletedProcess) -> str:
@@ -55,8 +60,13 @@ def inside_a_tunnel_wall() -> tuple[str, float, float, float]:
 def off_the_walker_course() -> tuple[float, float]:
     """5 m beyond the east edge of everything the walker racecourse is made of (it has no ground plane)."""
     signs = np.array([(sx, sy, sz) for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
-    corners = np.array([pos + quat_rotate(quat, 0.5 * s * np.array(size))
-                        for _, pos, quat, size in collision_boxes("walker") for s in signs])
+    corners = np.array(
+        [
+            pos + quat_rotate(quat, 0.5 * s * np.array(size))
+            for _, pos, quat, size in collision_boxes("walker")
+            for s in signs
+        ]
+    )
     return float(corners[:, 0].max() + 5.0), float(corners[:, 1].mean())
 
 
@@ -67,8 +77,11 @@ def simulator(world: str, spawn: Spawn | None = None) -> Simulator:
 # --- errors: inside a wall, below the ground, over nothing --------------------------------------------------------
 def test_spawn_inside_a_tunnel_wall_is_an_error():
     wall, x, y, yaw = inside_a_tunnel_wall()
-    with pytest.raises(WorldError, match=r"^tunnel \(racecar_tunnel\.world\): spawn pose .* is inside an obstacle: "
-                                         r".* into " + re.escape(wall)):
+    with pytest.raises(
+        WorldError,
+        match=r"^tunnel \(racecar_tunnel\.world\): spawn pose .* is inside an obstacle: "
+        r".* into " + re.escape(wall),
+    ):
         simulator("tunnel", Spawn(x, y, 0.05, yaw))
 
 
@@ -80,8 +93,11 @@ def test_spawn_inside_a_tunnel_wall_fails_in_one_line_from_the_cli(tmp_path):
 
 
 def test_spawn_below_the_ground_is_an_error(tmp_path):
-    with pytest.raises(WorldError, match=r"^empty \(racecar\.world\): spawn pose \(0, 0, -0\.3, 0\) is below the "
-                                         r"ground: .* 0\.3 m under the surface of ground_plane"):
+    with pytest.raises(
+        WorldError,
+        match=r"^empty \(racecar\.world\): spawn pose \(0, 0, -0\.3, 0\) is below the "
+        r"ground: .* 0\.3 m under the surface of ground_plane",
+    ):
         simulator("empty", Spawn(0.0, 0.0, -0.3, 0.0))
     line = one_error_line(run_cli(tmp_path, "empty", "0,0,-0.3,0"))
     assert "empty (racecar.world): spawn pose (0, 0, -0.3, 0) is below the ground" in line
@@ -97,14 +113,18 @@ def test_spawn_off_the_walker_course_has_no_ground(tmp_path):
 
 # --- a warning: high above the ground ------------------------------------------------------------------------------
 def test_spawn_two_metres_up_warns_of_the_fall(tmp_path):
-    with pytest.warns(UserWarning, match=r"^empty \(racecar\.world\): spawn pose \(0, 0, 2, 0\) is 2 m above the "
-                                         r"ground: the car will fall 2 m$"):
+    with pytest.warns(
+        UserWarning,
+        match=r"^empty \(racecar\.world\): spawn pose \(0, 0, 2, 0\) is 2 m above the "
+        r"ground: the car will fall 2 m$",
+    ):
         simulator("empty", Spawn(0.0, 0.0, 2.0, 0.0))
     result = run_cli(tmp_path, "empty", "0,0,2,0")
     assert result.returncode == 0, result.stderr
     lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1 and "will fall 2 m" in lines[0] and lines[0].startswith("racecar-sim: warning: empty"), \
+    assert len(lines) == 1 and "will fall 2 m" in lines[0] and lines[0].startswith("racecar-sim: warning: empty"), (
         result.stderr
+    )
 
 
 # --- the built-in worlds' own spawn poses pass, quietly ------------------------------------------------------------
@@ -125,14 +145,19 @@ CRATE_X, CRATE_SIDE = 2.0, 0.5  # m, a crate straight ahead of the car
 def bare_world(folder: Path) -> Path:
     """A floor and a crate, with collision and visual shapes but no <material> anywhere (and no plane, which would
     get a checker material)."""
+
     def model(name: str, pose: str, size: str) -> str:
         shape = f"<geometry><box><size>{size}</size></box></geometry>"
-        return (f"<model name='{name}'><static>true</static><pose>{pose}</pose><link name='l'>"
-                f"<collision name='c'>{shape}</collision><visual name='v'>{shape}</visual></link></model>")
+        return (
+            f"<model name='{name}'><static>true</static><pose>{pose}</pose><link name='l'>"
+            f"<collision name='c'>{shape}</collision><visual name='v'>{shape}</visual></link></model>"
+        )
 
     path = folder / "bare.world"
-    path.write_text(f"<sdf version='1.6'><world name='bare'>{model('floor', '0 0 -0.05 0 0 0', '20 20 0.1')}"
-                    f"{model('crate', f'{CRATE_X} 0 0.5 0 0 0', f'{CRATE_SIDE} {CRATE_SIDE} 1')}</world></sdf>")
+    path.write_text(
+        f"<sdf version='1.6'><world name='bare'>{model('floor', '0 0 -0.05 0 0 0', '20 20 0.1')}"
+        f"{model('crate', f'{CRATE_X} 0 0.5 0 0 0', f'{CRATE_SIDE} {CRATE_SIDE} 1')}</world></sdf>"
+    )
     return path
 
 

@@ -36,8 +36,14 @@ NO_OSMESA = textwrap.dedent("""
 def _child(code: str, env: dict[str, str] | None = None, prelude: str = "") -> subprocess.CompletedProcess:
     """`code` (after `prelude`) in a fresh interpreter whose GL variables come only from `env`."""
     parent = {k: v for k, v in os.environ.items() if k not in GL_VARIABLES}
-    return subprocess.run([sys.executable, "-c", prelude + textwrap.dedent(code)], capture_output=True, text=True,
-                          timeout=120, env={**parent, **(env or {})}, check=False)
+    return subprocess.run(
+        [sys.executable, "-c", prelude + textwrap.dedent(code)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**parent, **(env or {})},
+        check=False,
+    )
 
 
 def _json(code: str, env: dict[str, str] | None = None, prelude: str = "") -> dict:
@@ -62,17 +68,22 @@ def test_core_and_the_package_load_nothing_heavy():
     assert _loaded("import racecar_sim, racecar_sim.core.errors, racecar_sim.core.time") == []
 
 
-@pytest.mark.parametrize("env", [{}, {"MUJOCO_GL": "egl"}, {"MUJOCO_GL": "osmesa"},
-                                 {"MUJOCO_GL": "egl", "PYOPENGL_PLATFORM": "egl"}],
-                         ids=["unset", "egl", "osmesa", "egl+pyopengl"])
+@pytest.mark.parametrize(
+    "env",
+    [{}, {"MUJOCO_GL": "egl"}, {"MUJOCO_GL": "osmesa"}, {"MUJOCO_GL": "egl", "PYOPENGL_PLATFORM": "egl"}],
+    ids=["unset", "egl", "osmesa", "egl+pyopengl"],
+)
 def test_import_leaves_the_gl_environment_and_mujoco_alone(env):
-    out = _json(f"""
+    out = _json(
+        f"""
         import json, os, sys
         before = {{k: os.environ.get(k) for k in {GL_VARIABLES!r}}}
         import racecar_sim
         after = {{k: os.environ.get(k) for k in {GL_VARIABLES!r}}}
         print(json.dumps({{"before": before, "after": after, "mujoco": "mujoco" in sys.modules}}))
-    """, env)
+    """,
+        env,
+    )
     assert out["after"] == out["before"] == {k: env.get(k) for k in GL_VARIABLES}
     assert not out["mujoco"]
 
@@ -99,7 +110,8 @@ def test_the_package_names_resolve_on_first_use():
 
 
 def test_the_cli_imports_only_the_subcommand_it_runs():
-    out = _json("""
+    out = _json(
+        """
         import contextlib, io, json, os, sys
         from racecar_sim.cli.main import main
         with contextlib.redirect_stdout(io.StringIO()):
@@ -107,10 +119,19 @@ def test_the_cli_imports_only_the_subcommand_it_runs():
         print(json.dumps({"code": code, "cli": sorted(m for m in sys.modules if m.startswith("racecar_sim.cli.")),
                           "gl": [m for m in ("OpenGL", "glfw", "matplotlib") if m in sys.modules],
                           "MUJOCO_GL": os.environ.get("MUJOCO_GL")}))
-    """, {"MUJOCO_GL": "egl"})
+    """,
+        {"MUJOCO_GL": "egl"},
+    )
     assert out["code"] == 0
-    others = {"racecar_sim.cli.run", "racecar_sim.cli.sweep", "racecar_sim.cli.launch", "racecar_sim.cli.bench",
-              "racecar_sim.cli.teleop", "racecar_sim.cli.describe", "racecar_sim.cli.recover"}
+    others = {
+        "racecar_sim.cli.run",
+        "racecar_sim.cli.sweep",
+        "racecar_sim.cli.launch",
+        "racecar_sim.cli.bench",
+        "racecar_sim.cli.teleop",
+        "racecar_sim.cli.describe",
+        "racecar_sim.cli.recover",
+    }
     assert "racecar_sim.cli.worlds" in out["cli"] and not others & set(out["cli"]), out["cli"]
     assert out["gl"] == [] and out["MUJOCO_GL"] == "egl"
 
@@ -126,7 +147,8 @@ def test_a_missing_osmesa_breaks_mujoco_but_not_the_simulator():
     env = {"MUJOCO_GL": "osmesa"}
     bare = _child("import mujoco\n", env, NO_OSMESA)
     assert bare.returncode != 0 and "AttributeError" in bare.stderr  # what the guard is there for
-    out = _json("""
+    out = _json(
+        """
         import json, os
         import racecar_sim
         from racecar_sim import Simulator
@@ -139,13 +161,17 @@ def test_a_missing_osmesa_breaks_mujoco_but_not_the_simulator():
         except RenderingError as exc:
             error = str(exc)
         print(json.dumps({"time": sim.time, "error": error, "MUJOCO_GL": os.environ.get("MUJOCO_GL")}))
-    """, env, NO_OSMESA)
+    """,
+        env,
+        NO_OSMESA,
+    )
     assert out["time"] == pytest.approx(0.05) and out["MUJOCO_GL"] == "osmesa"
     assert "libosmesa6" in out["error"] and "--no-camera" in out["error"]
 
 
 def test_a_missing_osmesa_gives_the_camera_error_not_a_traceback():
-    out = _json("""
+    out = _json(
+        """
         import json
         from racecar_sim.core.errors import RenderingError
         from racecar_sim.render.gl import create_context
@@ -153,17 +179,24 @@ def test_a_missing_osmesa_gives_the_camera_error_not_a_traceback():
             create_context()
         except RenderingError as exc:
             print(json.dumps({"error": str(exc)}))
-    """, {"MUJOCO_GL": "osmesa"}, NO_OSMESA)
+    """,
+        {"MUJOCO_GL": "osmesa"},
+        NO_OSMESA,
+    )
     assert len(out["error"].splitlines()) == 1 and "libosmesa6" in out["error"], out
 
 
 def test_a_missing_osmesa_does_not_stop_a_cli_run_without_camera(tmp_path):
-    result = _child(f"""
+    result = _child(
+        f"""
         import sys
         from racecar_sim.cli.main import main
         sys.exit(main(["run", "--no-camera", "--world", "empty", "--duration", "0.2", "--out", {str(tmp_path)!r},
                        "--no-summary", "--no-record"]))
-    """, {"MUJOCO_GL": "osmesa"}, NO_OSMESA)
+    """,
+        {"MUJOCO_GL": "osmesa"},
+        NO_OSMESA,
+    )
     assert result.returncode == 0, result.stderr
     assert "sim time         0.20 s" in result.stdout
 
@@ -173,12 +206,15 @@ def test_an_empty_world_loads_no_mesh_library(tmp_path):
     first scan (0.025 s) nothing but mujoco; the whole run none of trimesh, matplotlib, GLFW or PyOpenGL (a
     scan that sees something - the floor, as the car settles - loads numba for the wall-follow fit, and numba
     looks at scipy's version)."""
-    runs = {duration: _loaded(f"""
+    runs = {
+        duration: _loaded(f"""
         import contextlib, io
         from racecar_sim.cli.main import main
         with contextlib.redirect_stdout(io.StringIO()):
             assert main(["run", "--no-camera", "--world", "empty", "--duration", "{duration}", "--out",
                          {str(tmp_path)!r}, "--no-summary", "--overwrite"]) == 0
-    """) for duration in ("0.02", "0.1")}
+    """)
+        for duration in ("0.02", "0.1")
+    }
     assert runs["0.02"] == ["mujoco"]
     assert set(runs["0.1"]) <= {"mujoco", "scipy"}

@@ -120,8 +120,10 @@ def _world(tmp_path, static: bool = True) -> str:
 def test_a_car_inside_a_static_ring_sees_the_wall_and_drives(tmp_path, capfd):
     world_file = _world(tmp_path)
     flat = r"collision is not convex: as in Gazebo, it collides as its faces where it is not \(\d+ flat pieces"
-    with pytest.warns(UserWarning, match=r"ring\.stl</uri> in ring::link/" + flat), \
-            pytest.warns(UserWarning, match=r"sheet\.stl</uri> in sheet::link/" + flat):
+    with (
+        pytest.warns(UserWarning, match=r"ring\.stl</uri> in ring::link/" + flat),
+        pytest.warns(UserWarning, match=r"sheet\.stl</uri> in sheet::link/" + flat),
+    ):
         world = load_world(world_file, Spawn(0.0, 0.0, 0.05, 0.0))
     sim = Simulator(world=world, camera=False)  # the spawn check passes: the ring's hull would hold the car
     assert "QH" not in capfd.readouterr().err  # the sheet's flat pieces compile without qhull's precision warnings
@@ -152,8 +154,10 @@ def test_a_car_inside_a_static_ring_sees_the_wall_and_drives(tmp_path, capfd):
 
 
 def test_a_free_model_with_the_same_mesh_collides_as_its_hull(tmp_path):
-    with pytest.warns(UserWarning, match="ring.stl</uri> .* collides as the convex hull of each of its connected"), \
-            pytest.warns(UserWarning, match="sheet.stl</uri> .* collides as its faces"):
+    with (
+        pytest.warns(UserWarning, match="ring.stl</uri> .* collides as the convex hull of each of its connected"),
+        pytest.warns(UserWarning, match="sheet.stl</uri> .* collides as its faces"),
+    ):
         world = load_world(_world(tmp_path, static=False))
     ring = next(body for body in world.bodies if body.name == "ring::link")
     assert not ring.static

@@ -63,7 +63,7 @@ def assert_path_drawn(rgb: np.ndarray, ax, trajectory: np.ndarray, rows: list[in
     for i in rows:
         x, y = ax.transData.transform(trajectory[i, :2])
         col, row = int(round(x)), int(round(SIZE[1] - y))
-        patch = rgb[row - 2:row + 3, col - 2:col + 3].reshape(-1, 3)
+        patch = rgb[row - 2 : row + 3, col - 2 : col + 3].reshape(-1, 3)
         expected = np.array(cmap(trajectory[i, 2] / vmax)[:3]) * 255
         assert np.abs(patch - expected).max(axis=1).min() < 12, (i, expected, patch)
 
@@ -71,8 +71,13 @@ def assert_path_drawn(rgb: np.ndarray, ax, trajectory: np.ndarray, rows: list[in
 def test_summary_shows_path_scan_and_camera(tmp_path, walker):
     trajectory = circle_drive()
     origin = trajectory[-1, :2]
-    kwargs = dict(scan_origin=origin, scan_points=scan_around(origin), camera_bgr=camera_frame(),
-                  title="walker run", lines=["distance   28.3 m", "mean speed 1.75 m/s"])
+    kwargs = dict(
+        scan_origin=origin,
+        scan_points=scan_around(origin),
+        camera_bgr=camera_frame(),
+        title="walker run",
+        lines=["distance   28.3 m", "mean speed 1.75 m/s"],
+    )
     path = save_summary(tmp_path / "summary.png", walker, trajectory, **kwargs)
     assert path == tmp_path / "summary.png"
     rgb = read_png(path)
@@ -117,7 +122,11 @@ def assert_frames_the_world(ax, world) -> None:
             continue
         xy = footprint(body, geom).xy
         assert np.all((xy[:, 0] >= x0) & (xy[:, 0] <= x1) & (xy[:, 1] >= y0) & (xy[:, 1] <= y1)), (
-            geom.name, xy.min(axis=0), xy.max(axis=0), (x0, x1, y0, y1))
+            geom.name,
+            xy.min(axis=0),
+            xy.max(axis=0),
+            (x0, x1, y0, y1),
+        )
         shown += 1
     assert shown > 0
 
@@ -128,8 +137,10 @@ def room_map(folder: Path) -> Path:
     cells[:4], cells[-4:], cells[:, :4], cells[:, -4:] = 0, 0, 0, 0
     cells[40:80, 100:110] = 0
     Image.fromarray(cells).save(folder / "room.pgm")
-    (folder / "room.yaml").write_text("image: room.pgm\nresolution: 0.05\norigin: [-2.0, -5.0, 0.0]\nnegate: 0\n"
-                                      "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
+    (folder / "room.yaml").write_text(
+        "image: room.pgm\nresolution: 0.05\norigin: [-2.0, -5.0, 0.0]\nnegate: 0\n"
+        "occupied_thresh: 0.65\nfree_thresh: 0.196\n"
+    )
     return folder / "room.yaml"
 
 

@@ -57,7 +57,11 @@ def test_ray_sweep_writes_the_table_and_every_run(tmp_path, local_ray):
         rows = list(csv.DictReader(f))
     # the grid: parameters outside, seeds inside, in index order
     assert [(int(r["index"]), float(r["param_distance"]), int(r["seed"])) for r in rows] == [
-        (0, 0.6, 3), (1, 0.6, 7), (2, 1.1, 3), (3, 1.1, 7)]
+        (0, 0.6, 3),
+        (1, 0.6, 7),
+        (2, 1.1, 3),
+        (3, 1.1, 7),
+    ]
     for row in rows:
         assert row["world"] == "walker" and row["driver"] == "wall-follow" and row["error"] == ""
         assert float(row["param_speed"]) == 2.0
@@ -91,8 +95,11 @@ def test_ray_sweep_writes_the_table_and_every_run(tmp_path, local_ray):
 def test_local_sweep_counts_a_crash(tmp_path, capsys):
     """--local, no Ray: a car driven straight at walker's wall crashes once; one steered round the open start
     does not."""
-    path = _sweep_file(tmp_path, "duration: 6\nworlds: [walker]\nseeds: 1\ndrivers:\n"
-                                 "  - {driver: constant, params: {speed: 2.0, steering: [0.0, 0.3]}}\n")
+    path = _sweep_file(
+        tmp_path,
+        "duration: 6\nworlds: [walker]\nseeds: 1\ndrivers:\n"
+        "  - {driver: constant, params: {speed: 2.0, steering: [0.0, 0.3]}}\n",
+    )
     assert cli_main(["sweep", str(path), "--out", str(tmp_path / "out"), "--local"]) == 0
     assert "2 of 2 episodes ran" in capsys.readouterr().out
     with open(tmp_path / "out" / "results.csv", newline="") as f:
@@ -103,18 +110,25 @@ def test_local_sweep_counts_a_crash(tmp_path, capsys):
     assert (tmp_path / "out" / "sweep.yaml").read_text() == path.read_text()
 
 
-@pytest.mark.parametrize("text, expected", [
-    ("worlds: [walker]\nseeds: [0]\n", "missing field 'drivers'"),
-    ("worlds: [walker]\nseeds: [0]\ndrivers: [{driver: wall-follow, params: {distnce: 1}}]\n",
-     "drivers[0].params: wall-follow has no parameter 'distnce'"),
-    ("worlds: [walker]\nseeds: [0]\ndrivers: [{driver: wall-follow, params: {distance: [0.5, -1]}}]\n",
-     "drivers[0].params: wall-follow: WallFollowConfig: distance must be positive"),
-    ("worlds: [nowhere]\nseeds: [0]\ndrivers: [constant]\n", "worlds: 'nowhere' is neither a built-in world"),
-    ("worlds: [walker]\nseeds: [0, -1]\ndrivers: [constant]\n", "seeds: a seed is a whole number >= 0"),
-    ("worlds: [walker]\nseeds: 2\nduration: 0\ndrivers: [teleport]\n", "duration: must be positive"),
-    ("worlds: [walker]\nseeds: 2\ndrivers: [pure-pursuit]\n", "drivers[0].params.path: pure-pursuit needs a path"),
-    ("worlds: [walker\n", "not valid YAML"),
-])
+@pytest.mark.parametrize(
+    "text, expected",
+    [
+        ("worlds: [walker]\nseeds: [0]\n", "missing field 'drivers'"),
+        (
+            "worlds: [walker]\nseeds: [0]\ndrivers: [{driver: wall-follow, params: {distnce: 1}}]\n",
+            "drivers[0].params: wall-follow has no parameter 'distnce'",
+        ),
+        (
+            "worlds: [walker]\nseeds: [0]\ndrivers: [{driver: wall-follow, params: {distance: [0.5, -1]}}]\n",
+            "drivers[0].params: wall-follow: WallFollowConfig: distance must be positive",
+        ),
+        ("worlds: [nowhere]\nseeds: [0]\ndrivers: [constant]\n", "worlds: 'nowhere' is neither a built-in world"),
+        ("worlds: [walker]\nseeds: [0, -1]\ndrivers: [constant]\n", "seeds: a seed is a whole number >= 0"),
+        ("worlds: [walker]\nseeds: 2\nduration: 0\ndrivers: [teleport]\n", "duration: must be positive"),
+        ("worlds: [walker]\nseeds: 2\ndrivers: [pure-pursuit]\n", "drivers[0].params.path: pure-pursuit needs a path"),
+        ("worlds: [walker\n", "not valid YAML"),
+    ],
+)
 def test_sweep_file_errors_name_the_file_and_field(tmp_path, capsys, text, expected):
     path = _sweep_file(tmp_path, text)
     with pytest.raises(ConfigError, match=r"sweep\.yaml: "):

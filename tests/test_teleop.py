@@ -18,8 +18,8 @@ from pathlib import Path
 
 import pexpect
 import pytest
-from conftest import TELEOP, Log
 
+from conftest import TELEOP, Log
 from racecar_sim import Simulator
 from racecar_sim.cli.terminal import RawTerminal, StopSignals
 from racecar_sim.control.mux import IDLE_ZERO
@@ -31,8 +31,9 @@ LOW = "/vesc/low_level/ackermann_cmd_mux"
 ACTIVE, OUTPUT = f"{LOW}/active", f"{LOW}/output"
 CLI = f"{sys.executable} -m racecar_sim teleop --world empty --no-camera --no-lidar"
 TIMEOUT = 60  # s of wall time for anything the CLI prints: a slow 2-core CI machine
-NOT_A_TTY = ("racecar-sim: error: teleop reads keys from a terminal (stdin is not a TTY); "
-             "use --viewer, or run it in a terminal")
+NOT_A_TTY = (
+    "racecar-sim: error: teleop reads keys from a terminal (stdin is not a TTY); use --viewer, or run it in a terminal"
+)
 posix_only = pytest.mark.skipif(os.name != "posix", reason="terminals and signals")
 
 
@@ -52,8 +53,10 @@ def holder_at(changes: list[tuple[float, str]], t: float) -> str:
     return [name for when, name in changes if when <= t][-1]
 
 
-@pytest.mark.parametrize(("key", "speed", "steering"), [("w", 0.5, 0.0), ("a", 0.5, 0.25), ("d", 0.5, -0.25),
-                                                        ("s", -0.5, 0.0), ("x", 0.0, 0.0), (" ", 0.0, 0.0)])
+@pytest.mark.parametrize(
+    ("key", "speed", "steering"),
+    [("w", 0.5, 0.0), ("a", 0.5, 0.25), ("d", 0.5, -0.25), ("s", -0.5, 0.0), ("x", 0.0, 0.0), (" ", 0.0, 0.0)],
+)
 def test_each_key_sends_the_original_command(key, speed, steering):
     sim, teleop, log, _ = teleop_sim()
     sim.run_until(0.5)
@@ -115,8 +118,12 @@ def test_without_hold_the_auto_repeat_delay_lets_navigation_back():
     ConstantCommand(sim.bus, sim.scheduler, 1.0, 0.0)
     held_key(sim, teleop, "w", 1.0, 3.0, delay=0.5)
     sim.run_until(3.0)
-    assert [name for when, name in changes if 1.0 <= when < 3.0] == ["Teleoperation", "idle", "Navigation",
-                                                                     "Teleoperation"]
+    assert [name for when, name in changes if 1.0 <= when < 3.0] == [
+        "Teleoperation",
+        "idle",
+        "Navigation",
+        "Teleoperation",
+    ]
 
 
 def test_stop_sends_one_zero_command_and_ends_the_repeats():
@@ -216,8 +223,14 @@ def test_stop_signals_note_the_first_signal_and_interrupt_on_the_second():
 # --- the CLI, through a pseudo-terminal --------------------------------------------------------------------
 def spawn(shell: str) -> pexpect.spawn:
     """`shell` under bash in a fresh pty; after it, the exit code and `stty -a` show how the terminal was left."""
-    child = pexpect.spawn("bash", ["-c", f"{shell}; echo EXIT=$?; stty -a"], timeout=TIMEOUT, encoding="utf-8",
-                          codec_errors="replace", dimensions=(24, 250))
+    child = pexpect.spawn(
+        "bash",
+        ["-c", f"{shell}; echo EXIT=$?; stty -a"],
+        timeout=TIMEOUT,
+        encoding="utf-8",
+        codec_errors="replace",
+        dimensions=(24, 250),
+    )
     child.expect("Reading from the keyboard")
     return child
 
@@ -293,8 +306,11 @@ def test_teleop_drives_the_car_from_a_terminal(tmp_path):
 
     data = recorded(out, "/vesc/odom", TELEOP, ACTIVE)
     commands = data[TELEOP]
-    assert all((m.drive.acceleration, m.drive.jerk, m.drive.steering_angle_velocity) == (1.0, 1.0, 1.0)
-               and m.header.frame_id == "base_link" for _, m in commands)
+    assert all(
+        (m.drive.acceleration, m.drive.jerk, m.drive.steering_angle_velocity) == (1.0, 1.0, 1.0)
+        and m.header.frame_id == "base_link"
+        for _, m in commands
+    )
     drives = [(m.drive.speed, m.drive.steering_angle) for _, m in commands]
     assert set(drives) == {(0.5, 0.0), (0.5, 0.25), (0.0, 0.0)}
     t_w = next(t for t, m in commands if m.drive.speed == 0.5)
@@ -351,8 +367,14 @@ def test_sigterm_restores_the_terminal_and_closes_the_recording(tmp_path):
 
 
 def test_stdin_not_a_tty_is_a_one_line_error():
-    result = subprocess.run([sys.executable, "-m", "racecar_sim", "teleop", "--no-camera"], stdin=subprocess.DEVNULL,
-                            capture_output=True, text=True, timeout=120, check=False)
+    result = subprocess.run(
+        [sys.executable, "-m", "racecar_sim", "teleop", "--no-camera"],
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
     assert result.returncode == 2 and result.stderr == NOT_A_TTY + "\n"
     assert result.stdout == ""
 
@@ -360,8 +382,16 @@ def test_stdin_not_a_tty_is_a_one_line_error():
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="no display is known only where DISPLAY says so")
 def test_viewer_without_a_display_and_without_a_tty_has_no_keyboard():
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
-    result = subprocess.run([sys.executable, "-m", "racecar_sim", "teleop", "--viewer", "--no-camera"],
-                            stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=120, check=False, env=env)
+    result = subprocess.run(
+        [sys.executable, "-m", "racecar_sim", "teleop", "--viewer", "--no-camera"],
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+        env=env,
+    )
     assert result.returncode == 2
-    assert result.stderr.splitlines()[-1] == ("racecar-sim: error: teleop has no keyboard: "
-                                              "stdin is not a TTY and the viewer did not open")
+    assert result.stderr.splitlines()[-1] == (
+        "racecar-sim: error: teleop has no keyboard: stdin is not a TTY and the viewer did not open"
+    )

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 
 import pytest
+
 from topic_digest import CAMERA_MARK, DATA, RUNS, renderer, run_digest
 
 EXPECTED = json.loads((DATA / "topic_digests.json").read_text())

@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 import pytest
-from conftest import Log
 
+from conftest import Log
 from racecar_sim import Simulator
 from racecar_sim.core.transforms import quat_to_matrix
 from racecar_sim.description import load_robot
@@ -35,9 +35,17 @@ def test_joint_states_name_the_six_actuated_joints():
     log = Log(sim, "/racecar/joint_states")
     sim.run_until(0.1)
     msg = log["/racecar/joint_states"][-1]
-    assert sorted(msg.name) == sorted(f"{n}_joint" for n in ("left_rear_wheel", "right_rear_wheel", "left_front_wheel",
-                                                              "right_front_wheel", "left_steering_hinge",
-                                                              "right_steering_hinge"))
+    assert sorted(msg.name) == sorted(
+        f"{n}_joint"
+        for n in (
+            "left_rear_wheel",
+            "right_rear_wheel",
+            "left_front_wheel",
+            "right_front_wheel",
+            "left_steering_hinge",
+            "right_steering_hinge",
+        )
+    )
     assert len(msg.position) == len(msg.velocity) == len(msg.effort) == 6
 
 
@@ -78,8 +86,14 @@ def test_tf_tree_matches_the_urdf():
     ConstantCommand(sim.bus, sim.scheduler, 1.0, 0.2)
     sim.run_until(2.0)
     static = {t.child_frame_id: t for t in log["/tf_static"][0].transforms}
-    assert set(static) == {"chassis", "chassis_inertia", "laser", "zed_camera_link", "camera_link",
-                           "zed_camera_right_link"}
+    assert set(static) == {
+        "chassis",
+        "chassis_inertia",
+        "laser",
+        "zed_camera_link",
+        "camera_link",
+        "zed_camera_right_link",
+    }
     laser = static["laser"].transform.translation
     assert (static["laser"].header.frame_id, laser.x, laser.y, laser.z) == ("chassis", 0.265, 0.0, 0.075)
     moving = {t.child_frame_id: t for m in log["/tf"][-3:] for t in m.transforms}

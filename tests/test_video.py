@@ -22,7 +22,7 @@ BACKGROUND = 40
 def moving_square(i: int, width: int = WIDTH, height: int = HEIGHT) -> np.ndarray:
     """Frame i: a red square STEP*i px from the left edge on a dark grey background."""
     frame = np.full((height, width, 3), BACKGROUND, np.uint8)
-    frame[TOP:TOP + SQUARE, STEP * i:STEP * i + SQUARE] = RED_BGR
+    frame[TOP : TOP + SQUARE, STEP * i : STEP * i + SQUARE] = RED_BGR
     return frame
 
 

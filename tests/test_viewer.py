@@ -51,9 +51,12 @@ def xvfb(*options: str):
 def _start_xvfb(options: tuple[str, ...]) -> tuple[subprocess.Popen, str | None]:
     """The server and its display name, or None for the name when it did not come up and answer."""
     read_end, write_end = os.pipe()
-    server = subprocess.Popen(["Xvfb", "-displayfd", str(write_end), "-screen", "0", "1280x1024x24",
-                               "-nolisten", "tcp", *options], pass_fds=(write_end,),
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    server = subprocess.Popen(
+        ["Xvfb", "-displayfd", str(write_end), "-screen", "0", "1280x1024x24", "-nolisten", "tcp", *options],
+        pass_fds=(write_end,),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     os.close(write_end)
     try:
         number = _read_line(read_end, WAIT)
@@ -126,8 +129,9 @@ def window_colours(display: str, window: str) -> int:
     """How many distinct colours the window shows right now."""
     from PIL import ImageGrab
 
-    geometry = dict(line.split("=", 1) for line in
-                    xdotool(display, "getwindowgeometry", "--shell", window).stdout.split())
+    geometry = dict(
+        line.split("=", 1) for line in xdotool(display, "getwindowgeometry", "--shell", window).stdout.split()
+    )
     x, y, w, h = (int(geometry[k]) for k in ("X", "Y", "WIDTH", "HEIGHT"))
     image = ImageGrab.grab(bbox=(x, y, x + w, y + h), xdisplay=display)
     return len(image.getcolors(maxcolors=1 << 24) or ())
@@ -150,9 +154,26 @@ def odometry(path: Path) -> list[tuple[float, float, float]]:
 def test_wasd_in_the_viewer_drives_the_car(display, tmp_path):
     out, stderr = tmp_path / "drive.mcap", tmp_path / "stderr.txt"
     with stderr.open("w") as err:
-        proc = subprocess.Popen([sys.executable, "-m", "racecar_sim", "teleop", "--world", "empty", "--viewer",
-                                 "--no-camera", "--duration", "12", "--record", str(out)],
-                                env=x_env(display), stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=err)
+        proc = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "racecar_sim",
+                "teleop",
+                "--world",
+                "empty",
+                "--viewer",
+                "--no-camera",
+                "--duration",
+                "12",
+                "--record",
+                str(out),
+            ],
+            env=x_env(display),
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            stderr=err,
+        )
         try:
             window = find_window(display, proc, stderr)
             hold(display, window, "w", 3.0)
@@ -176,9 +197,27 @@ def test_wasd_in_the_viewer_drives_the_car(display, tmp_path):
 def run_headless(tmp_path: Path, display: str | None) -> list[str]:
     """`racecar-sim run --viewer` on `display`: it must finish (exit code 0) without a window; its stderr lines
     about the viewer."""
-    result = subprocess.run([sys.executable, "-m", "racecar_sim", "run", "--world", "empty", "--no-camera",
-                             "--duration", "2", "--viewer", "--out", str(tmp_path)],
-                            env=x_env(display), stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=300)
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "racecar_sim",
+            "run",
+            "--world",
+            "empty",
+            "--no-camera",
+            "--duration",
+            "2",
+            "--viewer",
+            "--out",
+            str(tmp_path),
+        ],
+        env=x_env(display),
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert result.returncode == 0, result.stderr
     assert "Traceback" not in result.stderr and "ERROR" not in result.stderr, result.stderr
     return [line for line in result.stderr.splitlines() if "viewer" in line.lower() or "glfw" in line.lower()]
@@ -193,7 +232,8 @@ def test_viewer_on_a_display_nobody_serves_runs_headless(tmp_path):
     lines = run_headless(tmp_path, f":{next(n for n in range(987, 2000) if str(n) not in taken)}")
     assert len(lines) == 1, lines
     assert lines[0].startswith("racecar-sim: --viewer: no display (GLFW: ") and lines[0].endswith(
-        "; continuing headless"), lines
+        "; continuing headless"
+    ), lines
 
 
 @needs_x
@@ -239,8 +279,9 @@ print(json.dumps({"camera": sim.car.camera is not None, "viewer": viewer is not 
 
 
 def run_camera_script(display: str | None) -> dict:
-    result = subprocess.run([sys.executable, "-c", CAMERA_AND_VIEWER], env=x_env(display), capture_output=True,
-                            text=True, timeout=300)
+    result = subprocess.run(
+        [sys.executable, "-c", CAMERA_AND_VIEWER], env=x_env(display), capture_output=True, text=True, timeout=300
+    )
     assert result.returncode == 0, result.stderr
     return json.loads(result.stdout.strip().splitlines()[-1])
 

@@ -15,8 +15,9 @@ from racecar_sim.msgs import AckermannDriveStamped, Header, LaserScan
 BEAMS, ANGLE_MIN, INCREMENT, RANGE_MAX = 1081, -2.3561944902, 0.0043633231, 10.0
 
 
-def svd_wall(ranges: np.ndarray, angles: np.ndarray, side: float, sector: tuple[float, float], patch: float,
-             range_max: float) -> tuple[float, float, float]:
+def svd_wall(
+    ranges: np.ndarray, angles: np.ndarray, side: float, sector: tuple[float, float], patch: float, range_max: float
+) -> tuple[float, float, float]:
     """The wall as the driver first found it: the principal direction of the patch by SVD. Also returns how well
     that direction is defined: the gap of the two singular values squared, relative to the larger."""
     bearing = side * angles
@@ -49,8 +50,8 @@ def random_scan(rng: np.random.Generator) -> np.ndarray:
     for _ in range(rng.integers(0, 4)):  # posts: small discs
         centre, radius = rng.uniform(-4, 4, 2), rng.uniform(0.05, 0.5)
         along = directions @ centre
-        closest = np.sum(centre ** 2) - along ** 2
-        through = radius ** 2 - closest
+        closest = np.sum(centre**2) - along**2
+        through = radius**2 - closest
         hit = np.where((through >= 0) & (along > 0), along - np.sqrt(np.maximum(through, 0)), np.inf)
         ranges = np.minimum(ranges, np.where(hit > 0, hit, np.inf))
     ranges = ranges + rng.normal(0, rng.choice([0.0, 0.01, 0.05]), BEAMS)
@@ -69,8 +70,9 @@ def test_closed_form_fit_matches_the_svd_fit_on_random_scans(side):
     for _ in range(400):
         ranges = random_scan(rng)
         approach, distance = follower._wall(np.nan_to_num(ranges, posinf=RANGE_MAX), angles)
-        want_approach, want_distance, gap = svd_wall(np.nan_to_num(ranges, posinf=RANGE_MAX), angles,
-                                                     follower.side, config.sector, config.patch, RANGE_MAX)
+        want_approach, want_distance, gap = svd_wall(
+            np.nan_to_num(ranges, posinf=RANGE_MAX), angles, follower.side, config.sector, config.patch, RANGE_MAX
+        )
         if gap < 1e-6:  # a round patch: no direction is the line's, in either formulation
             continue
         checked += 1
@@ -81,8 +83,18 @@ def test_closed_form_fit_matches_the_svd_fit_on_random_scans(side):
 
 
 def scan_of(ranges: np.ndarray, stamp_ns: int) -> LaserScan:
-    return LaserScan(Header.at(stamp_ns, "laser"), ANGLE_MIN, ANGLE_MIN + INCREMENT * (BEAMS - 1), INCREMENT, 0.0,
-                     0.025, 0.1, RANGE_MAX, ranges.astype(np.float32), np.zeros(BEAMS, np.float32))
+    return LaserScan(
+        Header.at(stamp_ns, "laser"),
+        ANGLE_MIN,
+        ANGLE_MIN + INCREMENT * (BEAMS - 1),
+        INCREMENT,
+        0.0,
+        0.025,
+        0.1,
+        RANGE_MAX,
+        ranges.astype(np.float32),
+        np.zeros(BEAMS, np.float32),
+    )
 
 
 def commands_for(scans: list[np.ndarray]) -> list[tuple[float, float]]:

@@ -24,8 +24,10 @@ def circle_track(folder: Path, name: str = "circle.csv") -> Path:
     """An anticlockwise circle of radius R about the origin, 2 m wide, starting at (R, 0)."""
     angles = np.linspace(0.0, 2 * math.pi, 120, endpoint=False)
     path = folder / name
-    path.write_text("# x_m, y_m, w_tr_right_m, w_tr_left_m\n"
-                    + "".join(f"{R * math.cos(a):.9f}, {R * math.sin(a):.9f}, 1.0, 0.8\n" for a in angles))
+    path.write_text(
+        "# x_m, y_m, w_tr_right_m, w_tr_left_m\n"
+        + "".join(f"{R * math.cos(a):.9f}, {R * math.sin(a):.9f}, 1.0, 0.8\n" for a in angles)
+    )
     return path
 
 
@@ -43,8 +45,9 @@ def test_the_loader_gives_each_world_its_centerline(tmp_path):
 
 def test_a_world_built_in_code_is_asked_not_its_file_name(tmp_path):
     world = load_world("empty")  # an SDF world, given a track's centerline in code
-    world.centerline = Centerline(np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]]), True, "square",
-                                  widths=np.ones((4, 2)))
+    world.centerline = Centerline(
+        np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]]), True, "square", widths=np.ones((4, 2))
+    )
     assert world.is_track and world_centerline(world) is world.centerline
     np.testing.assert_allclose([(s.x, s.y) for s in starting_row(world, 3, 4.0)], [(0, 0), (0, 4), (0, 8)], atol=1e-12)
     sim = Simulator(world=world, camera=False, lidar=False)

@@ -25,8 +25,15 @@ def walled_world(count: int = 12):
     angles = np.linspace(0.0, 2 * math.pi, count, endpoint=False)
     centres = np.c_[3.0 * np.cos(angles), 3.0 * np.sin(angles), np.full(count, 0.5)]
     sizes = np.tile([0.3, 1.4, 1.0], (count, 1))
-    world.bodies.append(WorldBody("ring", np.array([0.5, -0.2, 0.0]), quat_from_axis_angle((0, 0, 1), 0.3),
-                                  static=True, geoms=box_geoms("ring", centres, sizes, angles)))
+    world.bodies.append(
+        WorldBody(
+            "ring",
+            np.array([0.5, -0.2, 0.0]),
+            quat_from_axis_angle((0, 0, 1), 0.3),
+            static=True,
+            geoms=box_geoms("ring", centres, sizes, angles),
+        )
+    )
     return world
 
 
@@ -70,10 +77,14 @@ def test_visual_boxes_become_one_mesh_named_after_the_first():
     world = walled_world()
     sim = Simulator(world=world, lidar=False, camera=False)
     model = sim.model
-    visual = [g for g in range(model.ngeom) if model.geom(g).name.startswith("ring")
-              and model.geom_group[g] == VISUAL_GROUP]
-    collision = [g for g in range(model.ngeom) if model.geom(g).name.startswith("ring")
-                 and model.geom_group[g] == COLLISION_GROUP]
+    visual = [
+        g for g in range(model.ngeom) if model.geom(g).name.startswith("ring") and model.geom_group[g] == VISUAL_GROUP
+    ]
+    collision = [
+        g
+        for g in range(model.ngeom)
+        if model.geom(g).name.startswith("ring") and model.geom_group[g] == COLLISION_GROUP
+    ]
     assert len(collision) == 12
     assert [model.geom(g).name for g in visual] == ["ring_0_visual"]
     assert model.geom_type[visual[0]] == mujoco.mjtGeom.mjGEOM_MESH
@@ -83,18 +94,23 @@ def test_visual_boxes_become_one_mesh_named_after_the_first():
 
 def test_box_mesh_has_every_box_face_facing_out():
     rng = np.random.default_rng(3)
-    boxes = [(WorldGeom("b", "box", tuple(rng.uniform(0.1, 2.0, 3)), np.zeros(3), np.array([1.0, 0, 0, 0])),
-              rng.uniform(-5, 5, 3), quat_from_axis_angle(rng.normal(size=3), rng.uniform(0, math.pi)))
-             for _ in range(5)]
+    boxes = [
+        (
+            WorldGeom("b", "box", tuple(rng.uniform(0.1, 2.0, 3)), np.zeros(3), np.array([1.0, 0, 0, 0])),
+            rng.uniform(-5, 5, 3),
+            quat_from_axis_angle(rng.normal(size=3), rng.uniform(0, math.pi)),
+        )
+        for _ in range(5)
+    ]
     mesh = box_mesh(boxes)
     assert mesh.vertices.shape == (5 * 24, 3) and mesh.faces.shape == (5 * 12, 3)
     triangles = mesh.vertices[mesh.faces]
     normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
     for k, (geom, pos, quat) in enumerate(boxes):
         size = np.array(geom.size)
-        local = (mesh.vertices[24 * k:24 * (k + 1)] - pos) @ quat_to_matrix(quat)
+        local = (mesh.vertices[24 * k : 24 * (k + 1)] - pos) @ quat_to_matrix(quat)
         np.testing.assert_allclose(np.abs(local), np.tile(size / 2, (24, 1)), atol=1e-12)  # the box's corners
-        n, t = normals[12 * k:12 * (k + 1)], triangles[12 * k:12 * (k + 1)]
+        n, t = normals[12 * k : 12 * (k + 1)], triangles[12 * k : 12 * (k + 1)]
         assert np.all(np.einsum("ij,ij->i", n, t.mean(axis=1) - pos) > 0)  # counter-clockwise seen from outside
         area = 0.5 * np.linalg.norm(n, axis=1).sum()
         assert area == pytest.approx(2 * (size[0] * size[1] + size[1] * size[2] + size[0] * size[2]))
@@ -104,8 +120,9 @@ def test_the_ground_plane_collides_from_a_static_body_of_its_own():
     """The world body's bounding-volume tree holds only finite walls; the plane is still welded to the world."""
     sim = Simulator(world=walled_world(), lidar=False, camera=False)
     model = sim.model
-    (plane,) = [g for g in range(model.ngeom) if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE
-                and model.geom_contype[g]]
+    (plane,) = [
+        g for g in range(model.ngeom) if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE and model.geom_contype[g]
+    ]
     body = model.geom_bodyid[plane]
     assert body != 0 and model.body_weldid[body] == 0 and model.body_geomnum[body] == 1
     assert np.all(np.isfinite(model.bvh_aabb[model.body_bvhadr[0]]))
@@ -113,4 +130,4 @@ def test_the_ground_plane_collides_from_a_static_body_of_its_own():
     start = sim.data.qpos[:3].copy()
     drive(sim, 1.0)
     assert np.hypot(*(sim.data.qpos[:2] - start[:2])) > 0.5  # it drives, on the ground: neither sinks nor falls
-    assert abs(sim.data.qpos[2] - start[2]) < 0.06 and np.any(sim.data.contact.geom[:sim.data.ncon] == plane)
+    assert abs(sim.data.qpos[2] - start[2]) < 0.06 and np.any(sim.data.contact.geom[: sim.data.ncon] == plane)

@@ -37,7 +37,7 @@ def frame(i: int) -> np.ndarray:
     """Frame i: a gradient with a bright square 2*i px from the left edge (BGR)."""
     y, x = np.mgrid[0:HEIGHT, 0:WIDTH]
     bgr = np.stack([x * 3, y * 4, np.full_like(x, 60)], axis=-1).astype(np.uint8)
-    bgr[10:26, 2 * i:2 * i + 16] = (40, 220, 250)
+    bgr[10:26, 2 * i : 2 * i + 16] = (40, 220, 250)
     return bgr
 
 
@@ -184,7 +184,8 @@ def test_a_script_without_a_main_guard_records(tmp_path):
         "print('script ran')\n"
         "bus = Bus()\n"
         f"with RunRecording(bus, lambda: 0, {str(tmp_path / 'run.mcap')!r}):\n"
-        "    bus.publish('/command', Float64(1.0))\n")
+        "    bus.publish('/command', Float64(1.0))\n"
+    )
     result = subprocess.run([sys.executable, str(script)], check=False, capture_output=True, text=True, timeout=60)
     assert result.returncode == 0, result.stderr
     assert result.stdout.count("script ran") == 1 and (tmp_path / "run.mcap").stat().st_size > 500
@@ -194,10 +195,29 @@ def test_a_script_without_a_main_guard_records(tmp_path):
 def test_ctrl_c_to_the_whole_process_group_still_finishes_the_files(tmp_path):
     """A terminal's Ctrl-C reaches every process of the group: the writer ignores it, the run closes it."""
     out = tmp_path / "run.mcap"
-    proc = subprocess.Popen([*CLI, "run", "--world", "empty", "--driver", "constant", "--duration", "3000",
-                             "--realtime", "--record", str(out), "--out", str(tmp_path), "--no-summary"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    proc = subprocess.Popen(
+        [
+            *CLI,
+            "run",
+            "--world",
+            "empty",
+            "--driver",
+            "constant",
+            "--duration",
+            "3000",
+            "--realtime",
+            "--record",
+            str(out),
+            "--out",
+            str(tmp_path),
+            "--no-summary",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
     deadline = time.time() + 60
     while time.time() < deadline and (not out.exists() or out.stat().st_size < 2000):
         time.sleep(0.2)

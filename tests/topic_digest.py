@@ -55,11 +55,18 @@ def renderer() -> str:
     return f"{gl.backend}: {gl.renderer}; Pillow {PIL.__version__}"
 
 
-def run_digest(out: Path, args: list[str], python: str = sys.executable, env: dict[str, str] | None = None
-               ) -> dict[str, dict[str, object]]:
+def run_digest(
+    out: Path, args: list[str], python: str = sys.executable, env: dict[str, str] | None = None
+) -> dict[str, dict[str, object]]:
     """Run `racecar-sim run ARGS --out OUT --no-video --no-summary` and digest its run.mcap."""
-    subprocess.run([python, "-m", "racecar_sim", "run", *args, "--out", str(out), "--no-video", "--no-summary"],
-                   check=True, capture_output=True, text=True, env=env, timeout=600)
+    subprocess.run(
+        [python, "-m", "racecar_sim", "run", *args, "--out", str(out), "--no-video", "--no-summary"],
+        check=True,
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=600,
+    )
     return mcap_digest(out / "run.mcap")
 
 

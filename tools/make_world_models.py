@@ -19,23 +19,40 @@ MODELS = Path(__file__).resolve().parents[1] / "src" / "racecar_sim" / "worlds" 
 
 # MIT_Tunnel (Building 32-081): wall name, length, link pose x, y, yaw in the model frame. §3.4.
 TUNNEL_WALLS = [
-    ("Wall_10", 32.6917, -19.1952, 15.5558, -0.001042), ("Wall_12", 8.5, -2.92483, 11.3639, -1.5708),
-    ("Wall_15", 18.75, 6.37517, 7.18889, 0.0), ("Wall_17", 4.75, 15.0799, 4.96726, -1.8326),
-    ("Wall_18", 2.75, 13.1846, 2.74563, 3.14159), ("Wall_19", 2.75, 10.9654, 1.82639, -2.35619),
-    ("Wall_2", 24.25, -52.25, -18.2689, 0.0), ("Wall_20", 2.25, 10.0461, -0.142849, -1.5708),
-    ("Wall_22", 5.08891, 8.53852, -3.14869, -2.22749), ("Wall_23", 1.75, 6.23091, -5.10454, 3.14159),
-    ("Wall_24", 2.59216, 4.6163, -6.01417, -2.30114), ("Wall_26", 3.0, 3.80168, -8.34882, -1.5708),
-    ("Wall_27", 2.5, 2.62668, -9.77382, 3.14159), ("Wall_28", 4.15096, 0.152007, -11.2946, -2.27796),
-    ("Wall_29", 5.87777, -1.14312, -15.679, -1.56921), ("Wall_30", 65.5, 31.5103, -18.5427, 0.0),
-    ("Wall_32", 4.75, 64.1853, -20.8427, -1.5708), ("Wall_34", 5.0, -64.3, -20.6939, -1.5708),
-    ("Wall_35", 128.75, 1e-06, -23.1189, 0.0), ("Wall_37", 4.75, -37.9, 23.0811, 0.0),
-    ("Wall_41", 31.75, -35.4175, -2.72616, 1.5708), ("Wall_43", 30.0, -20.4925, 13.0738, 0.0),
-    ("Wall_44", 8.75, -5.56745, 8.77384, -1.5708), ("Wall_45", 13.75, 1.23255, 4.47384, 0.0),
-    ("Wall_46", 2.25, 8.03255, 3.42384, -1.5708), ("Wall_47", 15.8243, 2.89068, -3.54071, -2.28642),
-    ("Wall_5", 41.5, -40.2, 2.40609, 1.5708), ("Wall_50", 1.0, -2.6617, -9.34526, 2.87979),
-    ("Wall_51", 1.75, -3.47221, -9.92808, -2.0944), ("Wall_52", 1.5, -3.39492, -11.0982, -0.785398),
-    ("Wall_53", 0.75, -3.12975, -11.7876, -2.35619), ("Wall_54", 0.75, -3.64188, -11.9998, 3.14159),
-    ("Wall_55", 7.13355, -5.21192, -15.2524, -1.94306), ("Wall_57", 29.0, -20.9925, -18.5262, 0.0),
+    ("Wall_10", 32.6917, -19.1952, 15.5558, -0.001042),
+    ("Wall_12", 8.5, -2.92483, 11.3639, -1.5708),
+    ("Wall_15", 18.75, 6.37517, 7.18889, 0.0),
+    ("Wall_17", 4.75, 15.0799, 4.96726, -1.8326),
+    ("Wall_18", 2.75, 13.1846, 2.74563, 3.14159),
+    ("Wall_19", 2.75, 10.9654, 1.82639, -2.35619),
+    ("Wall_2", 24.25, -52.25, -18.2689, 0.0),
+    ("Wall_20", 2.25, 10.0461, -0.142849, -1.5708),
+    ("Wall_22", 5.08891, 8.53852, -3.14869, -2.22749),
+    ("Wall_23", 1.75, 6.23091, -5.10454, 3.14159),
+    ("Wall_24", 2.59216, 4.6163, -6.01417, -2.30114),
+    ("Wall_26", 3.0, 3.80168, -8.34882, -1.5708),
+    ("Wall_27", 2.5, 2.62668, -9.77382, 3.14159),
+    ("Wall_28", 4.15096, 0.152007, -11.2946, -2.27796),
+    ("Wall_29", 5.87777, -1.14312, -15.679, -1.56921),
+    ("Wall_30", 65.5, 31.5103, -18.5427, 0.0),
+    ("Wall_32", 4.75, 64.1853, -20.8427, -1.5708),
+    ("Wall_34", 5.0, -64.3, -20.6939, -1.5708),
+    ("Wall_35", 128.75, 1e-06, -23.1189, 0.0),
+    ("Wall_37", 4.75, -37.9, 23.0811, 0.0),
+    ("Wall_41", 31.75, -35.4175, -2.72616, 1.5708),
+    ("Wall_43", 30.0, -20.4925, 13.0738, 0.0),
+    ("Wall_44", 8.75, -5.56745, 8.77384, -1.5708),
+    ("Wall_45", 13.75, 1.23255, 4.47384, 0.0),
+    ("Wall_46", 2.25, 8.03255, 3.42384, -1.5708),
+    ("Wall_47", 15.8243, 2.89068, -3.54071, -2.28642),
+    ("Wall_5", 41.5, -40.2, 2.40609, 1.5708),
+    ("Wall_50", 1.0, -2.6617, -9.34526, 2.87979),
+    ("Wall_51", 1.75, -3.47221, -9.92808, -2.0944),
+    ("Wall_52", 1.5, -3.39492, -11.0982, -0.785398),
+    ("Wall_53", 0.75, -3.12975, -11.7876, -2.35619),
+    ("Wall_54", 0.75, -3.64188, -11.9998, 3.14159),
+    ("Wall_55", 7.13355, -5.21192, -15.2524, -1.94306),
+    ("Wall_57", 29.0, -20.9925, -18.5262, 0.0),
     ("Wall_9", 7.75, -35.4657, 19.3427, -1.5708),
 ]
 TUNNEL_GREY = {"Wall_19", "Wall_20", "Wall_26", "Wall_32", "Wall_50", "Wall_54"}
@@ -57,13 +74,26 @@ CONE_ORANGE = "1 0.2 0 1"
 # walker_racecourse: a closed course in the original's footprint (x -22 ... 14, y -14 ... 17), driven anticlockwise.
 # Road at z -0.142 (an outer floor rim at -0.5), walls from the road to +0.575 (0.717 m); start line and markers
 # where the original has them. The centre line and width are ours: the original mesh is not licensed.
-WALKER_CENTRE = [(-6.0, 0.3), (7.2, 0.3), (7.2, 6.0), (4.0, 9.0), (4.0, 13.2), (-19.5, 13.2), (-19.5, -11.5),
-                 (-9.0, -11.5), (-9.0, -3.0)]
+WALKER_CENTRE = [
+    (-6.0, 0.3),
+    (7.2, 0.3),
+    (7.2, 6.0),
+    (4.0, 9.0),
+    (4.0, 13.2),
+    (-19.5, 13.2),
+    (-19.5, -11.5),
+    (-9.0, -11.5),
+    (-9.0, -3.0),
+]
 WALKER_WIDTH, WALKER_ROAD_Z, WALKER_RIM_Z, WALKER_WALL_TOP, WALKER_WALL = 2.1, -0.142, -0.5, 0.575, 0.15
 WALKER_START_LINE = ((1.81, 2.11), (-0.75, 1.35))  # x range, y range (the road's width)
 # coloured markers (0.8 x 0.4 m, on the walls' inner faces) near where the original has them
-WALKER_MARKERS = [("Gazebo/Blue", (8.239, 0.8), 0.0), ("Gazebo/Yellow", (3.6, 14.239), math.pi / 2),
-                  ("Gazebo/Red", (-7.4, 14.239), math.pi / 2), ("Gazebo/Purple", (-7.961, -10.8), 0.0)]
+WALKER_MARKERS = [
+    ("Gazebo/Blue", (8.239, 0.8), 0.0),
+    ("Gazebo/Yellow", (3.6, 14.239), math.pi / 2),
+    ("Gazebo/Red", (-7.4, 14.239), math.pi / 2),
+    ("Gazebo/Purple", (-7.961, -10.8), 0.0),
+]
 
 # ar_tags/markerN: a 0.001 x 0.05 x 0.05 tag standing on the ground, facing +-x; visual only.
 AR_MARKERS, AR_SIZE = 18, 0.05
@@ -199,8 +229,10 @@ def walker_racecourse() -> None:
     _sub(model, "static", "true")
     lo = centre.min(0) - WALKER_WIDTH / 2 - WALKER_WALL
     hi = centre.max(0) + WALKER_WIDTH / 2 + WALKER_WALL
-    for name, margin, top, material in (("floor", 0.0, WALKER_ROAD_Z, "Gazebo/DarkGrey"),
-                                        ("floor_rim", 1.5, WALKER_RIM_Z, "Gazebo/Grey")):
+    for name, margin, top, material in (
+        ("floor", 0.0, WALKER_ROAD_Z, "Gazebo/DarkGrey"),
+        ("floor_rim", 1.5, WALKER_RIM_Z, "Gazebo/Grey"),
+    ):
         size = (*(hi - lo + 2 * margin), 0.2)
         _box_link(model, name, (*(lo + hi) / 2, top - 0.1, 0, 0, 0), size, material)
     height = WALKER_WALL_TOP - WALKER_ROAD_Z
@@ -221,8 +253,9 @@ def walker_racecourse() -> None:
     _sub(_sub(_sub(visual, "geometry"), "box"), "size", _fmt(x1 - x0, y1 - y0, 0.002))
     _sub(_sub(_sub(_sub(visual, "material"), "pbr"), "metal"), "albedo_map", "materials/checker.png")
     for i, (material, (x, y), yaw) in enumerate(WALKER_MARKERS):
-        _box_link(model, f"marker_{i}", (x, y, WALKER_ROAD_Z + 0.3, 0, 0, yaw), (0.02, 0.8, 0.4), material,
-                  collide=False)
+        _box_link(
+            model, f"marker_{i}", (x, y, WALKER_ROAD_Z + 0.3, 0, 0, yaw), (0.02, 0.8, 0.4), material, collide=False
+        )
     _write_model("walker_racecourse", model, "A closed racecourse: 0.72 m walls, a checkered start line, markers")
 
 

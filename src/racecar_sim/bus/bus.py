@@ -149,8 +149,9 @@ class Bus:
         for feed, feed_type in t.feeds:  # what its subscribers would have published in turn, unheard as well
             self.tally(feed, feed_type)
 
-    def subscribe(self, topic: str, callback: Callback, msgtype: type | None = None,
-                  feeds: Mapping[str, type] | None = None) -> Subscription:
+    def subscribe(
+        self, topic: str, callback: Callback, msgtype: type | None = None, feeds: Mapping[str, type] | None = None
+    ) -> Subscription:
         """Call `callback(msg)` for every message on `topic`; a latched topic's last message is delivered at once.
 
         `msgtype`: the message class the subscriber takes, declared by nodes that take commands from outside (the

@@ -11,8 +11,13 @@ class BusPort(Protocol):
 
     def publish(self, topic: str, msg: Any) -> None: ...
 
-    def subscribe(self, topic: str, callback: Callable[[Any], None], msgtype: type | None = None,
-                  feeds: Mapping[str, type] | None = None) -> Any: ...
+    def subscribe(
+        self,
+        topic: str,
+        callback: Callable[[Any], None],
+        msgtype: type | None = None,
+        feeds: Mapping[str, type] | None = None,
+    ) -> Any: ...
 
     def has_listeners(self, topic: str) -> bool: ...
 

@@ -48,8 +48,10 @@ def rate_hz(text: str) -> float:
         from racecar_sim.physics.presets import load_preset  # only for the message
 
         top = 1.0 / load_preset("default").timestep
-        raise argparse.ArgumentTypeError(f"'{text}' Hz is outside the rates a timer keeps: from {MIN_RATE:g} Hz up to "
-                                         f"the physics rate ({top:g} Hz with --physics default)")
+        raise argparse.ArgumentTypeError(
+            f"'{text}' Hz is outside the rates a timer keeps: from {MIN_RATE:g} Hz up to "
+            f"the physics rate ({top:g} Hz with --physics default)"
+        )
     return value
 
 
@@ -81,8 +83,9 @@ def spawn_pose(text: str) -> Spawn:
     values = [finite_float(p) for p in parts]
     for name, value in zip(("x", "y") if len(values) == 3 else ("x", "y", "z"), values):
         if abs(value) > MAX_COORDINATE:
-            raise argparse.ArgumentTypeError(f"'{text}': {name} {value:g} m is beyond the largest world coordinate "
-                                             f"(±{MAX_COORDINATE:g} m)")
+            raise argparse.ArgumentTypeError(
+                f"'{text}': {name} {value:g} m is beyond the largest world coordinate (±{MAX_COORDINATE:g} m)"
+            )
     if len(values) == 3:
         return Spawn(values[0], values[1], Spawn().z, values[2])
     return Spawn(*values)
@@ -94,18 +97,30 @@ def xacro_arg(text: str) -> tuple[str, str]:
     if not sep:
         raise argparse.ArgumentTypeError(f"'{text}' is not name:=value")
     if not _ARG_NAME.fullmatch(name):
-        raise argparse.ArgumentTypeError(f"'{text}': '{name}' is not an argument name (letters, digits, _ and -, "
-                                         "not starting with a digit)")
+        raise argparse.ArgumentTypeError(
+            f"'{text}': '{name}' is not an argument name (letters, digits, _ and -, not starting with a digit)"
+        )
     return name, value
 
 
 def add_xacro_arguments(p: argparse.ArgumentParser) -> None:
     """--xacro FILE and --xacro-arg NAME:=VALUE: the user's own car."""
-    p.add_argument("--xacro", metavar="FILE", help="the car's xacro or URDF file, e.g. a description package's "
-                                                   "(default: the shipped racecar.xacro); $(find pkg) and package:// "
-                                                   "go through --package-path and ROS_PACKAGE_PATH")
-    p.add_argument("--xacro-arg", dest="xacro_args", type=xacro_arg, action="append", default=[],
-                   metavar="NAME:=VALUE", help="xacro argument of the car, repeatable (over the profile's own)")
+    p.add_argument(
+        "--xacro",
+        metavar="FILE",
+        help="the car's xacro or URDF file, e.g. a description package's "
+        "(default: the shipped racecar.xacro); $(find pkg) and package:// "
+        "go through --package-path and ROS_PACKAGE_PATH",
+    )
+    p.add_argument(
+        "--xacro-arg",
+        dest="xacro_args",
+        type=xacro_arg,
+        action="append",
+        default=[],
+        metavar="NAME:=VALUE",
+        help="xacro argument of the car, repeatable (over the profile's own)",
+    )
 
 
 def xacro_options(args: argparse.Namespace) -> dict:
@@ -120,9 +135,14 @@ def xacro_options(args: argparse.Namespace) -> dict:
 
 def add_ros_path_options(p: argparse.ArgumentParser) -> None:
     """--package-path DIR (repeatable): folders of ROS packages, searched before ROS_PACKAGE_PATH."""
-    p.add_argument("--package-path", action="append", default=[], metavar="DIR",
-                   help="folder holding ROS packages (package.xml), searched before ROS_PACKAGE_PATH for $(find pkg), "
-                        "package:// and, with the folders holding them, model:// (repeatable)")
+    p.add_argument(
+        "--package-path",
+        action="append",
+        default=[],
+        metavar="DIR",
+        help="folder holding ROS packages (package.xml), searched before ROS_PACKAGE_PATH for $(find pkg), "
+        "package:// and, with the folders holding them, model:// (repeatable)",
+    )
 
 
 def apply_ros_path_options(args: argparse.Namespace) -> None:
@@ -132,42 +152,74 @@ def apply_ros_path_options(args: argparse.Namespace) -> None:
     model_dirs = getattr(args, "model_path", None) or []
     for folder in model_dirs:
         if not Path(folder).is_dir():
-            raise ConfigError(f"--model-path {folder}: no such folder (give a folder that holds model:// models, "
-                              "each a folder with its model.config)")
+            raise ConfigError(
+                f"--model-path {folder}: no such folder (give a folder that holds model:// models, "
+                "each a folder with its model.config)"
+            )
     add_model_path(model_dirs)
 
 
 def add_world_arguments(p: argparse.ArgumentParser, world_option: bool = True, default_world: str = "empty") -> None:
     """--world, --spawn, --model-path and --wall-height, shared by the subcommands that load a world."""
     if world_option:
-        p.add_argument("--world", default=default_world, metavar="NAME|PATH",
-                       help="built-in world (see `racecar-sim worlds`), SDF .world/.sdf file, ROS map .yaml, "
-                            f"or race-track centerline .csv (default: {default_world})")
-    p.add_argument("--spawn", type=spawn_pose, help="spawn pose x,y,yaw or x,y,z,yaw (default: the world's own); "
-                                                     "checked against the world: inside an obstacle or over nothing "
-                                                     "is an error")
-    p.add_argument("--model-path", action="append", default=[], metavar="DIR",
-                   help="folder holding model:// models, searched before GAZEBO_MODEL_PATH (repeatable)")
-    p.add_argument("--wall-height", type=positive_float, default=DEFAULT_WALL_HEIGHT, metavar="M",
-                   help=f"height of walls extruded from a map or track file (default {DEFAULT_WALL_HEIGHT:g} m)")
+        p.add_argument(
+            "--world",
+            default=default_world,
+            metavar="NAME|PATH",
+            help="built-in world (see `racecar-sim worlds`), SDF .world/.sdf file, ROS map .yaml, "
+            f"or race-track centerline .csv (default: {default_world})",
+        )
+    p.add_argument(
+        "--spawn",
+        type=spawn_pose,
+        help="spawn pose x,y,yaw or x,y,z,yaw (default: the world's own); "
+        "checked against the world: inside an obstacle or over nothing "
+        "is an error",
+    )
+    p.add_argument(
+        "--model-path",
+        action="append",
+        default=[],
+        metavar="DIR",
+        help="folder holding model:// models, searched before GAZEBO_MODEL_PATH (repeatable)",
+    )
+    p.add_argument(
+        "--wall-height",
+        type=positive_float,
+        default=DEFAULT_WALL_HEIGHT,
+        metavar="M",
+        help=f"height of walls extruded from a map or track file (default {DEFAULT_WALL_HEIGHT:g} m)",
+    )
 
 
 def add_sensor_arguments(p: argparse.ArgumentParser) -> None:
     """--no-lidar, --no-camera, --no-sensor and --no-noise (DISABLE_GAZEBO_LASER / DISABLE_GAZEBO_CAMERA=true work
     too): the sensor switches of runtime/plugins.py."""
     p.add_argument("--no-lidar", action="store_true", help="no lasers (/scan: the Hokuyo is not simulated)")
-    p.add_argument("--no-camera", action="store_true", help="no cameras, depth cameras included (/camera/zed images; "
-                                                            "no OpenGL needed)")
-    p.add_argument("--no-sensor", action="append", default=[], metavar="NAME",
-                   help="leave out the description's sensors of a switch (lidar, camera, imu), a sensor type "
-                        "(depth) or a sensor's own name (rear_hokuyo); repeatable")
+    p.add_argument(
+        "--no-camera",
+        action="store_true",
+        help="no cameras, depth cameras included (/camera/zed images; no OpenGL needed)",
+    )
+    p.add_argument(
+        "--no-sensor",
+        action="append",
+        default=[],
+        metavar="NAME",
+        help="leave out the description's sensors of a switch (lidar, camera, imu), a sensor type "
+        "(depth) or a sensor's own name (rear_hokuyo); repeatable",
+    )
     p.add_argument("--no-noise", action="store_true", help="sensor readings without their Gaussian noise")
 
 
 def sensor_options(args: argparse.Namespace) -> dict[str, Any]:
     """Simulator keyword arguments from the sensor switches."""
-    return {"lidar": not args.no_lidar, "camera": not args.no_camera, "sensor_noise": not args.no_noise,
-            "sensors_off": tuple(getattr(args, "no_sensor", ()))}
+    return {
+        "lidar": not args.no_lidar,
+        "camera": not args.no_camera,
+        "sensor_noise": not args.no_noise,
+        "sensors_off": tuple(getattr(args, "no_sensor", ())),
+    }
 
 
 def check_folder(flag: str, folder: Path) -> None:
@@ -206,9 +258,12 @@ def fresh_folder(flag: str, base: Path) -> Path:
 
 def add_overwrite_argument(p: argparse.ArgumentParser) -> None:
     """--overwrite: a recording file that exists is replaced (without it, refused)."""
-    p.add_argument("--overwrite", action="store_true",
-                   help="replace a recording file that exists (default: refuse it; a recording is never replaced "
-                        "unless asked, and never written by two runs at once)")
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace a recording file that exists (default: refuse it; a recording is never replaced "
+        "unless asked, and never written by two runs at once)",
+    )
 
 
 def check_record_path(record: Path, flag: str = "--record", overwrite: bool = True) -> None:
@@ -219,5 +274,7 @@ def check_record_path(record: Path, flag: str = "--record", overwrite: bool = Tr
         raise ConfigError(f"{flag} {record}: is a folder; give a file name such as {record / 'run.mcap'}")
     check_folder(flag, record.parent)
     if not overwrite and (record.exists() or record.is_symlink()):
-        raise ConfigError(f"{flag} {record}: the file exists and a recording is never replaced unless asked: give "
-                          "--overwrite to replace it, or another file name")
+        raise ConfigError(
+            f"{flag} {record}: the file exists and a recording is never replaced unless asked: give "
+            "--overwrite to replace it, or another file name"
+        )

@@ -25,26 +25,42 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bench", help="real-time factor of the full pipeline: sensors off, lidar, lidar + camera")
     p.add_argument("--world", default="empty")
     p.add_argument("--physics", default="default", choices=preset_names())
-    p.add_argument("--duration", type=positive_float,
-                   help=f"sim seconds per measurement (default {FULL[0]:g}; {QUICK[0]:g} with --quick)")
-    p.add_argument("--repeat", type=positive_int,
-                   help=f"measurements; the best is reported (default {FULL[1]}; {QUICK[1]} with --quick)")
+    p.add_argument(
+        "--duration",
+        type=positive_float,
+        help=f"sim seconds per measurement (default {FULL[0]:g}; {QUICK[0]:g} with --quick)",
+    )
+    p.add_argument(
+        "--repeat",
+        type=positive_int,
+        help=f"measurements; the best is reported (default {FULL[1]}; {QUICK[1]} with --quick)",
+    )
     p.add_argument("--no-camera", action="store_true", help="skip the lidar + camera measurement (no OpenGL)")
-    p.add_argument("--speed", action="store_true",
-                   help="instead: every speed figure (main job, lidar pipeline, start-up, maps, scaling) by the source "
-                        "checkout's bench/bench_speed.py")
-    p.add_argument("--quick", action="store_true",
-                   help="short runs, one of each: a check that the bench runs, not figures to quote (with --speed too)")
-    p.add_argument("--compare", metavar="SRC", help="with --speed: also measure the code in SRC, an older checkout's "
-                                                    "src folder (before/after)")
+    p.add_argument(
+        "--speed",
+        action="store_true",
+        help="instead: every speed figure (main job, lidar pipeline, start-up, maps, scaling) by the source "
+        "checkout's bench/bench_speed.py",
+    )
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help="short runs, one of each: a check that the bench runs, not figures to quote (with --speed too)",
+    )
+    p.add_argument(
+        "--compare",
+        metavar="SRC",
+        help="with --speed: also measure the code in SRC, an older checkout's src folder (before/after)",
+    )
 
 
 FULL, QUICK = (30.0, 3), (2.0, 1)  # (sim seconds per measurement, measurements) by default and with --quick
 SENSOR_TOPICS = ("/scan", "/camera/zed/rgb/image_rect_color", "/camera/zed/rgb/camera_info")
 
 
-def pipeline_rtf(world: str, physics: str, duration: float, lidar: bool = False,
-                 camera: bool = False) -> tuple[float, float]:
+def pipeline_rtf(
+    world: str, physics: str, duration: float, lidar: bool = False, camera: bool = False
+) -> tuple[float, float]:
     """(real-time factor, physics share) of the full pipeline driving a 1 m/s, 0.2 rad circle.
 
     A subscriber listens to every sensor topic, since sensors skip their work when nobody listens.
@@ -92,8 +108,10 @@ def check_compare(compare: str, own_src: Path) -> None:
     folder = Path(compare)
     if not (folder / "racecar_sim" / "__init__.py").is_file():
         why = "no such folder" if not folder.exists() else "not a src folder: it holds no racecar_sim/__init__.py"
-        raise ConfigError(f"--compare {compare}: {why} (give an older checkout's src folder, e.g. "
-                          "git worktree add /tmp/old HEAD~1, then --compare /tmp/old/src)")
+        raise ConfigError(
+            f"--compare {compare}: {why} (give an older checkout's src folder, e.g. "
+            "git worktree add /tmp/old HEAD~1, then --compare /tmp/old/src)"
+        )
     if folder.resolve() == own_src.resolve():
         raise ConfigError(f"--compare {compare}: is this checkout's own src folder: give an older checkout's")
 
@@ -102,8 +120,10 @@ def speed(args: argparse.Namespace) -> int:
     """Run bench/bench_speed.py of the checkout this package is installed from (pip install -e)."""
     script = Path(__file__).resolve().parents[3] / "bench" / "bench_speed.py"
     if not script.is_file():
-        raise ConfigError(f"racecar-sim bench --speed: {script} is missing: it runs the benches of a source checkout "
-                          "(git clone, then pip install -e .)")
+        raise ConfigError(
+            f"racecar-sim bench --speed: {script} is missing: it runs the benches of a source checkout "
+            "(git clone, then pip install -e .)"
+        )
     if args.compare is not None:
         check_compare(args.compare, Path(__file__).resolve().parents[2])
     extra = (["--quick"] if args.quick else []) + (["--compare", args.compare] if args.compare else [])
@@ -112,11 +132,14 @@ def speed(args: argparse.Namespace) -> int:
 
 def main(args: argparse.Namespace) -> int:
     if args.speed:
-        given = [flag for flag, value in (("--duration", args.duration), ("--repeat", args.repeat))
-                 if value is not None]
+        given = [
+            flag for flag, value in (("--duration", args.duration), ("--repeat", args.repeat)) if value is not None
+        ]
         if given:
-            raise ConfigError(f"{' and '.join(given)} set the real-time factor bench: --speed runs its own benches "
-                              "(--quick for short runs)")
+            raise ConfigError(
+                f"{' and '.join(given)} set the real-time factor bench: --speed runs its own benches "
+                "(--quick for short runs)"
+            )
         return speed(args)
     if args.compare is not None:
         raise ConfigError("--compare measures an older checkout with the speed benches: give --speed too")
@@ -131,8 +154,11 @@ def main(args: argparse.Namespace) -> int:
     if not args.no_camera:
         runs.append(("lidar + camera", True, True))
     for label, lidar, camera in runs:
-        rtf, share = max(pipeline_rtf(args.world, args.physics, args.duration, lidar, camera)
-                         for _ in range(args.repeat))
-        print(f"{label:<26} real-time factor {rtf:7.1f}x  (pipeline / bare {rtf / bare:.2f}; MuJoCo stepping "
-              f"{share * 100:.0f}% of wall time)")
+        rtf, share = max(
+            pipeline_rtf(args.world, args.physics, args.duration, lidar, camera) for _ in range(args.repeat)
+        )
+        print(
+            f"{label:<26} real-time factor {rtf:7.1f}x  (pipeline / bare {rtf / bare:.2f}; MuJoCo stepping "
+            f"{share * 100:.0f}% of wall time)"
+        )
     return 0

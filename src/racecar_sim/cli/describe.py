@@ -14,18 +14,33 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("describe", help="print the robot description (a table, or --urdf for the expanded URDF)")
     p.add_argument("--urdf", action="store_true", help="print the expanded URDF instead of the table")
     p.add_argument("--profile", default="seed", choices=profile_names(), help="driving profile (sets xacro arguments)")
-    p.add_argument("--xacro", default=str(DEFAULT_XACRO), help="xacro or URDF file (default: the shipped racecar.xacro)")
-    p.add_argument("--arg", dest="xacro_args", type=xacro_arg, action="append", default=[], metavar="NAME:=VALUE",
-                   help="xacro argument, repeatable")
+    p.add_argument(
+        "--xacro", default=str(DEFAULT_XACRO), help="xacro or URDF file (default: the shipped racecar.xacro)"
+    )
+    p.add_argument(
+        "--arg",
+        dest="xacro_args",
+        type=xacro_arg,
+        action="append",
+        default=[],
+        metavar="NAME:=VALUE",
+        help="xacro argument, repeatable",
+    )
 
 
 def table(robot: Robot) -> str:
     """A plain-text table of the robot: links, joints, limits and derived dimensions."""
-    lines = [f"robot {robot.name}: {len(robot.links)} links, {len(robot.joints)} joints, "
-             f"{len(robot.transmissions)} transmissions", "", "LINK                     MASS (kg)  COLLISION"]
+    lines = [
+        f"robot {robot.name}: {len(robot.links)} links, {len(robot.joints)} joints, "
+        f"{len(robot.transmissions)} transmissions",
+        "",
+        "LINK                     MASS (kg)  COLLISION",
+    ]
     for link in robot.links.values():
         mass = f"{link.inertial.mass:.5g}" if link.inertial else "-"
-        shapes = ", ".join(f"{c.geometry.kind} {' '.join(f'{v:g}' for v in c.geometry.size if v)}" for c in link.collisions)
+        shapes = ", ".join(
+            f"{c.geometry.kind} {' '.join(f'{v:g}' for v in c.geometry.size if v)}" for c in link.collisions
+        )
         lines.append(f"{link.name:<24} {mass:>9}  {shapes or '-'}")
     lines += ["", "JOINT                        TYPE        PARENT -> CHILD                          LIMITS"]
     for j in robot.joints.values():
@@ -35,9 +50,11 @@ def table(robot: Robot) -> str:
             limits = f"{bounds}effort {j.limit.effort:g} N m, velocity {j.limit.velocity:g} rad/s"
         lines.append(f"{j.name:<28} {j.type:<11} {j.parent + ' -> ' + j.child:<40} {limits}")
     g = VehicleGeometry.from_robot(robot)
-    lines += ["", f"wheelbase {g.wheelbase:.4f} m   kingpin track {g.kingpin_track:.4f} m   "
-                  f"tyre track {g.tyre_track:.4f} m", f"wheel radius {g.wheel_radius:g} m   width {g.wheel_width:g} m   "
-                  f"total mass {g.total_mass:.5f} kg"]
+    lines += [
+        "",
+        f"wheelbase {g.wheelbase:.4f} m   kingpin track {g.kingpin_track:.4f} m   tyre track {g.tyre_track:.4f} m",
+        f"wheel radius {g.wheel_radius:g} m   width {g.wheel_width:g} m   total mass {g.total_mass:.5f} kg",
+    ]
     for s in robot.sensors:
         lines.append(f"sensor {s.name} ({s.type}) on {s.link}, {s.update_rate:g} Hz")
     return "\n".join(lines)

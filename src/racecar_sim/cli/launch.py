@@ -18,8 +18,8 @@ from pathlib import Path
 
 from racecar_sim.cli.args import (
     add_overwrite_argument,
-    add_sensor_arguments,
     add_ros_path_options,
+    add_sensor_arguments,
     apply_ros_path_options,
     check_folder,
     check_record_path,
@@ -42,22 +42,42 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("launch", help="run a roslaunch file (the original racecar_gazebo ones, or a user's own)")
     p.__class__ = type("LaunchParser", (_LaunchArgs, type(p)), {})  # keeps the CLI's one-line errors
     p.add_argument("file", metavar="FILE.launch", help="the roslaunch XML file")
-    p.add_argument("launch_args", nargs="*", type=xacro_arg, metavar="NAME:=VALUE",
-                   help="the launch file's args, as on roslaunch's command line")
-    p.add_argument("--duration", type=positive_float, metavar="S",
-                   help="sim seconds to run (default: until Ctrl-C, in real time); with --ros and no car in the file, "
-                        "wall seconds")
+    p.add_argument(
+        "launch_args",
+        nargs="*",
+        type=xacro_arg,
+        metavar="NAME:=VALUE",
+        help="the launch file's args, as on roslaunch's command line",
+    )
+    p.add_argument(
+        "--duration",
+        type=positive_float,
+        metavar="S",
+        help="sim seconds to run (default: until Ctrl-C, in real time); with --ros and no car in the file, "
+        "wall seconds",
+    )
     p.add_argument("--realtime", action="store_true", help="run no faster than real time")
-    p.add_argument("--ros", action="store_true",
-                   help="connect to ROS 1 (ROS_MASTER_URI, or a roscore started on 127.0.0.1): the parameters go to "
-                        "the parameter server and nodes the sim has no equivalent for start as ROS processes")
-    p.add_argument("--record", metavar="FILE.mcap", help="record every topic to this MCAP (default OUT/run.mcap with "
-                                                         "--out, else none)")
+    p.add_argument(
+        "--ros",
+        action="store_true",
+        help="connect to ROS 1 (ROS_MASTER_URI, or a roscore started on 127.0.0.1): the parameters go to "
+        "the parameter server and nodes the sim has no equivalent for start as ROS processes",
+    )
+    p.add_argument(
+        "--record",
+        metavar="FILE.mcap",
+        help="record every topic to this MCAP (default OUT/run.mcap with --out, else none)",
+    )
     p.add_argument("--out", metavar="DIR", help="folder for the run's files (the recording)")
     add_overwrite_argument(p)
     p.add_argument("--seed", type=seed_value, default=0, help="random seed, a whole number >= 0 (default 0)")
-    p.add_argument("--model-path", action="append", default=[], metavar="DIR",
-                   help="folder holding model:// models, searched before GAZEBO_MODEL_PATH (repeatable)")
+    p.add_argument(
+        "--model-path",
+        action="append",
+        default=[],
+        metavar="DIR",
+        help="folder holding model:// models, searched before GAZEBO_MODEL_PATH (repeatable)",
+    )
     add_ros_path_options(p)
     add_sensor_arguments(p)
 
@@ -98,10 +118,12 @@ def main(args: argparse.Namespace) -> int:
     if args.ros and not has_car(plan):
         return _run_ros_only(args, plan)
     sensors = sensor_options(args)
-    setup = map_plan(plan, ros=args.ros, lidar=sensors["lidar"], camera=sensors["camera"],
-                     sensors_off=sensors["sensors_off"])
-    with LaunchRun(setup, seed=args.seed, sensor_noise=not args.no_noise, model_path=args.model_path,
-                   ros=args.ros) as run:
+    setup = map_plan(
+        plan, ros=args.ros, lidar=sensors["lidar"], camera=sensors["camera"], sensors_off=sensors["sensors_off"]
+    )
+    with LaunchRun(
+        setup, seed=args.seed, sensor_noise=not args.no_noise, model_path=args.model_path, ros=args.ros
+    ) as run:
         sim = run.sim
         recording = None
         if record is not None:  # the file taken exclusively (an existing one only with --overwrite)
@@ -109,12 +131,16 @@ def main(args: argparse.Namespace) -> int:
 
             make_folder("--record", record.parent)
             try:
-                recording = RunRecording(sim.bus, lambda: sim.time_ns, record, raw_images=True,
-                                         overwrite=args.overwrite)
+                recording = RunRecording(
+                    sim.bus, lambda: sim.time_ns, record, raw_images=True, overwrite=args.overwrite
+                )
             except RecordingError as exc:  # taken by another run since the look before, or cannot be created
                 raise RecordingError(f"--record {exc}") from None
-        print(f"launch {plan.file.name}: world {sim.world.name}, cars {', '.join(c.model_name for c in sim.cars)}"
-              + (f", {len(setup.ros_nodes)} ROS nodes" if args.ros else ""), file=sys.stderr)
+        print(
+            f"launch {plan.file.name}: world {sim.world.name}, cars {', '.join(c.model_name for c in sim.cars)}"
+            + (f", {len(setup.ros_nodes)} ROS nodes" if args.ros else ""),
+            file=sys.stderr,
+        )
         try:
             interrupted = _run(args, run)
         finally:
@@ -132,7 +158,9 @@ def _run_ros_only(args: argparse.Namespace, plan: LaunchPlan) -> int:
     """A launch file with no car (the original teleop.launch): its nodes on the master of a sim already running
     with --ros, until they all exit, --duration wall seconds pass, or Ctrl-C."""
     with RosOnlyLaunch(plan) as launch:
-        print(f"launch {plan.file.name}: no car, {launch.running} ROS nodes on {launch.ros.master_uri}", file=sys.stderr)
+        print(
+            f"launch {plan.file.name}: no car, {launch.running} ROS nodes on {launch.ros.master_uri}", file=sys.stderr
+        )
         end = None if args.duration is None else time.monotonic() + args.duration
         try:
             while launch.running and (end is None or time.monotonic() < end):
@@ -160,9 +188,11 @@ def _run(args: argparse.Namespace, run: LaunchRun) -> bool:
                         teleop.key(key)
                 if sim.paused:
                     if run.bridge is None:
-                        raise ConfigError(f"{args.file}: the world starts paused (gazebo -u, paused:=true) and nothing "
-                                          "unpauses it without --ros: run with paused:=false, or with --ros and call "
-                                          "/gazebo/unpause_physics")
+                        raise ConfigError(
+                            f"{args.file}: the world starts paused (gazebo -u, paused:=true) and nothing "
+                            "unpauses it without --ros: run with paused:=false, or with --ros and call "
+                            "/gazebo/unpause_physics"
+                        )
                     run.bridge.spin_once(timeout=CHUNK)  # answers /gazebo/unpause_physics while sim time stands
                     continue
                 sim.run_until(sim.time + CHUNK if duration is None else min(sim.time + CHUNK, duration))

@@ -14,8 +14,8 @@ from racecar_sim.msgs import LaserScan
 
 if TYPE_CHECKING:
     from racecar_sim.bridges.foxglove.bridge import FoxgloveBridge
-    from racecar_sim.viz.viewer import CarViewer
     from racecar_sim.runtime import Simulator
+    from racecar_sim.viz.viewer import CarViewer
 
 FOXGLOVE_PORT = 8765  # foxglove_bridge's default
 VIEWER_RATE = 60.0  # Hz of wall time between viewer syncs
@@ -34,12 +34,21 @@ def tcp_port(text: str) -> int:
 
 def add_live_arguments(p: argparse.ArgumentParser) -> None:
     """--viewer and --foxglove [PORT]."""
-    p.add_argument("--viewer", action="store_true",
-                   help="open the MuJoCo viewer (needs a display): follows the car, draws the lidar, WASD drives; "
-                        "with several cars `.` follows the next one")
-    p.add_argument("--foxglove", nargs="?", type=tcp_port, const=FOXGLOVE_PORT, metavar="PORT",
-                   help=f"serve every topic to Foxglove / Lichtblick >= 1.22 on ws://127.0.0.1:PORT "
-                        f"(default port {FOXGLOVE_PORT})")
+    p.add_argument(
+        "--viewer",
+        action="store_true",
+        help="open the MuJoCo viewer (needs a display): follows the car, draws the lidar, WASD drives; "
+        "with several cars `.` follows the next one",
+    )
+    p.add_argument(
+        "--foxglove",
+        nargs="?",
+        type=tcp_port,
+        const=FOXGLOVE_PORT,
+        metavar="PORT",
+        help=f"serve every topic to Foxglove / Lichtblick >= 1.22 on ws://127.0.0.1:PORT "
+        f"(default port {FOXGLOVE_PORT})",
+    )
 
 
 class LiveViews:
@@ -51,8 +60,13 @@ class LiveViews:
     outrank that car's driver, as a joystick does on the real car.
     """
 
-    def __init__(self, sim: Simulator, viewer: bool = False, foxglove_port: int | None = None,
-                 teleop: KeyboardTeleop | None = None) -> None:
+    def __init__(
+        self,
+        sim: Simulator,
+        viewer: bool = False,
+        foxglove_port: int | None = None,
+        teleop: KeyboardTeleop | None = None,
+    ) -> None:
         self.sim = sim
         self.teleop = teleop
         self._teleops: dict[int, KeyboardTeleop] = {} if teleop is None else {0: teleop}
@@ -65,8 +79,11 @@ class LiveViews:
             from racecar_sim.bridges.foxglove.bridge import FoxgloveBridge
 
             self.bridge = FoxgloveBridge(sim.bus, lambda: sim.time_ns, port=foxglove_port)
-            print(f"racecar-sim: Foxglove WebSocket on ws://127.0.0.1:{self.bridge.port} "
-                  f"(Foxglove, or Lichtblick >= 1.22: Open connection > Foxglove WebSocket)", file=sys.stderr)
+            print(
+                f"racecar-sim: Foxglove WebSocket on ws://127.0.0.1:{self.bridge.port} "
+                f"(Foxglove, or Lichtblick >= 1.22: Open connection > Foxglove WebSocket)",
+                file=sys.stderr,
+            )
         if viewer:
             from racecar_sim.viz.viewer import CarViewer
 
@@ -94,10 +111,14 @@ class LiveViews:
         """The keyboard teleop of car number `index`: on its own teleop input, with the first one's settings."""
         if index not in self._teleops:
             car, first = self.sim.cars[index], self._teleops.get(0)
-            options = {} if first is None else {"speed": first.speed, "turn": first.turn,
-                                                 "hold": first.hold_ns / 1e9, "config": first.config}
-            self._teleops[index] = KeyboardTeleop(self.sim.bus, self.sim.scheduler, lambda: self.sim.time_ns,
-                                                  topic=car.topic(TELEOP), **options)
+            options = (
+                {}
+                if first is None
+                else {"speed": first.speed, "turn": first.turn, "hold": first.hold_ns / 1e9, "config": first.config}
+            )
+            self._teleops[index] = KeyboardTeleop(
+                self.sim.bus, self.sim.scheduler, lambda: self.sim.time_ns, topic=car.topic(TELEOP), **options
+            )
         return self._teleops[index]
 
     def follow_next(self) -> None:

@@ -15,8 +15,17 @@ from racecar_sim.core.errors import RacecarSimError
 from racecar_sim.render.gl import guard_mujoco_import, mujoco_gl_disabled
 
 # the module of each subcommand, in --help's order; only the one being run is imported (start-up time)
-SUBCOMMANDS = {"run": "run", "teleop": "teleop", "launch": "launch", "describe": "describe", "bench": "bench",
-               "worlds": "worlds", "recover": "recover", "ros-env": "ros_env", "sweep": "sweep"}
+SUBCOMMANDS = {
+    "run": "run",
+    "teleop": "teleop",
+    "launch": "launch",
+    "describe": "describe",
+    "bench": "bench",
+    "worlds": "worlds",
+    "recover": "recover",
+    "ros-env": "ros_env",
+    "sweep": "sweep",
+}
 
 
 class _Parser(argparse.ArgumentParser):
@@ -49,7 +58,7 @@ def _command_named(argv: Sequence[str]) -> str | None:
     return None
 
 
-def _one_line_warning(message, category, filename, lineno, line=None) -> str:  # noqa: ANN001 (warnings' hook)
+def _one_line_warning(message, category, filename, lineno, line=None) -> str:
     return f"racecar-sim: warning: {message}\n"
 
 

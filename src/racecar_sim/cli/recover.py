@@ -13,12 +13,19 @@ from racecar_sim.recording.recover import recover_mcap
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("recover", help="rewrite a killed recording (no footer) into a valid MCAP file",
-                       description="Rewrite every intact message of an MCAP file that has no footer (a run killed "
-                                   "by SIGKILL or power loss) into a valid file; a complete file is rewritten too.")
+    p = sub.add_parser(
+        "recover",
+        help="rewrite a killed recording (no footer) into a valid MCAP file",
+        description="Rewrite every intact message of an MCAP file that has no footer (a run killed "
+        "by SIGKILL or power loss) into a valid file; a complete file is rewritten too.",
+    )
     p.add_argument("mcap", metavar="BROKEN.mcap", help="the recording to recover")
-    p.add_argument("-o", "--output", metavar="FIXED.mcap",
-                   help="the file to write (default: BROKEN.recovered.mcap beside the input)")
+    p.add_argument(
+        "-o",
+        "--output",
+        metavar="FIXED.mcap",
+        help="the file to write (default: BROKEN.recovered.mcap beside the input)",
+    )
 
 
 def main(args: argparse.Namespace) -> int:

@@ -29,21 +29,34 @@ PAUSED_WAIT = 0.01  # s the run loop waits for ROS calls (unpause_physics) while
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("ros-env", help="shell lines for your own ROS 1 nodes: eval \"$(racecar-sim ros-env)\"",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--ros-master", metavar="URI", help="the master to print (default $ROS_MASTER_URI, else "
-                                                       f"http://{LOOPBACK}:{DEFAULT_PORT}/)")
+    p = sub.add_parser(
+        "ros-env",
+        help='shell lines for your own ROS 1 nodes: eval "$(racecar-sim ros-env)"',
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument(
+        "--ros-master",
+        metavar="URI",
+        help=f"the master to print (default $ROS_MASTER_URI, else http://{LOOPBACK}:{DEFAULT_PORT}/)",
+    )
 
 
 def add_ros_arguments(parser: argparse.ArgumentParser) -> None:
     """--ros and --ros-master."""
-    parser.add_argument("--ros", action="store_true",
-                        help="bridge to ROS 1: every topic published with its ROS 1 type, command topics and the "
-                             "Gazebo / controller manager services offered, /clock and /use_sim_time set (needs "
-                             "Debian's ROS 1 packages; see `racecar-sim ros-env --help`)")
-    parser.add_argument("--ros-master", metavar="URI",
-                        help="with --ros: the ROS master (default $ROS_MASTER_URI, else a roscore started on "
-                             f"127.0.0.1:{DEFAULT_PORT} or a free port)")
+    parser.add_argument(
+        "--ros",
+        action="store_true",
+        help="bridge to ROS 1: every topic published with its ROS 1 type, command topics and the "
+        "Gazebo / controller manager services offered, /clock and /use_sim_time set (needs "
+        "Debian's ROS 1 packages; see `racecar-sim ros-env --help`)",
+    )
+    parser.add_argument(
+        "--ros-master",
+        metavar="URI",
+        help="with --ros: the ROS master (default $ROS_MASTER_URI, else a roscore started on "
+        f"127.0.0.1:{DEFAULT_PORT} or a free port)",
+    )
 
 
 def check_ros(args: argparse.Namespace) -> None:
@@ -62,8 +75,11 @@ def start_ros_bridge(args: argparse.Namespace, sim: Simulator) -> RosBridge | No
 
     bridge = RosBridge(sim, args.ros_master)
     bridge.start()
-    print(f"racecar-sim: ROS 1 bridge on {bridge.master_uri} (for your nodes: eval \"$(racecar-sim ros-env "
-          f"--ros-master {bridge.master_uri})\")", file=sys.stderr)
+    print(
+        f'racecar-sim: ROS 1 bridge on {bridge.master_uri} (for your nodes: eval "$(racecar-sim ros-env '
+        f'--ros-master {bridge.master_uri})")',
+        file=sys.stderr,
+    )
     return bridge
 
 

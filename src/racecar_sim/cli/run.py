@@ -22,10 +22,25 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from racecar_sim.cli.args import (MIN_RATE, add_overwrite_argument, add_ros_path_options, add_sensor_arguments,
-                                  add_world_arguments, add_xacro_arguments, apply_ros_path_options, check_folder,
-                                  check_record_path, finite_float, fresh_folder, make_folder, positive_float, rate_hz,
-                                  seed_value, sensor_options, xacro_options)
+from racecar_sim.cli.args import (
+    MIN_RATE,
+    add_overwrite_argument,
+    add_ros_path_options,
+    add_sensor_arguments,
+    add_world_arguments,
+    add_xacro_arguments,
+    apply_ros_path_options,
+    check_folder,
+    check_record_path,
+    finite_float,
+    fresh_folder,
+    make_folder,
+    positive_float,
+    rate_hz,
+    seed_value,
+    sensor_options,
+    xacro_options,
+)
 from racecar_sim.cli.live import LiveViews, RealTimePacer, add_live_arguments
 from racecar_sim.cli.ros_env import PAUSED_WAIT, add_ros_arguments, check_ros, start_ros_bridge
 from racecar_sim.cli.spawns import check_row, check_spawn_option, fleet_size
@@ -41,60 +56,106 @@ from racecar_sim.worlds import CAR_SPACING, World, load_world, row_centerline
 from racecar_sim.worlds import starting_row as fleet_spawns  # the row of `--cars N` (tests call it by this name)
 
 # the drivers each option applies to; an option given for another driver is an error, not silently ignored
-OPTION_DRIVERS = {"speed": DRIVERS, "steering": ("constant",), "rate": ("constant",), "side": ("wall-follow",),
-                  "distance": ("wall-follow",), "path": ("pure-pursuit",)}
+OPTION_DRIVERS = {
+    "speed": DRIVERS,
+    "steering": ("constant",),
+    "rate": ("constant",),
+    "side": ("wall-follow",),
+    "distance": ("wall-follow",),
+    "path": ("pure-pursuit",),
+}
 PROGRESS_MIN_DURATION = 5.0  # s of sim time; shorter runs finish before a bar is worth drawing
 CHUNK = 0.1  # s of sim time between progress updates
 LIVE_CHUNK = 0.02  # s of sim time between viewer updates
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("run", help="the main job: a driver drives a world; writes runs/<time>/ (MCAP, summary.png, "
-                                   "camera.mp4)")
+    p = sub.add_parser(
+        "run", help="the main job: a driver drives a world; writes runs/<time>/ (MCAP, summary.png, camera.mp4)"
+    )
     add_world_arguments(p, default_world="walker")
     wall_follow, pure_pursuit = wall_follow_config(), pure_pursuit_config()
-    p.add_argument("--driver", choices=DRIVERS,
-                   help="wall-follow (lidar PID), pure-pursuit (a path CSV), constant (--speed/--steering); default "
-                        "wall-follow, or constant when --steering or --rate is given or --speed is 0")
+    p.add_argument(
+        "--driver",
+        choices=DRIVERS,
+        help="wall-follow (lidar PID), pure-pursuit (a path CSV), constant (--speed/--steering); default "
+        "wall-follow, or constant when --steering or --rate is given or --speed is 0",
+    )
     p.add_argument("--duration", type=positive_float, default=60.0, help="sim seconds to run (default 60)")
-    p.add_argument("--speed", type=finite_float,
-                   help=f"m/s: the constant command (default {CONSTANT_DEFAULTS['speed']:g}; 0 stands still), or the "
-                        f"top speed of wall-follow (default {wall_follow.speed:g}) and pure-pursuit (default "
-                        f"{pure_pursuit.speed:g} where the path has no speed column)")
-    p.add_argument("--steering", type=finite_float,
-                   help=f"rad, the constant command's steering angle (default {CONSTANT_DEFAULTS['steering']:g})")
-    p.add_argument("--rate", type=rate_hz,
-                   help=f"Hz of the constant command (default {CONSTANT_DEFAULTS['rate']:g}; from {MIN_RATE:g} up to "
-                        "the physics rate)")
-    p.add_argument("--side", choices=["right", "left"], help=f"wall-follow: the wall to follow (default {wall_follow.side})")
-    p.add_argument("--distance", type=positive_float,
-                   help=f"wall-follow: metres to keep from the wall (default {wall_follow.distance:g})")
-    p.add_argument("--path", metavar="FILE.csv",
-                   help="pure-pursuit: waypoint CSV (x,y[,speed]) or track centerline (default: the --world CSV)")
+    p.add_argument(
+        "--speed",
+        type=finite_float,
+        help=f"m/s: the constant command (default {CONSTANT_DEFAULTS['speed']:g}; 0 stands still), or the "
+        f"top speed of wall-follow (default {wall_follow.speed:g}) and pure-pursuit (default "
+        f"{pure_pursuit.speed:g} where the path has no speed column)",
+    )
+    p.add_argument(
+        "--steering",
+        type=finite_float,
+        help=f"rad, the constant command's steering angle (default {CONSTANT_DEFAULTS['steering']:g})",
+    )
+    p.add_argument(
+        "--rate",
+        type=rate_hz,
+        help=f"Hz of the constant command (default {CONSTANT_DEFAULTS['rate']:g}; from {MIN_RATE:g} up to "
+        "the physics rate)",
+    )
+    p.add_argument(
+        "--side", choices=["right", "left"], help=f"wall-follow: the wall to follow (default {wall_follow.side})"
+    )
+    p.add_argument(
+        "--distance",
+        type=positive_float,
+        help=f"wall-follow: metres to keep from the wall (default {wall_follow.distance:g})",
+    )
+    p.add_argument(
+        "--path",
+        metavar="FILE.csv",
+        help="pure-pursuit: waypoint CSV (x,y[,speed]) or track centerline (default: the --world CSV)",
+    )
     p.add_argument("--profile", default="seed", choices=profile_names(), help="driving profile (default seed)")
     add_xacro_arguments(p)
     add_ros_path_options(p)
     p.add_argument("--physics", default="default", choices=preset_names(), help="physics preset (default: default)")
-    p.add_argument("--odometry", default="original", choices=["original", "ros"],
-                   help="original: map->odom as the 2017 sim; ros: odom->base_link, body twist")
+    p.add_argument(
+        "--odometry",
+        default="original",
+        choices=["original", "ros"],
+        help="original: map->odom as the 2017 sim; ros: odom->base_link, body twist",
+    )
     p.add_argument("--seed", type=seed_value, default=0, help="random seed, a whole number >= 0 (default 0)")
-    p.add_argument("--out", metavar="DIR", help="folder for the run's files (default runs/<date-time>, or "
-                                                "runs/<date-time>-2... where a run started in the same second has it)")
+    p.add_argument(
+        "--out",
+        metavar="DIR",
+        help="folder for the run's files (default runs/<date-time>, or "
+        "runs/<date-time>-2... where a run started in the same second has it)",
+    )
     p.add_argument("--record", metavar="FILE.mcap", help="the MCAP's path (default OUT/run.mcap)")
     add_overwrite_argument(p)
     p.add_argument("--no-record", action="store_true", help="no MCAP recording")
-    p.add_argument("--raw-images", action="store_true",
-                   help="record camera images as raw sensor_msgs/Image on the image topic (default: JPEG "
-                        "sensor_msgs/CompressedImage on <image topic>/compressed, as image_transport records them)")
+    p.add_argument(
+        "--raw-images",
+        action="store_true",
+        help="record camera images as raw sensor_msgs/Image on the image topic (default: JPEG "
+        "sensor_msgs/CompressedImage on <image topic>/compressed, as image_transport records them)",
+    )
     p.add_argument("--no-video", action="store_true", help="no camera.mp4")
     p.add_argument("--no-summary", action="store_true", help="no summary.png")
-    p.add_argument("--cars", type=fleet_size, metavar="N",
-                   help="a fleet of N cars named car1..carN (topics /carK/..., frames carK/...), each with its own "
-                        "driver: car1 at the spawn pose, each next one --car-spacing behind the one before "
-                        "(default: one car with the original names)")
-    p.add_argument("--car-spacing", type=positive_float, metavar="M",
-                   help=f"metres between two cars in a row, along the spawn heading or a track's centerline "
-                        f"(default {CAR_SPACING:g}; needs --cars)")
+    p.add_argument(
+        "--cars",
+        type=fleet_size,
+        metavar="N",
+        help="a fleet of N cars named car1..carN (topics /carK/..., frames carK/...), each with its own "
+        "driver: car1 at the spawn pose, each next one --car-spacing behind the one before "
+        "(default: one car with the original names)",
+    )
+    p.add_argument(
+        "--car-spacing",
+        type=positive_float,
+        metavar="M",
+        help=f"metres between two cars in a row, along the spawn heading or a track's centerline "
+        f"(default {CAR_SPACING:g}; needs --cars)",
+    )
     add_sensor_arguments(p)
     add_live_arguments(p)
     p.add_argument("--realtime", action="store_true", help="run no faster than real time")
@@ -112,8 +173,9 @@ def choose_driver(args: argparse.Namespace) -> str:
     for name in given:
         if driver not in OPTION_DRIVERS[name]:
             why = "--driver" if args.driver else "the driver chosen by the other options:"
-            raise ConfigError(f"--{name} does not apply to {why} {driver} (it is for --driver "
-                              f"{' or '.join(OPTION_DRIVERS[name])})")
+            raise ConfigError(
+                f"--{name} does not apply to {why} {driver} (it is for --driver {' or '.join(OPTION_DRIVERS[name])})"
+            )
     return driver
 
 
@@ -143,17 +205,36 @@ def _simulator(args: argparse.Namespace) -> Simulator:
         if args.spawn is not None:  # checked here, to name the option
             world = load_world(args.world, args.spawn, [Path(p) for p in args.model_path], args.wall_height)
             check_spawn_option(world, args)
-        return Simulator(world=world, profile=args.profile, seed=args.seed, physics=args.physics,
-                         spawn=args.spawn, odometry=args.odometry, model_path=args.model_path,
-                         wall_height=args.wall_height, **sensor_options(args), **xacro_options(args))
+        return Simulator(
+            world=world,
+            profile=args.profile,
+            seed=args.seed,
+            physics=args.physics,
+            spawn=args.spawn,
+            odometry=args.odometry,
+            model_path=args.model_path,
+            wall_height=args.wall_height,
+            **sensor_options(args),
+            **xacro_options(args),
+        )
     world = load_world(args.world, args.spawn, [Path(p) for p in args.model_path], args.wall_height)
     spacing = CAR_SPACING if args.car_spacing is None else args.car_spacing
     spawns = fleet_spawns(world, args.cars, spacing)
     check_row(world, args, spawns, spacing, row_centerline(world))  # before N cars are built (that costs ~N²)
     sensors = sensor_options(args)
-    cars = [Car(f"car{k + 1}", profile=args.profile, spawn=spawn, lidar=sensors["lidar"], camera=sensors["camera"],
-                sensors_off=sensors["sensors_off"], odometry=args.odometry, **xacro_options(args))
-            for k, spawn in enumerate(spawns)]
+    cars = [
+        Car(
+            f"car{k + 1}",
+            profile=args.profile,
+            spawn=spawn,
+            lidar=sensors["lidar"],
+            camera=sensors["camera"],
+            sensors_off=sensors["sensors_off"],
+            odometry=args.odometry,
+            **xacro_options(args),
+        )
+        for k, spawn in enumerate(spawns)
+    ]
     return Simulator(world=world, cars=cars, **common)  # its own check: a car in a wall or another car, no ground
 
 
@@ -195,14 +276,20 @@ def main(args: argparse.Namespace) -> int:
     with _simulator(args) as sim:
         for car in sim.cars:
             _attach_driver(args, sim, car)
-        out, record = _run_folder(args, out, record,
-                                  files=not args.no_summary or (sim.car.camera is not None and not args.no_video))
+        out, record = _run_folder(
+            args, out, record, files=not args.no_summary or (sim.car.camera is not None and not args.no_video)
+        )
         recording = _recording(args, sim, record)
         try:
-            runlogs = [RunLog(sim.bus, car.lidar.topic if car.lidar else None,
-                              car.camera.spec.image_topic if car.camera and i == 0 else None,
-                              odom_topic=car.topic(ODOM))
-                       for i, car in enumerate(sim.cars)]
+            runlogs = [
+                RunLog(
+                    sim.bus,
+                    car.lidar.topic if car.lidar else None,
+                    car.camera.spec.image_topic if car.camera and i == 0 else None,
+                    odom_topic=car.topic(ODOM),
+                )
+                for i, car in enumerate(sim.cars)
+            ]
             runlog = runlogs[0]
             video = _video(args, sim, out, recording)
             written: list[Path] = [record] if record is not None else []
@@ -225,13 +312,25 @@ def main(args: argparse.Namespace) -> int:
         from racecar_sim.plots.summary import save_summary  # matplotlib loads only when a summary is drawn
 
         lines = _summary_lines(sim, runlogs, wall)
-        paths = runlog.trajectory if args.cars is None else {
-            car.model_name: log.trajectory for car, log in zip(sim.cars, runlogs)}
-        written.insert(0, save_summary(out / "summary.png", sim.world, paths,
-                                       scan_origin=None if origin is None else origin[:2],
-                                       scan_points=None if ends is None else ends[:, :2],
-                                       camera_bgr=runlog.last_frame(), title=_title(args, sim), lines=lines,
-                                       rate=runlog.trajectory_rate))
+        paths = (
+            runlog.trajectory
+            if args.cars is None
+            else {car.model_name: log.trajectory for car, log in zip(sim.cars, runlogs)}
+        )
+        written.insert(
+            0,
+            save_summary(
+                out / "summary.png",
+                sim.world,
+                paths,
+                scan_origin=None if origin is None else origin[:2],
+                scan_points=None if ends is None else ends[:, :2],
+                camera_bgr=runlog.last_frame(),
+                title=_title(args, sim),
+                lines=lines,
+                rate=runlog.trajectory_rate,
+            ),
+        )
     _print_summary(args, sim, runlogs, wall, written)
     if interrupted:
         print(f"racecar-sim: interrupted at sim time {sim.time:.2f} s; the files above are complete", file=sys.stderr)
@@ -248,8 +347,14 @@ def _recording(args: argparse.Namespace, sim: Simulator, record: Path | None) ->
     make_folder("--record", record.parent)
     image_topics = [car.camera.spec.image_topic for car in sim.cars if car.camera is not None]
     try:
-        return RunRecording(sim.bus, lambda: sim.time_ns, record, image_topics=image_topics,
-                            raw_images=args.raw_images, overwrite=args.overwrite)
+        return RunRecording(
+            sim.bus,
+            lambda: sim.time_ns,
+            record,
+            image_topics=image_topics,
+            raw_images=args.raw_images,
+            overwrite=args.overwrite,
+        )
     except RecordingError as exc:  # taken by another run since the look before the build, or cannot be created
         raise RecordingError(f"--record {exc}") from None
 
@@ -286,8 +391,13 @@ def _drive(args: argparse.Namespace, sim: Simulator, live: LiveViews) -> tuple[f
     taken and whether it was interrupted (the run's files are written either way)."""
     realtime = args.realtime or live.realtime
     chunk = LIVE_CHUNK if live.realtime else CHUNK
-    bar = tqdm(total=round(args.duration, 3), unit="sim s", disable=args.duration < PROGRESS_MIN_DURATION or None,
-               bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]", file=sys.stderr)
+    bar = tqdm(
+        total=round(args.duration, 3),
+        unit="sim s",
+        disable=args.duration < PROGRESS_MIN_DURATION or None,
+        bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]",
+        file=sys.stderr,
+    )
     bridge = start_ros_bridge(args, sim)
     pacer = RealTimePacer()
     cameras = [car.camera for car in sim.cars if car.camera is not None]
@@ -326,9 +436,7 @@ def _summary_lines(sim: Simulator, runlogs: list[RunLog], wall: float) -> list[s
     rtf = f"real-time factor {sim.time / max(wall, 1e-9):.1f}x"
     if not sim.cars[0].name:
         runlog = runlogs[0]
-        lines = [f"distance         {runlog.distance:.1f} m",
-                 f"mean speed       {runlog.mean_speed:.2f} m/s",
-                 rtf]
+        lines = [f"distance         {runlog.distance:.1f} m", f"mean speed       {runlog.mean_speed:.2f} m/s", rtf]
         if runlog.last_scan is not None:
             lines.append(f"min clearance    {runlog.min_clearance:.2f} m (lidar)")
         return lines
@@ -339,14 +447,19 @@ def _summary_lines(sim: Simulator, runlogs: list[RunLog], wall: float) -> list[s
     return lines
 
 
-def _print_summary(args: argparse.Namespace, sim: Simulator, runlogs: list[RunLog], wall: float,
-                   written: list[Path]) -> None:
-    print(f"world {sim.world.name}, driver {args.driver}, profile {sim.car.profile.name}, physics {sim.preset.name} "
-          f"(step {sim.model.opt.timestep * 1e3:g} ms), seed {sim.seed}")
+def _print_summary(
+    args: argparse.Namespace, sim: Simulator, runlogs: list[RunLog], wall: float, written: list[Path]
+) -> None:
+    print(
+        f"world {sim.world.name}, driver {args.driver}, profile {sim.car.profile.name}, physics {sim.preset.name} "
+        f"(step {sim.model.opt.timestep * 1e3:g} ms), seed {sim.seed}"
+    )
     if args.cars is not None:
         spacing = CAR_SPACING if args.car_spacing is None else args.car_spacing
-        print(f"cars             {len(sim.cars)} ({sim.cars[0].model_name}..{sim.cars[-1].model_name}), "
-              f"{spacing:g} m apart")
+        print(
+            f"cars             {len(sim.cars)} ({sim.cars[0].model_name}..{sim.cars[-1].model_name}), "
+            f"{spacing:g} m apart"
+        )
     print(f"sim time         {sim.time:.2f} s")
     for line in _summary_lines(sim, runlogs, wall):
         print(line)

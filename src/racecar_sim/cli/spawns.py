@@ -34,9 +34,11 @@ def fleet_size(text: str) -> int:
     except ValueError:
         raise argparse.ArgumentTypeError(f"'{text}' is not a whole number") from None
     if not 1 <= value <= MAX_CARS:
-        raise argparse.ArgumentTypeError(f"'{text}' must be from 1 to {MAX_CARS}, the most cars one run takes (the "
-                                         f"model's build time and the lidars' memory grow with the square of the "
-                                         f"cars: {MAX_CARS} take about 30 s and 4 GB)")
+        raise argparse.ArgumentTypeError(
+            f"'{text}' must be from 1 to {MAX_CARS}, the most cars one run takes (the "
+            f"model's build time and the lidars' memory grow with the square of the "
+            f"cars: {MAX_CARS} take about 30 s and 4 GB)"
+        )
     return value
 
 
@@ -75,8 +77,9 @@ def check_spawn_option(world: World, args: argparse.Namespace) -> None:
         raise WorldError(f"--spawn: {exc}") from None
 
 
-def check_row(world: World, args: argparse.Namespace, spawns: list[Spawn], spacing: float,
-              centerline: np.ndarray | None) -> None:
+def check_row(
+    world: World, args: argparse.Namespace, spawns: list[Spawn], spacing: float, centerline: np.ndarray | None
+) -> None:
     """A fleet's row of spawn poses (car1 first) checked against the world before any car is built: WorldError
     naming the option, the first car that does not fit and how many do. A straight row (no `centerline`) is also
     refused where a wall stands between two cars (past a bend of a course); a row round a closed centerline where
@@ -88,8 +91,10 @@ def check_row(world: World, args: argparse.Namespace, spawns: list[Spawn], spaci
         lap = float(np.hypot(*(np.roll(points, -1, axis=0) - points).T).sum())
         fits = max(1, math.floor(lap / spacing + 1e-9))
         if count > fits:
-            raise WorldError(f"{row}: {world.label}: the track's centerline is {lap:.1f} m round: it takes "
-                             f"{_cars(fits)} {spacing:g} m apart (use fewer --cars or a smaller --car-spacing)")
+            raise WorldError(
+                f"{row}: {world.label}: the track's centerline is {lap:.1f} m round: it takes "
+                f"{_cars(fits)} {spacing:g} m apart (use fewer --cars or a smaller --car-spacing)"
+            )
     checker = probe(world, args)
     if checker is None:
         return
@@ -99,15 +104,19 @@ def check_row(world: World, args: argparse.Namespace, spawns: list[Spawn], spaci
             checker.check(spawn, name, [(f"car{j + 1}", spawns[j]) for j in range(k)])
             wall = checker.wall_between(spawns[k - 1], spawn) if k and centerline is None else None
             if wall is not None:
-                raise WorldError(f"{world.label}: {name}'s spawn pose ({spawn_text(spawn, ', ')}) is on the far side "
-                                 f"of {wall} from {before} (the cars line up straight back along the spawn heading)")
+                raise WorldError(
+                    f"{world.label}: {name}'s spawn pose ({spawn_text(spawn, ', ')}) is on the far side "
+                    f"of {wall} from {before} (the cars line up straight back along the spawn heading)"
+                )
         except CarOverlap as exc:  # cars closer than a car's length
             raise WorldError(f"--car-spacing {spacing:g}: {exc} (use a larger --car-spacing)") from None
         except WorldError as exc:
             if k == 0:  # car1: the spawn pose itself
                 raise WorldError(f"--spawn: {exc}" if args.spawn is not None else str(exc)) from None
-            raise WorldError(f"{row}: {exc}; this world takes {_cars(k)} in a row at {spacing:g} m from its spawn "
-                             "pose (use fewer --cars or a smaller --car-spacing)") from None
+            raise WorldError(
+                f"{row}: {exc}; this world takes {_cars(k)} in a row at {spacing:g} m from its spawn "
+                "pose (use fewer --cars or a smaller --car-spacing)"
+            ) from None
 
 
 def _cars(count: int) -> str:

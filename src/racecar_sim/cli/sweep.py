@@ -22,16 +22,29 @@ from racecar_sim.sweep.ray_runner import INSTALL_HINT, ray_available
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("sweep", help="many episodes over worlds, seeds, drivers and their parameters on Ray; writes "
-                                     "results.csv/.parquet and each run's MCAP and summary")
-    p.add_argument("file", metavar="FILE.yaml", help="the sweep: worlds, seeds, drivers and their parameters, duration "
-                                                     "(see examples/sweep_wall_follow.yaml)")
+    p = sub.add_parser(
+        "sweep",
+        help="many episodes over worlds, seeds, drivers and their parameters on Ray; writes "
+        "results.csv/.parquet and each run's MCAP and summary",
+    )
+    p.add_argument(
+        "file",
+        metavar="FILE.yaml",
+        help="the sweep: worlds, seeds, drivers and their parameters, duration (see examples/sweep_wall_follow.yaml)",
+    )
     p.add_argument("--out", metavar="DIR", help="folder for the results (default sweeps/<date-time>)")
-    p.add_argument("--address", metavar="ADDR",
-                   help="the Ray cluster to run on (host:port, ray://host:10001, auto); default: RAY_ADDRESS, a Ray "
-                        "started on this machine with `ray start`, else a local Ray for this sweep")
-    p.add_argument("--num-cpus", type=positive_int, metavar="N",
-                   help="CPUs of the local Ray, one episode on each at a time (default: all)")
+    p.add_argument(
+        "--address",
+        metavar="ADDR",
+        help="the Ray cluster to run on (host:port, ray://host:10001, auto); default: RAY_ADDRESS, a Ray "
+        "started on this machine with `ray start`, else a local Ray for this sweep",
+    )
+    p.add_argument(
+        "--num-cpus",
+        type=positive_int,
+        metavar="N",
+        help="CPUs of the local Ray, one episode on each at a time (default: all)",
+    )
     p.add_argument("--local", action="store_true", help="no Ray: run the episodes one by one in this process")
 
 
@@ -49,8 +62,11 @@ def main(args: argparse.Namespace) -> int:
     bar = tqdm(total=episodes, unit="episode", file=sys.stderr)
 
     def progress(row: dict[str, Any]) -> None:
-        bar.set_postfix_str(f"last: #{row['index']} {row['world']} {row['driver']} seed {row['seed']}"
-                            + (" FAILED" if row.get("error") else ""), refresh=False)
+        bar.set_postfix_str(
+            f"last: #{row['index']} {row['world']} {row['driver']} seed {row['seed']}"
+            + (" FAILED" if row.get("error") else ""),
+            refresh=False,
+        )
         bar.update(1)
 
     try:

@@ -56,15 +56,29 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     config = load_teleop_config()
     p = sub.add_parser("teleop", help="drive the car from the keyboard (w/a/s/d), in real time")
     add_world_arguments(p)
-    p.add_argument("--speed", type=finite_float, default=config.speed,
-                   help=f"speed of w/a/d (s: the negative), m/s (default {config.speed:g})")
-    p.add_argument("--turn", type=finite_float, default=config.turn,
-                   help=f"steering angle of a/d, rad (default {config.turn:g})")
-    p.add_argument("--hold", type=_non_negative, default=config.hold, metavar="S",
-                   help=f"repeat each key's command for S s, bridging the keyboard's auto-repeat delay "
-                        f"(default {config.hold:g}; 0: one message per key, as the original)")
-    p.add_argument("--duration", type=positive_float, metavar="S",
-                   help="end the session after S sim seconds (default: at q or Ctrl-C)")
+    p.add_argument(
+        "--speed",
+        type=finite_float,
+        default=config.speed,
+        help=f"speed of w/a/d (s: the negative), m/s (default {config.speed:g})",
+    )
+    p.add_argument(
+        "--turn", type=finite_float, default=config.turn, help=f"steering angle of a/d, rad (default {config.turn:g})"
+    )
+    p.add_argument(
+        "--hold",
+        type=_non_negative,
+        default=config.hold,
+        metavar="S",
+        help=f"repeat each key's command for S s, bridging the keyboard's auto-repeat delay "
+        f"(default {config.hold:g}; 0: one message per key, as the original)",
+    )
+    p.add_argument(
+        "--duration",
+        type=positive_float,
+        metavar="S",
+        help="end the session after S sim seconds (default: at q or Ctrl-C)",
+    )
     p.add_argument("--seed", type=seed_value, default=0, help="random seed (default 0)")
     p.add_argument("--record", metavar="FILE.mcap", help="record every topic to an MCAP file")
     add_overwrite_argument(p)
@@ -114,10 +128,17 @@ class Dashboard:
     def help(self, speed: float, turn: float, terminal: bool) -> None:
         """The original's banner, once, above the status line."""
         source = "the keyboard" if terminal else "the viewer window's keys"
-        lines = [f"Reading from {source} and publishing AckermannDriveStamped on {TELEOP}",
-                 "---------------------------", "Moving around:", "        w", "   a    s    d",
-                 f"w forward {speed:g} m/s, a/d forward and steer +/-{turn:g} rad, s reverse",
-                 "anything else : stop", "q or CTRL-C to quit", ""]
+        lines = [
+            f"Reading from {source} and publishing AckermannDriveStamped on {TELEOP}",
+            "---------------------------",
+            "Moving around:",
+            "        w",
+            "   a    s    d",
+            f"w forward {speed:g} m/s, a/d forward and steer +/-{turn:g} rad, s reverse",
+            "anything else : stop",
+            "q or CTRL-C to quit",
+            "",
+        ]
         self.write("\r\n".join(lines) + "\r\n")  # "\r": a raw terminal may not translate "\n"
 
     def draw(self, force: bool = False) -> None:
@@ -132,12 +153,16 @@ class Dashboard:
         self._last = (now, self.sim.time)
         x, y, yaw = self.pose()
         speed = self.odom.twist.twist.linear.x if self.odom is not None else 0.0
-        line = (f"t {self.sim.time:7.2f} s | v {speed:+5.2f} m/s | steer {self.steering:+5.2f} rad | "
-                f"x {x:+7.2f} y {y:+7.2f} yaw {yaw:+5.2f} | {self._rtf:4.2f}x | {self.sim.car.chain.in_control()}")
+        line = (
+            f"t {self.sim.time:7.2f} s | v {speed:+5.2f} m/s | steer {self.steering:+5.2f} rad | "
+            f"x {x:+7.2f} y {y:+7.2f} yaw {yaw:+5.2f} | {self._rtf:4.2f}x | {self.sim.car.chain.in_control()}"
+        )
         if self.record:
             line += f" | rec {self.record}"
         with contextlib.suppress(OSError, ValueError):
-            line = line[:max(10, os.get_terminal_size(self.stream.fileno()).columns - 1)]  # a wrapped line would scroll
+            line = line[
+                : max(10, os.get_terminal_size(self.stream.fileno()).columns - 1)
+            ]  # a wrapped line would scroll
         self.write(f"\r{line}\x1b[K")
 
     def finish(self) -> None:
@@ -149,16 +174,25 @@ class Dashboard:
     def summary(self, reason: str, recorder: object) -> str:
         """One line: why the session ended, how far the car went, where it is, what was recorded."""
         x, y, yaw = self.pose()
-        text = (f"teleop: {reason} after {self.sim.time:.2f} s of sim time; {self.distance:.2f} m driven; "
-                f"final pose x {x:.3f} y {y:.3f} yaw {yaw:.3f} rad")
+        text = (
+            f"teleop: {reason} after {self.sim.time:.2f} s of sim time; {self.distance:.2f} m driven; "
+            f"final pose x {x:.3f} y {y:.3f} yaw {yaw:.3f} rad"
+        )
         if recorder is not None:
             counts = recorder.message_count  # type: ignore[attr-defined]
             text += f"; recorded {sum(counts.values())} messages on {len(counts)} topics to {self.record}"
         return text
 
 
-def _session(sim: Simulator, teleop: KeyboardTeleop, views: LiveViews, terminal: RawTerminal | None,
-             dashboard: Dashboard, signals: StopSignals, duration: float | None) -> str:
+def _session(
+    sim: Simulator,
+    teleop: KeyboardTeleop,
+    views: LiveViews,
+    terminal: RawTerminal | None,
+    dashboard: Dashboard,
+    signals: StopSignals,
+    duration: float | None,
+) -> str:
     """Run the sim in real time, SLICE by SLICE, handing keys to teleop; returns why it ended."""
     pacer = RealTimePacer()
     while True:
@@ -209,9 +243,18 @@ def main(args: argparse.Namespace) -> int:
     if args.spawn is not None:  # checked here, to name the option
         world = load_world(args.world, args.spawn, [Path(p) for p in args.model_path], args.wall_height)
         check_spawn_option(world, args)
-    with StopSignals() as signals, Simulator(world=world, seed=args.seed, spawn=args.spawn,
-                                             model_path=args.model_path, wall_height=args.wall_height,
-                                             **sensor_options(args), **xacro_options(args)) as sim:
+    with (
+        StopSignals() as signals,
+        Simulator(
+            world=world,
+            seed=args.seed,
+            spawn=args.spawn,
+            model_path=args.model_path,
+            wall_height=args.wall_height,
+            **sensor_options(args),
+            **xacro_options(args),
+        ) as sim,
+    ):
         recorder = _recording(args, sim)
         teleop = KeyboardTeleop(sim.bus, sim.scheduler, lambda: sim.time_ns, args.speed, args.turn, args.hold)
         dashboard = Dashboard(sim, args.record, sys.stderr)

@@ -20,8 +20,15 @@ log = logging.getLogger("racecar_sim.controller_manager")
 class ControllerCommands:
     """Holds each controller's last command, as ros_control does, and writes it to the actuator."""
 
-    def __init__(self, bus: Bus, state: CarState, config: ControllerConfig, robot: Robot,
-                 now: Callable[[], int] = lambda: 0, names: CarNames = CarNames()) -> None:
+    def __init__(
+        self,
+        bus: Bus,
+        state: CarState,
+        config: ControllerConfig,
+        robot: Robot,
+        now: Callable[[], int] = lambda: 0,
+        names: CarNames = CarNames(),
+    ) -> None:
         self.state = state
         self.warn = ThrottledWarning(log, now)
         self.limits: dict[str, tuple[float, float]] = {}
@@ -42,8 +49,13 @@ class ControllerCommands:
 
         def on_command(msg: Float64) -> None:
             if type(msg) is not Float64:
-                warn(f"{topic} type", "%s: ignored a %s message (the topic takes %s)", topic, type_name(msg),
-                     type_name(Float64))
+                warn(
+                    f"{topic} type",
+                    "%s: ignored a %s message (the topic takes %s)",
+                    topic,
+                    type_name(msg),
+                    type_name(Float64),
+                )
                 return
             value = msg.data
             # a finite float (what servo_commands sends) in one look; anything else through the full check

@@ -36,7 +36,6 @@ from racecar_sim.bus import Bus
 from racecar_sim.control.controller_state import ControllerStatePublisher
 from racecar_sim.control.controllers import JOINT_STATE, POSITION, VELOCITY, ControllerConfig, JointController
 from racecar_sim.core.names import CarNames
-from racecar_sim.nodes import Timers
 from racecar_sim.description.urdf import Robot
 from racecar_sim.msgs import ControllerState, HardwareInterfaceResources
 from racecar_sim.msgs.controller_manager_msgs import (
@@ -51,6 +50,7 @@ from racecar_sim.msgs.controller_manager_msgs import (
     UnloadControllerRequest,
     UnloadControllerResponse,
 )
+from racecar_sim.nodes import Timers
 from racecar_sim.physics.state import CarState
 
 if TYPE_CHECKING:
@@ -91,8 +91,16 @@ class _Muted:
 class ControllerManager:
     """The controller_manager of one car (ros_control's, under `<namespace>/controller_manager`)."""
 
-    def __init__(self, bus: Bus, scheduler: Timers, state: CarState, config: ControllerConfig, robot: Robot,
-                 joint_states: JointStatePublisher, names: CarNames = CarNames()) -> None:
+    def __init__(
+        self,
+        bus: Bus,
+        scheduler: Timers,
+        state: CarState,
+        config: ControllerConfig,
+        robot: Robot,
+        joint_states: JointStatePublisher,
+        names: CarNames = CarNames(),
+    ) -> None:
         self.bus, self.state, self.config, self.joint_states = bus, state, config, joint_states
         self.namespace = names.topic(f"{config.namespace}/controller_manager")
         self._params: dict[str, JointController | None] = {c.name: c for c in config.controllers}
@@ -107,9 +115,13 @@ class ControllerManager:
         self._loaded: dict[str, _Loaded] = {}
         self.reset()
         self.state_publisher = ControllerStatePublisher(bus, scheduler, state, config, self.is_running, names)
-        for service, handler in (("list_controllers", self._list_srv), ("list_controller_types", self._types_srv),
-                                 ("load_controller", self._load_srv), ("unload_controller", self._unload_srv),
-                                 ("switch_controller", self._switch_srv)):
+        for service, handler in (
+            ("list_controllers", self._list_srv),
+            ("list_controller_types", self._types_srv),
+            ("load_controller", self._load_srv),
+            ("unload_controller", self._unload_srv),
+            ("switch_controller", self._switch_srv),
+        ):
             bus.advertise_service(f"{self.namespace}/{service}", handler)
 
     # --- the Python API -----------------------------------------------------------------------------
@@ -137,8 +149,12 @@ class ControllerManager:
             log.error("A controller named '%s' was already loaded inside the controller manager", name)
             return False
         if name not in self._params:
-            log.error("Could not load controller '%s' because the type was not specified. Is it in the controller "
-                      "configuration (namespace: '%s')?", name, self.config.namespace)
+            log.error(
+                "Could not load controller '%s' because the type was not specified. Is it in the controller "
+                "configuration (namespace: '%s')?",
+                name,
+                self.config.namespace,
+            )
             return False
         c = self._params[name]
         self._loaded[name] = _Loaded(name, JOINT_STATE if c is None else c.type, None if c is None else c.joint)
@@ -157,14 +173,23 @@ class ControllerManager:
         del self._loaded[name]
         return True
 
-    def switch_controller(self, start_controllers: list[str] | tuple[str, ...] = (),
-                          stop_controllers: list[str] | tuple[str, ...] = (), strictness: int = BEST_EFFORT,
-                          start_asap: bool = False, timeout: float = 0.0) -> bool:
+    def switch_controller(
+        self,
+        start_controllers: list[str] | tuple[str, ...] = (),
+        stop_controllers: list[str] | tuple[str, ...] = (),
+        strictness: int = BEST_EFFORT,
+        start_asap: bool = False,
+        timeout: float = 0.0,
+    ) -> bool:
         """Stop `stop_controllers`, then start `start_controllers`, now (before the next physics step)."""
         del start_asap, timeout  # the simulated hardware switches at once
         if strictness == 0:
-            log.warning("To switch controllers you need to specify a strictness level of STRICT (%d) or BEST_EFFORT "
-                        "(%d). Defaulting to BEST_EFFORT.", STRICT, BEST_EFFORT)
+            log.warning(
+                "To switch controllers you need to specify a strictness level of STRICT (%d) or BEST_EFFORT "
+                "(%d). Defaulting to BEST_EFFORT.",
+                STRICT,
+                BEST_EFFORT,
+            )
             strictness = BEST_EFFORT
         strict = strictness == STRICT
         requests: dict[str, list[_Loaded]] = {"stop": [], "start": []}
@@ -173,8 +198,9 @@ class ControllerManager:
                 if name in self._loaded:
                     requests[verb].append(self._loaded[name])
                 elif strict:
-                    log.error("Could not %s controller with name '%s' because no controller with this name exists",
-                              verb, name)
+                    log.error(
+                        "Could not %s controller with name '%s' because no controller with this name exists", verb, name
+                    )
                     return False
         stopping, starting = {c.name for c in requests["stop"]}, {c.name for c in requests["start"]}
         after: list[_Loaded] = []
@@ -195,8 +221,12 @@ class ControllerManager:
         claimed: dict[str, str] = {}
         for c in after:
             if c.joint is not None and claimed.setdefault(c.joint, c.name) != c.name:
-                log.error("Could not switch controllers, due to resource conflict: %s and %s both claim %s",
-                          claimed[c.joint], c.name, c.joint)
+                log.error(
+                    "Could not switch controllers, due to resource conflict: %s and %s both claim %s",
+                    claimed[c.joint],
+                    c.name,
+                    c.joint,
+                )
                 return False
         for c in requests["stop"]:
             if c.state == RUNNING:
@@ -276,6 +306,12 @@ class ControllerManager:
         return UnloadControllerResponse(self.unload_controller(request.name))
 
     def _switch_srv(self, request: SwitchControllerRequest) -> SwitchControllerResponse:
-        return SwitchControllerResponse(self.switch_controller(request.start_controllers, request.stop_controllers,
-                                                               request.strictness, request.start_asap,
-                                                               request.timeout))
+        return SwitchControllerResponse(
+            self.switch_controller(
+                request.start_controllers,
+                request.stop_controllers,
+                request.strictness,
+                request.start_asap,
+                request.timeout,
+            )
+        )

@@ -23,8 +23,8 @@ import numpy as np
 from racecar_sim.bus import Bus
 from racecar_sim.control.controllers import VELOCITY, ControllerConfig, JointController
 from racecar_sim.core.names import CarNames
-from racecar_sim.nodes import Timers
 from racecar_sim.msgs import Header, JointControllerState
+from racecar_sim.nodes import Timers
 from racecar_sim.physics.state import CarState
 
 STATE_RATE = 100.0  # Hz: every 10th update of ros_control's 1 kHz loop
@@ -43,11 +43,20 @@ class _Controller:
 class ControllerStatePublisher:
     """Publishes each running joint controller's JointControllerState at 100 Hz of sim time, while someone listens."""
 
-    def __init__(self, bus: Bus, scheduler: Timers, state: CarState, config: ControllerConfig,
-                 running: Callable[[str], bool], names: CarNames = CarNames()) -> None:
+    def __init__(
+        self,
+        bus: Bus,
+        scheduler: Timers,
+        state: CarState,
+        config: ControllerConfig,
+        running: Callable[[str], bool],
+        names: CarNames = CarNames(),
+    ) -> None:
         self.bus, self.state, self.running = bus, state, running
-        self.controllers = [_Controller(c, names.topic(f"{c.namespace}/{c.name}/state"),
-                                        *state.joint_indices([c.joint])) for c in config.controllers]
+        self.controllers = [
+            _Controller(c, names.topic(f"{c.namespace}/{c.name}/state"), *state.joint_indices([c.joint]))
+            for c in config.controllers
+        ]
         scheduler.every(STATE_RATE, self.publish, "controller_state", unheard=self._unheard)
 
     def _unheard(self, _now_ns: int) -> bool:
@@ -82,5 +91,17 @@ class ControllerStatePublisher:
         else:
             value, value_dot, error = q, w, set_point - q
             command = g.p * error - g.d * w + i_term
-        return JointControllerState(Header.at(now_ns), set_point, value, value_dot, error,
-                                    float(model.opt.timestep), command, g.p, g.i, g.d, g.i_clamp, False)
+        return JointControllerState(
+            Header.at(now_ns),
+            set_point,
+            value,
+            value_dot,
+            error,
+            float(model.opt.timestep),
+            command,
+            g.p,
+            g.i,
+            g.d,
+            g.i_clamp,
+            False,
+        )

@@ -14,12 +14,29 @@ from __future__ import annotations
 import mujoco
 
 from racecar_sim.core.names import CarNames
-from racecar_sim.description.controllers import (JOINT_STATE, POSITION, STEERING_HINGES, VELOCITY, ControllerConfig,
-                                                 Gains, JointController, load_controller_config)
+from racecar_sim.description.controllers import (
+    JOINT_STATE,
+    POSITION,
+    STEERING_HINGES,
+    VELOCITY,
+    ControllerConfig,
+    Gains,
+    JointController,
+    load_controller_config,
+)
 from racecar_sim.description.urdf import Robot
 
-__all__ = ["JOINT_STATE", "POSITION", "STEERING_HINGES", "VELOCITY", "ControllerConfig", "Gains", "JointController",
-           "add_actuators", "load_controller_config"]
+__all__ = [
+    "JOINT_STATE",
+    "POSITION",
+    "STEERING_HINGES",
+    "VELOCITY",
+    "ControllerConfig",
+    "Gains",
+    "JointController",
+    "add_actuators",
+    "load_controller_config",
+]
 
 
 def add_actuators(spec: mujoco.MjSpec, config: ControllerConfig, robot: Robot, names: CarNames = CarNames()) -> None:
@@ -33,8 +50,13 @@ def add_actuators(spec: mujoco.MjSpec, config: ControllerConfig, robot: Robot, n
             if c.gains.i:
                 _add_velocity_integral(spec, c, names)
         else:
-            act.set_to_pid(kp=c.gains.p, kv=c.gains.d, ki=c.gains.i, ctrlspec=_input_mask("pos"),
-                           imax=c.gains.i_clamp / c.gains.i if c.gains.i and c.gains.i_clamp else 0.0)
+            act.set_to_pid(
+                kp=c.gains.p,
+                kv=c.gains.d,
+                ki=c.gains.i,
+                ctrlspec=_input_mask("pos"),
+                imax=c.gains.i_clamp / c.gains.i if c.gains.i and c.gains.i_clamp else 0.0,
+            )
         if effort:
             act.forcerange = [-effort, effort]
             act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
@@ -46,8 +68,9 @@ def _input_mask(*inputs: str) -> int:
 
 
 def _add_velocity_integral(spec: mujoco.MjSpec, c: JointController, names: CarNames) -> None:
-    act = spec.add_actuator(name=names.mj(f"{c.name}/i_term"), target=names.mj(c.joint),
-                            trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    act = spec.add_actuator(
+        name=names.mj(f"{c.name}/i_term"), target=names.mj(c.joint), trntype=mujoco.mjtTrn.mjTRN_JOINT
+    )
     act.dyntype = mujoco.mjtDyn.mjDYN_INTEGRATOR  # act = integral of w_cmd
     act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
     act.gainprm[0] = c.gains.i

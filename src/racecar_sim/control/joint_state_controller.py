@@ -4,15 +4,22 @@ from __future__ import annotations
 
 from racecar_sim.bus import Bus
 from racecar_sim.msgs import Header, JointState
-from racecar_sim.physics.state import CarState
 from racecar_sim.nodes import Timers
+from racecar_sim.physics.state import CarState
 
 
 class JointStatePublisher:
     """Position, velocity and effort of every joint that has a controller transmission."""
 
-    def __init__(self, bus: Bus, scheduler: Timers, state: CarState, joints: list[str], rate: float,
-                 topic: str = "/racecar/joint_states") -> None:
+    def __init__(
+        self,
+        bus: Bus,
+        scheduler: Timers,
+        state: CarState,
+        joints: list[str],
+        rate: float,
+        topic: str = "/racecar/joint_states",
+    ) -> None:
         self.bus, self.state, self.topic = bus, state, topic
         self.names = list(joints)
         self._adr = state.joint_indices(self.names)

@@ -21,11 +21,11 @@ import yaml
 from racecar_sim.bus import Bus, type_name
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import CarNames
+from racecar_sim.core.tables import finite_number
+from racecar_sim.core.throttle import ThrottledWarning, is_finite_number
 from racecar_sim.core.time import to_ns
 from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header, String
 from racecar_sim.nodes import NodeBase, Restartable, Timers
-from racecar_sim.core.tables import finite_number
-from racecar_sim.core.throttle import ThrottledWarning, is_finite_number
 
 DATA = Path(__file__).parent / "data"
 MUX_WIRING = DATA / "mux.yaml"  # the original racecar.launch's chain
@@ -39,8 +39,14 @@ def non_finite_field(msg: AckermannDriveStamped) -> str | None:
     drive = getattr(msg, "drive", None)
     if type(drive) is AckermannDrive:  # every command passes here: the common case in a few plain float checks
         a, b, c, d, e = drive.speed, drive.steering_angle, drive.steering_angle_velocity, drive.acceleration, drive.jerk
-        if (type(a) is float and type(b) is float and type(c) is float and type(d) is float and type(e) is float
-                and math.isfinite(a + b + c + d + e)):  # a sum of finite numbers may overflow: then field by field
+        if (
+            type(a) is float
+            and type(b) is float
+            and type(c) is float
+            and type(d) is float
+            and type(e) is float
+            and math.isfinite(a + b + c + d + e)
+        ):  # a sum of finite numbers may overflow: then field by field
             return None
     for name in _DRIVE_FIELDS:
         value = getattr(msg.drive, name, None)
@@ -73,8 +79,13 @@ def accept_command(topic: str, msg: AckermannDriveStamped, warn: ThrottledWarnin
     if msg is _Forwarding.msg:  # accepted by the node that is forwarding it to us
         return True
     if type(msg) is not AckermannDriveStamped:
-        warn(f"{topic} type", "%s: ignored a %s message (the topic takes %s)", topic, type_name(msg),
-             type_name(AckermannDriveStamped))
+        warn(
+            f"{topic} type",
+            "%s: ignored a %s message (the topic takes %s)",
+            topic,
+            type_name(msg),
+            type_name(AckermannDriveStamped),
+        )
         return False
     bad = non_finite_field(msg)
     if bad is None:
@@ -122,16 +133,29 @@ def load_mux_inputs(path: Path) -> tuple[list[MuxInput], str]:
             if not isinstance(entry, dict) or not isinstance(entry.get(key), str) or not entry[key]:
                 raise ConfigError(f"{where}: {key} must be a non-empty string")
         where = f"{path}: subscribers[{i}] ({entry['name']})"
-        inputs.append(MuxInput(entry["name"], entry["topic"], float(_number(entry, "timeout", where, positive=True)),
-                               int(_number(entry, "priority", where, integer=True))))
+        inputs.append(
+            MuxInput(
+                entry["name"],
+                entry["topic"],
+                float(_number(entry, "timeout", where, positive=True)),
+                int(_number(entry, "priority", where, integer=True)),
+            )
+        )
     return inputs, str(output)
 
 
 class AckermannCmdMux:
     """One ackermann_cmd_mux nodelet under `namespace` (e.g. /vesc/low_level/ackermann_cmd_mux)."""
 
-    def __init__(self, bus: Bus, scheduler: Timers, now: Callable[[], int], namespace: str,
-                 inputs: list[MuxInput], output: str = "output") -> None:
+    def __init__(
+        self,
+        bus: Bus,
+        scheduler: Timers,
+        now: Callable[[], int],
+        namespace: str,
+        inputs: list[MuxInput],
+        output: str = "output",
+    ) -> None:
         self.bus, self.scheduler, self.now = bus, scheduler, now
         self.warn = ThrottledWarning(log, now)
         self.namespace = namespace
@@ -144,10 +168,12 @@ class AckermannCmdMux:
         bus.publish(self.active_topic, String("idle"))
         for inp in inputs:
             topic = f"{namespace}/{inp.topic}"
-            timer = self._timers[inp.name] = scheduler.timeout(partial(self._on_timeout, inp),
-                                                               f"{namespace} {inp.name} timeout")
-            bus.subscribe(topic, partial(self._on_command, inp, (topic, to_ns(inp.timeout), timer)),
-                          AckermannDriveStamped)
+            timer = self._timers[inp.name] = scheduler.timeout(
+                partial(self._on_timeout, inp), f"{namespace} {inp.name} timeout"
+            )
+            bus.subscribe(
+                topic, partial(self._on_command, inp, (topic, to_ns(inp.timeout), timer)), AckermannDriveStamped
+            )
 
     def _on_command(self, inp: MuxInput, plan: tuple[str, int, Restartable], msg: AckermannDriveStamped) -> None:
         topic, timeout_ns, timer = plan  # worked out once per input
@@ -181,8 +207,14 @@ class CommandChain(NodeBase):
     `config`: the wiring as a YAML file (mux.yaml) or the same as a mapping (a launch file's nodes; its mux files
     absolute paths, `source` naming where it came from, `default_command` optional)."""
 
-    def __init__(self, bus: Bus, scheduler: Timers, now: Callable[[], int], config: Path | Mapping = MUX_WIRING,
-                 names: CarNames = CarNames()) -> None:
+    def __init__(
+        self,
+        bus: Bus,
+        scheduler: Timers,
+        now: Callable[[], int],
+        config: Path | Mapping = MUX_WIRING,
+        names: CarNames = CarNames(),
+    ) -> None:
         try:
             if isinstance(config, Mapping):
                 data, folder = config, Path(".")

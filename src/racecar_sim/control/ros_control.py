@@ -30,7 +30,11 @@ class RosControl(NodeBase):
     """The controllers' command topics, joint_state_controller and the controller_manager of one car."""
 
     def __init__(self, ctx: NodeContext, plugin: Plugin | None = None) -> None:
-        config, robot, state = ctx.controllers, ctx.need_robot("gazebo_ros_control"), ctx.need_state("gazebo_ros_control")
+        config, robot, state = (
+            ctx.controllers,
+            ctx.need_robot("gazebo_ros_control"),
+            ctx.need_state("gazebo_ros_control"),
+        )
         if config is None:
             raise TypeError("gazebo_ros_control needs the car's controller configuration (racecar_control.yaml)")
         self.commands = ControllerCommands(ctx.bus, state, config, robot, ctx.now, ctx.names)

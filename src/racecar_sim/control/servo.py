@@ -32,9 +32,17 @@ log = logging.getLogger("racecar_sim.servo_commands")
 class ServoCommands(NodeBase):
     """The servo_commands node for one profile."""
 
-    def __init__(self, bus: Bus, robot: Robot, controllers: ControllerConfig, mode: str, input_topic: str,
-                 wheel_rate_per_speed: float | None = None, now: Callable[[], int] = lambda: 0,
-                 names: CarNames = CarNames()) -> None:
+    def __init__(
+        self,
+        bus: Bus,
+        robot: Robot,
+        controllers: ControllerConfig,
+        mode: str,
+        input_topic: str,
+        wheel_rate_per_speed: float | None = None,
+        now: Callable[[], int] = lambda: 0,
+        names: CarNames = CarNames(),
+    ) -> None:
         if mode not in ("ackermann", "parallel"):
             raise ValueError(f"servo mode '{mode}' is not ackermann or parallel")
         self.bus, self.mode = bus, mode
@@ -75,6 +83,9 @@ class ServoCommands(NodeBase):
         values, clamped = self.law.command(speed, steer)
         if clamped and not self._warned:
             self._warned = True
-            log.warning("servo_commands: steering_angle %.3f rad needs a hinge past its limit; "
-                        "turning as tight as the limits allow", steer)
+            log.warning(
+                "servo_commands: steering_angle %.3f rad needs a hinge past its limit; "
+                "turning as tight as the limits allow",
+                steer,
+            )
         return list(zip(self.topics, values))

@@ -51,10 +51,28 @@ class _Elementwise:
     maximum: Callable[[Any, Any], Any]
 
 
-FLOATS = _Elementwise(math.tan, math.atan2, math.cos, math.sin, abs, math.copysign,
-                      lambda condition, yes, no: yes if condition else no, min, max)
-ARRAYS = _Elementwise(_libm(math.tan), _libm(math.atan2, 2), _libm(math.cos), _libm(math.sin), np.abs, np.copysign,
-                      np.where, np.minimum, np.maximum)
+FLOATS = _Elementwise(
+    math.tan,
+    math.atan2,
+    math.cos,
+    math.sin,
+    abs,
+    math.copysign,
+    lambda condition, yes, no: yes if condition else no,
+    min,
+    max,
+)
+ARRAYS = _Elementwise(
+    _libm(math.tan),
+    _libm(math.atan2, 2),
+    _libm(math.cos),
+    _libm(math.sin),
+    np.abs,
+    np.copysign,
+    np.where,
+    np.minimum,
+    np.maximum,
+)
 
 
 @dataclass(frozen=True)
@@ -76,8 +94,9 @@ class ServoLaw:
     allow (inf where no hinge has limits).
     """
 
-    def __init__(self, mode: str, wheels: Sequence[ServoWheel], wheelbase: float, wheel_radius: float,
-                 rate_per_speed: float) -> None:
+    def __init__(
+        self, mode: str, wheels: Sequence[ServoWheel], wheelbase: float, wheel_radius: float, rate_per_speed: float
+    ) -> None:
         if mode not in MODES:
             raise ValueError(f"servo mode '{mode}' is not ackermann or parallel")
         self.mode, self.wheels = mode, tuple(wheels)

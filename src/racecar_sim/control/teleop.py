@@ -9,10 +9,10 @@ from pathlib import Path
 
 from racecar_sim.bus import Bus
 from racecar_sim.core.errors import ConfigError
-from racecar_sim.nodes import Timers
 from racecar_sim.core.tables import finite_number, load_record
 from racecar_sim.core.time import to_ns
 from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header
+from racecar_sim.nodes import Timers
 
 TELEOP = "/vesc/ackermann_cmd_mux/input/teleop"
 DEFAULTS = Path(__file__).parent / "data" / "keyboard_teleop.yaml"
@@ -42,8 +42,9 @@ def load_teleop_config(path: Path = DEFAULTS) -> TeleopConfig:
             raise ConfigError(f"{path}: bindings: {key}: expected [speed factor, steering factor], got {factors!r}")
         bindings[str(key)] = tuple(finite_number(f, f"{path}: bindings: {key}") for f in factors)
     if config.hold < 0 or config.repeat_rate <= 0:
-        raise ConfigError(f"{path}: hold must be >= 0 and repeat_rate positive, got {config.hold:g}, "
-                          f"{config.repeat_rate:g}")
+        raise ConfigError(
+            f"{path}: hold must be >= 0 and repeat_rate positive, got {config.hold:g}, {config.repeat_rate:g}"
+        )
     return dataclasses.replace(config, bindings=bindings)
 
 
@@ -55,9 +56,17 @@ class KeyboardTeleop:
     keyboard's auto-repeat delay; releasing it stops the car `hold` + 0.2 s (the mux timeout) later.
     """
 
-    def __init__(self, bus: Bus, scheduler: Timers, now: Callable[[], int], speed: float | None = None,
-                 turn: float | None = None, hold: float | None = None, config: TeleopConfig | None = None,
-                 topic: str = TELEOP) -> None:
+    def __init__(
+        self,
+        bus: Bus,
+        scheduler: Timers,
+        now: Callable[[], int],
+        speed: float | None = None,
+        turn: float | None = None,
+        hold: float | None = None,
+        config: TeleopConfig | None = None,
+        topic: str = TELEOP,
+    ) -> None:
         self.config = config or load_teleop_config()
         self.bus, self.now, self.topic = bus, now, topic
         self.speed = self.config.speed if speed is None else speed
@@ -72,9 +81,13 @@ class KeyboardTeleop:
         """One key event (a press or an auto-repeat)."""
         speed_factor, steer_factor = self.config.bindings.get(ch.lower(), (0.0, 0.0))
         self.last_key = ch
-        self.drive = AckermannDrive(steering_angle=steer_factor * self.turn, speed=speed_factor * self.speed,
-                                    acceleration=self.config.acceleration, jerk=self.config.jerk,
-                                    steering_angle_velocity=self.config.steering_angle_velocity)
+        self.drive = AckermannDrive(
+            steering_angle=steer_factor * self.turn,
+            speed=speed_factor * self.speed,
+            acceleration=self.config.acceleration,
+            jerk=self.config.jerk,
+            steering_angle_velocity=self.config.steering_angle_velocity,
+        )
         self._hold_until = self.now() + self.hold_ns
         self._publish(self.now())
 

@@ -40,8 +40,10 @@ class CarNames:
 
     def __post_init__(self) -> None:
         if self.namespace and not _NAMESPACE.fullmatch(self.namespace):
-            raise ConfigError(f"car name {self.namespace!r} must start with a letter and hold only letters, digits "
-                              "and _ (it becomes a ROS namespace and a TF prefix)")
+            raise ConfigError(
+                f"car name {self.namespace!r} must start with a letter and hold only letters, digits "
+                "and _ (it becomes a ROS namespace and a TF prefix)"
+            )
 
     @property
     def model(self) -> str:
@@ -69,7 +71,7 @@ class CarNames:
         if not self.namespace:
             return mj_name
         prefix = f"{self.namespace}/"
-        return mj_name[len(prefix):] if mj_name.startswith(prefix) else None
+        return mj_name[len(prefix) :] if mj_name.startswith(prefix) else None
 
     @property
     def noise_prefix(self) -> str:

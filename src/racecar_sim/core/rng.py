@@ -76,7 +76,7 @@ class NoiseTable:
         """The unit normal noise (count,) of the sample stamped `stamp_ns` in run `seed` (a new array)."""
         first, second = self.offsets(seed, stamp_ns)
         n, v = self.count, self.values
-        return v[first:first + n] + v[second:second + n]
+        return v[first : first + n] + v[second : second + n]
 
     def samples(self, seeds: np.ndarray, stamps_ns: np.ndarray) -> np.ndarray:
         """sample() for arrays of seeds and stamps: (len, count), row i that of (seeds[i], stamps_ns[i])."""

@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import typing
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -16,7 +16,7 @@ from racecar_sim.core.errors import ConfigError
 T = TypeVar("T")
 
 
-@lru_cache(maxsize=None)
+@cache
 def read_table(path: Path) -> dict[str, dict]:
     """The YAML mapping of names to entries in `path` (read once)."""
     try:
@@ -94,8 +94,12 @@ def load_record(path: Path, cls: type[T], overrides: dict[str, object] | None = 
     unknown = sorted(set(data) - set(fields))
     missing = sorted(set(fields) - set(data))
     if unknown or missing:
-        what = "; ".join(filter(None, [unknown and f"unknown field {', '.join(unknown)}",
-                                       missing and f"missing field {', '.join(missing)}"]))
+        what = "; ".join(
+            filter(
+                None,
+                [unknown and f"unknown field {', '.join(unknown)}", missing and f"missing field {', '.join(missing)}"],
+            )
+        )
         raise ConfigError(f"{path}: {what}")
     hints = typing.get_type_hints(cls)
     values = {name: checked_value(hints[name], value, f"{path}: {name}") for name, value in data.items()}

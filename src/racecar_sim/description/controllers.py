@@ -90,17 +90,23 @@ def load_controller_config(path: str | Path, robot: Robot) -> ControllerConfig:
             raise ConfigError(f"{where}: controller type '{kind}' is not supported")
         joint = entry.get("joint")
         if joint not in robot.joints:
-            raise ConfigError(f"{where}: joint '{joint}' is not in the robot description {description}: add the "
-                              "joint to the xacro, or drop the controller")
+            raise ConfigError(
+                f"{where}: joint '{joint}' is not in the robot description {description}: add the "
+                "joint to the xacro, or drop the controller"
+            )
         if joint not in effort_joints:
-            raise ConfigError(f"{where}: joint '{joint}' has no <transmission> with an EffortJointInterface in "
-                              f"{description}: add one for it to the xacro")
+            raise ConfigError(
+                f"{where}: joint '{joint}' has no <transmission> with an EffortJointInterface in "
+                f"{description}: add one for it to the xacro"
+            )
         pid = entry.get("pid") or {}
         if not isinstance(pid, dict):
             raise ConfigError(f"{where}/pid: expected a mapping of gains (p, i, d, i_clamp), got {pid!r}")
         gains = Gains(*(_gain(pid, k, f"{where}/pid/{k}") for k in ("p", "i", "d", "i_clamp")))
         if kind == VELOCITY and gains.d != 0.0:
-            raise ConfigError(f"{where}: a d gain on a JointVelocityController (acceleration feedback) is not supported")
+            raise ConfigError(
+                f"{where}: a d gain on a JointVelocityController (acceleration feedback) is not supported"
+            )
         controllers.append(JointController(name, kind, joint, gains, f"/{namespace}"))
     _check_drivable(path, robot, controllers, description)
     return ControllerConfig(f"/{namespace}", tuple(controllers), rate)
@@ -113,15 +119,19 @@ def _check_drivable(path: Path, robot: Robot, controllers: list[JointController]
         geometry = VehicleGeometry.from_robot(robot)
     except DescriptionError as exc:
         hinges = [c.joint for c in controllers if c.type == POSITION] or list(STEERING_HINGES)
-        raise DescriptionError(f"{description}: servo_commands cannot drive it ({exc}): it needs the steering hinge "
-                               f"joints {' and '.join(hinges)} (as {path.name} expects), each carrying a front wheel, "
-                               "and two rear wheels") from None
+        raise DescriptionError(
+            f"{description}: servo_commands cannot drive it ({exc}): it needs the steering hinge "
+            f"joints {' and '.join(hinges)} (as {path.name} expects), each carrying a front wheel, "
+            "and two rear wheels"
+        ) from None
     driven = {c.joint for c in controllers}
     for wheel in geometry.wheels:
         for joint, kind in ((wheel.joint, VELOCITY), (wheel.hinge_joint, POSITION)):
             if joint is not None and joint not in driven:
-                raise ConfigError(f"{path}: no controller for joint '{joint}' of {description} (servo_commands "
-                                  f"commands every wheel and steering hinge): add a {kind} for it")
+                raise ConfigError(
+                    f"{path}: no controller for joint '{joint}' of {description} (servo_commands "
+                    f"commands every wheel and steering hinge): add a {kind} for it"
+                )
 
 
 def _gain(pid: dict, key: str, where: str) -> float:

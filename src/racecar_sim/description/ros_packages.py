@@ -45,8 +45,9 @@ def _crawl(roots: Iterable[Path], fresh: bool = False) -> rospkg.RosPack:
         try:
             crawl.list()  # crawls now: a broken package.xml is reported here, not half-way through a later lookup
         except rospkg.InvalidManifest as exc:
-            raise ConfigError(f"{' '.join(str(exc).split())} (fix that package.xml, or take its folder off "
-                              "ROS_PACKAGE_PATH)") from None
+            raise ConfigError(
+                f"{' '.join(str(exc).split())} (fix that package.xml, or take its folder off ROS_PACKAGE_PATH)"
+            ) from None
         _crawls[key] = crawl
     return _crawls[key]
 
@@ -68,8 +69,10 @@ def find_package(name: str, needed_by: str | Path | None = None) -> Path:
     if found is None:
         asker = f"{needed_by}: " if needed_by else ""
         where = os.environ.get(PACKAGE_PATH_VARIABLE) or "(ROS_PACKAGE_PATH is empty)"
-        raise PackageNotFound(f"{asker}package '{name}' not found on ROS_PACKAGE_PATH {where} nor among the "
-                              f"packages racecar-sim ships: {FIX}")
+        raise PackageNotFound(
+            f"{asker}package '{name}' not found on ROS_PACKAGE_PATH {where} nor among the "
+            f"packages racecar-sim ships: {FIX}"
+        )
     return found
 
 
@@ -78,18 +81,20 @@ def resolve_uri(uri: str, base_dir: Path | None = None, needed_by: str | Path | 
     `base_dir`, else to the working folder)."""
     uri = uri.strip()
     if uri.startswith("package://"):
-        package, _, rest = uri[len("package://"):].partition("/")
+        package, _, rest = uri[len("package://") :].partition("/")
         return find_package(package, needed_by) / rest
     if uri.startswith("model://"):
-        model, _, rest = uri[len("model://"):].partition("/")
+        model, _, rest = uri[len("model://") :].partition("/")
         for folder in gazebo_model_dirs():
             if (folder / model).is_dir():
                 return folder / model / rest
         asker = f"{needed_by}: " if needed_by else ""
-        raise ConfigError(f"{asker}{uri}: model '{model}' not found in any model folder (add its folder to "
-                          "GAZEBO_MODEL_PATH or --model-path, or its package with --package-path)")
+        raise ConfigError(
+            f"{asker}{uri}: model '{model}' not found in any model folder (add its folder to "
+            "GAZEBO_MODEL_PATH or --model-path, or its package with --package-path)"
+        )
     if uri.startswith("file://"):
-        uri = uri[len("file://"):]
+        uri = uri[len("file://") :]
     elif "://" in uri:
         asker = f"{needed_by}: " if needed_by else ""
         raise ConfigError(f"{asker}{uri}: only package://, model://, file:// and plain paths are supported")

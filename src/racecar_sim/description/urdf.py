@@ -277,15 +277,23 @@ def parse_urdf(text: str, source: str = "<urdf>") -> Robot:
             mass = _floats(mass_el.get("value"), 1, f"{where} mass")[0]
             if mass <= 0 or mass != mass:
                 raise DescriptionError(f"{where}: mass {mass} must be positive")
-            inertia = tuple(_floats(inertia_el.get(k), 1, f"{where} inertia {k}", (0.0,))[0]
-                            for k in ("ixx", "iyy", "izz", "ixy", "ixz", "iyz"))
+            inertia = tuple(
+                _floats(inertia_el.get(k), 1, f"{where} inertia {k}", (0.0,))[0]
+                for k in ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
+            )
             link.inertial = Inertial(mass, _origin(inertial.find("origin"), where), inertia)  # type: ignore[arg-type]
         for vis in el.findall("visual"):
-            link.visuals.append(Shape(_geometry(vis.find("geometry"), f"{where} visual"),
-                                      _origin(vis.find("origin"), where), _rgba(vis.find("material"), materials)))  # type: ignore[arg-type]
+            link.visuals.append(
+                Shape(
+                    _geometry(vis.find("geometry"), f"{where} visual"),
+                    _origin(vis.find("origin"), where),
+                    _rgba(vis.find("material"), materials),
+                )
+            )  # type: ignore[arg-type]
         for col in el.findall("collision"):
-            link.collisions.append(Shape(_geometry(col.find("geometry"), f"{where} collision"),
-                                         _origin(col.find("origin"), where)))
+            link.collisions.append(
+                Shape(_geometry(col.find("geometry"), f"{where} collision"), _origin(col.find("origin"), where))
+            )
         links[name] = link
 
     joints: dict[str, Joint] = {}
@@ -305,12 +313,17 @@ def parse_urdf(text: str, source: str = "<urdf>") -> Robot:
         limit_el = el.find("limit")
         limit = None
         if limit_el is not None:
-            limit = Limit(*(_floats(limit_el.get(k), 1, f"{where} limit {k}", (0.0,))[0]
-                            for k in ("lower", "upper", "effort", "velocity")))
+            limit = Limit(
+                *(
+                    _floats(limit_el.get(k), 1, f"{where} limit {k}", (0.0,))[0]
+                    for k in ("lower", "upper", "effort", "velocity")
+                )
+            )
         elif kind in ("revolute", "prismatic"):
             raise DescriptionError(f"{where}: a {kind} joint needs a <limit>")
-        joints[name] = Joint(name, kind, parent.get("link", ""), child.get("link", ""),
-                             _origin(el.find("origin"), where), axis, limit)  # type: ignore[arg-type]
+        joints[name] = Joint(
+            name, kind, parent.get("link", ""), child.get("link", ""), _origin(el.find("origin"), where), axis, limit
+        )  # type: ignore[arg-type]
 
     transmissions = []
     for el in root.findall("transmission"):
@@ -322,8 +335,11 @@ def parse_urdf(text: str, source: str = "<urdf>") -> Robot:
             raise DescriptionError(f"{where}: joint '{joint_el.get('name')}' is not defined")
         reduction = _floats(actuator_el.findtext("mechanicalReduction"), 1, f"{where} mechanicalReduction", (1.0,))[0]
         interface = (joint_el.findtext("hardwareInterface") or "").strip()
-        transmissions.append(Transmission(el.get("name", ""), joint_el.get("name", ""), actuator_el.get("name", ""),
-                                          interface, reduction))
+        transmissions.append(
+            Transmission(
+                el.get("name", ""), joint_el.get("name", ""), actuator_el.get("name", ""), interface, reduction
+            )
+        )
 
     sensors: list[Sensor] = []
     plugins: list[Plugin] = []
@@ -338,8 +354,17 @@ def parse_urdf(text: str, source: str = "<urdf>") -> Robot:
         sensors += [_sensor(s, ref, f"{source}: gazebo {ref}") for s in el.findall("sensor")]
         plugins += [Plugin.of(plugin, ref) for plugin in el.findall("plugin")]
 
-    robot = Robot(root.get("name", ""), links, joints, transmissions, sensors, plugins, text,  # type: ignore[arg-type]
-                  materials, source)
+    robot = Robot(
+        root.get("name", ""),
+        links,
+        joints,
+        transmissions,
+        sensors,
+        plugins,
+        text,  # type: ignore[arg-type]
+        materials,
+        source,
+    )
     roots = [n for n in links if robot.joint_to(n) is None]
     if len(roots) != 1:
         raise DescriptionError(f"{source}: the links form {len(roots)} trees ({', '.join(roots)}), expected one")

@@ -51,19 +51,35 @@ class VehicleGeometry:
             parent_joint = robot.joint_to(joint.parent)
             steered = parent_joint is not None and parent_joint.type in ("revolute", "continuous")
             hinge_point = tuple(float(c) for c in link_pose(robot, parent_joint.child)[0][:2]) if steered else None
-            wheels.append(WheelGeometry(link.name, joint.name, tuple(float(c) for c in centre), parent_joint.name if steered else None,
-                                        hinge_point))
+            wheels.append(
+                WheelGeometry(
+                    link.name,
+                    joint.name,
+                    tuple(float(c) for c in centre),
+                    parent_joint.name if steered else None,
+                    hinge_point,
+                )
+            )
         front = [w for w in wheels if w.hinge_joint]
         rear = [w for w in wheels if not w.hinge_joint]
         if len(front) != 2 or len(rear) != 2 or radius is None:
-            raise DescriptionError(f"robot '{robot.name}': expected 2 steered and 2 rear wheels with cylinder collisions, "
-                                   f"found {len(front)} and {len(rear)}")
+            raise DescriptionError(
+                f"robot '{robot.name}': expected 2 steered and 2 rear wheels with cylinder collisions, "
+                f"found {len(front)} and {len(rear)}"
+            )
         rear_x = np.mean([w.centre[0] for w in rear])
         hinge_x = np.mean([w.hinge_axis_point[0] for w in front])
         kingpin = abs(front[0].hinge_axis_point[1] - front[1].hinge_axis_point[1])
         mass = sum(link.inertial.mass for link in robot.links.values() if link.inertial)
-        return cls(float(hinge_x - rear_x), float(kingpin), float(abs(rear[0].centre[1] - rear[1].centre[1])),
-                   float(radius), float(width), float(mass), tuple(wheels))
+        return cls(
+            float(hinge_x - rear_x),
+            float(kingpin),
+            float(abs(rear[0].centre[1] - rear[1].centre[1])),
+            float(radius),
+            float(width),
+            float(mass),
+            tuple(wheels),
+        )
 
     def wheel(self, link: str) -> WheelGeometry:
         return next(w for w in self.wheels if w.link == link)

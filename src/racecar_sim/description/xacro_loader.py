@@ -26,8 +26,9 @@ def package_path(package: str) -> Path:
     for root in SHIPPED_ROOTS:
         if (root / package / "package.xml").is_file():
             return root / package
-    raise DescriptionError(f"package '{package}': racecar-sim ships no such package "
-                           f"(in {', '.join(map(str, SHIPPED_ROOTS))})")
+    raise DescriptionError(
+        f"package '{package}': racecar-sim ships no such package (in {', '.join(map(str, SHIPPED_ROOTS))})"
+    )
 
 
 def _shipped_package_of(path: Path) -> Path | None:

@@ -10,5 +10,17 @@ from racecar_sim.drivers.pure_pursuit import PurePursuit
 from racecar_sim.drivers.wall_follow import WallFollower
 from racecar_sim.drivers.waypoints import Waypoints, load_waypoints
 
-__all__ = ["NAVIGATION", "ConstantCommand", "PlanarPose", "PurePursuit", "PurePursuitConfig", "WallFollowConfig",
-           "WallFollower", "Waypoints", "load_waypoints", "planar_pose", "pure_pursuit_config", "wall_follow_config"]
+__all__ = [
+    "NAVIGATION",
+    "ConstantCommand",
+    "PlanarPose",
+    "PurePursuit",
+    "PurePursuitConfig",
+    "WallFollowConfig",
+    "WallFollower",
+    "Waypoints",
+    "load_waypoints",
+    "planar_pose",
+    "pure_pursuit_config",
+    "wall_follow_config",
+]

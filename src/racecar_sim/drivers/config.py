@@ -39,7 +39,9 @@ class WallFollowConfig:
         if self.side not in ("right", "left"):
             raise ConfigError(f"wall-follow side must be right or left, got {self.side!r}")
         if len(self.sector) != 2 or not 0 <= self.sector[0] < self.sector[1] <= 180:
-            raise ConfigError(f"wall-follow sector must be [from, to] deg with 0 <= from < to <= 180, got {self.sector}")
+            raise ConfigError(
+                f"wall-follow sector must be [from, to] deg with 0 <= from < to <= 180, got {self.sector}"
+            )
         _positive(self, "patch", "distance", "max_approach", "max_steering", "speed", "min_speed", "front_cone")
 
 

@@ -12,8 +12,15 @@ NAVIGATION = "/vesc/ackermann_cmd_mux/input/navigation"
 class ConstantCommand(NodeBase):
     """Publishes speed/steering_angle at `rate` Hz on `topic` (the navigation input by default)."""
 
-    def __init__(self, bus: Bus, scheduler: Timers, speed: float, steering_angle: float, rate: float = 20.0,
-                 topic: str = NAVIGATION) -> None:
+    def __init__(
+        self,
+        bus: Bus,
+        scheduler: Timers,
+        speed: float,
+        steering_angle: float,
+        rate: float = 20.0,
+        topic: str = NAVIGATION,
+    ) -> None:
         self.bus, self.topic = bus, topic
         self.drive = AckermannDrive(steering_angle=steering_angle, speed=speed)
         scheduler.every(rate, self.publish, "constant_command")

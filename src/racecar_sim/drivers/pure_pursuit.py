@@ -26,13 +26,20 @@ class PurePursuit(NodeBase):
     `max_lateral_accel`. On an open path it stops at the end.
     """
 
-    def __init__(self, bus: Bus, path: Waypoints, config: PurePursuitConfig | None = None, topic: str = NAVIGATION,
-                 odom_topic: str = "/vesc/odom") -> None:
+    def __init__(
+        self,
+        bus: Bus,
+        path: Waypoints,
+        config: PurePursuitConfig | None = None,
+        topic: str = NAVIGATION,
+        odom_topic: str = "/vesc/odom",
+    ) -> None:
         self.config = config or pure_pursuit_config()
         self.bus, self.topic, self.path = bus, topic, path
         points = path.points
         self._segments = (np.roll(points, -1, axis=0) if path.closed else points[1:]) - (
-            points if path.closed else points[:-1])
+            points if path.closed else points[:-1]
+        )
         self._lengths = np.hypot(*self._segments.T)
         self._station = np.concatenate([[0.0], np.cumsum(self._lengths)])  # arc length at each point
         self.length = float(self._station[-1])
@@ -82,8 +89,9 @@ class PurePursuit(NodeBase):
             step = (nearest - self._nearest) % self.length if self.path.closed else nearest - self._nearest
             self.progress += step if step < self.length / 2 else step - self.length
         self._nearest = nearest
-        lookahead = float(np.clip(cfg.lookahead + cfg.lookahead_time * max(pose.speed, 0.0), cfg.min_lookahead,
-                                  cfg.max_lookahead))
+        lookahead = float(
+            np.clip(cfg.lookahead + cfg.lookahead_time * max(pose.speed, 0.0), cfg.min_lookahead, cfg.max_lookahead)
+        )
         goal = self._point_at(nearest + lookahead)
         dx, dy = goal - xy
         y_car = -math.sin(pose.yaw) * dx + math.cos(pose.yaw) * dy
@@ -95,5 +103,7 @@ class PurePursuit(NodeBase):
         if not self.path.closed and self.length - nearest < 0.05:
             speed, steering = 0.0, 0.0
         stamp = msg.header.stamp.to_ns()
-        self.bus.publish(self.topic, AckermannDriveStamped(Header.at(stamp, "base_link"),
-                                                          AckermannDrive(steering_angle=steering, speed=speed)))
+        self.bus.publish(
+            self.topic,
+            AckermannDriveStamped(Header.at(stamp, "base_link"), AckermannDrive(steering_angle=steering, speed=speed)),
+        )

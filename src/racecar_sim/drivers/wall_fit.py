@@ -14,7 +14,7 @@ TIE = 1.0 + 1e-12  # ranges closer than this ratio may order differently by x^2 
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def fit_wall(ranges, cos, sin, range_max, patch, side):  # noqa: ANN001, ANN201
+def fit_wall(ranges, cos, sin, range_max, patch, side):
     """(approach angle, distance) of the wall: WallFollower._fit's definition (see there), as loops.
 
     ranges: the side sector's ranges (no NaN or -inf); cos, sin: its beams' unit vectors.

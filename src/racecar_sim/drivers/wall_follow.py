@@ -14,7 +14,6 @@ from racecar_sim.drivers.odom import planar_pose
 from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header, LaserScan, Odometry
 from racecar_sim.nodes import NodeBase
 
-
 # the side sector (beam indices, and their unit vectors: rows cos, sin) and the front cone (beam indices)
 Layout = tuple[slice | np.ndarray, np.ndarray, slice | np.ndarray]
 
@@ -46,8 +45,14 @@ class WallFollower(NodeBase):
     falls with the steering and the free distance ahead. Boxed in closer than `stuck`, it backs out.
     """
 
-    def __init__(self, bus: Bus, config: WallFollowConfig | None = None, topic: str = NAVIGATION,
-                 scan_topic: str = "/scan", odom_topic: str = "/vesc/odom") -> None:
+    def __init__(
+        self,
+        bus: Bus,
+        config: WallFollowConfig | None = None,
+        topic: str = NAVIGATION,
+        scan_topic: str = "/scan",
+        odom_topic: str = "/vesc/odom",
+    ) -> None:
         self.config = config or wall_follow_config()
         self.bus, self.topic = bus, topic
         self.side = -1.0 if self.config.side == "right" else 1.0  # the wall's side as a sign of the beam angle
@@ -151,5 +156,7 @@ class WallFollower(NodeBase):
         self._command(now, steering, cfg.min_speed + (cfg.speed - cfg.min_speed) * min(1.0 - turn, clear))
 
     def _command(self, now: int, steering: float, speed: float) -> None:
-        self.bus.publish(self.topic, AckermannDriveStamped(Header.at(now, "base_link"),
-                                                          AckermannDrive(steering_angle=steering, speed=speed)))
+        self.bus.publish(
+            self.topic,
+            AckermannDriveStamped(Header.at(now, "base_link"), AckermannDrive(steering_angle=steering, speed=speed)),
+        )

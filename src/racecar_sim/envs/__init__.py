@@ -42,15 +42,32 @@ DRIVE_CAMERA_ID = "racecar_sim/DriveCamera-v0"
 MAX_EPISODE_STEPS = 1200  # 60 s at the default 20 Hz control rate
 ENV_IDS = (DRIVE_ID, DRIVE_CAMERA_ID)
 
-__all__ = ["DRIVE_CAMERA_ID", "DRIVE_ID", "ENV_IDS", "MAX_EPISODE_STEPS", "MAX_SPEED", "MAX_STEERING", "DriveEnv",
-           "DriveLimits", "RaceEnv", "action_space", "observation_space", "parallel_env", "race_env"]
+__all__ = [
+    "DRIVE_CAMERA_ID",
+    "DRIVE_ID",
+    "ENV_IDS",
+    "MAX_EPISODE_STEPS",
+    "MAX_SPEED",
+    "MAX_STEERING",
+    "DriveEnv",
+    "DriveLimits",
+    "RaceEnv",
+    "action_space",
+    "observation_space",
+    "parallel_env",
+    "race_env",
+]
 
 
 def _register() -> None:
     for env_id, kwargs in ((DRIVE_ID, {}), (DRIVE_CAMERA_ID, {"camera": True})):
         if env_id not in registry:
-            register(env_id, entry_point="racecar_sim.envs.drive:DriveEnv", kwargs=kwargs,
-                     max_episode_steps=MAX_EPISODE_STEPS)
+            register(
+                env_id,
+                entry_point="racecar_sim.envs.drive:DriveEnv",
+                kwargs=kwargs,
+                max_episode_steps=MAX_EPISODE_STEPS,
+            )
 
 
 _register()

@@ -31,8 +31,16 @@ from racecar_sim.runtime.simulator import Simulator
 class CarAgent:
     """The env's side of one Car of a Simulator: commands, observations and progress."""
 
-    def __init__(self, sim: Simulator, car: Car, action: str, limits: DriveLimits, camera: bool,
-                 centerline: Centerline | None, period_ns: int) -> None:
+    def __init__(
+        self,
+        sim: Simulator,
+        car: Car,
+        action: str,
+        limits: DriveLimits,
+        camera: bool,
+        centerline: Centerline | None,
+        period_ns: int,
+    ) -> None:
         if car.lidar is None:
             raise RuntimeError(f"{car.model_name} has no lidar: the driving envs observe its scan")
         self.sim, self.car, self.action, self.limits = sim, car, action, limits
@@ -101,9 +109,11 @@ class CarAgent:
 
     def observation(self) -> dict[str, np.ndarray]:
         """The observation Dict (new arrays: the caller may keep them)."""
-        obs = {SCAN: scan_observation(self._ranges, self.range_max),
-               SPEED: np.array([min(max(self.speed(), -SPEED_BOUND), SPEED_BOUND)], np.float32),
-               STEERING: np.array([self.steering()], np.float32)}
+        obs = {
+            SCAN: scan_observation(self._ranges, self.range_max),
+            SPEED: np.array([min(max(self.speed(), -SPEED_BOUND), SPEED_BOUND)], np.float32),
+            STEERING: np.array([self.steering()], np.float32),
+        }
         if self.camera is not None:
             image = np.asarray(self._image, np.uint8).reshape(self.camera.spec.height, self.camera.spec.width, 3)
             obs[IMAGE] = np.ascontiguousarray(image[..., ::-1]) if self.camera.spec.encoding == "bgr8" else image.copy()
@@ -117,4 +127,3 @@ class CarAgent:
     def step_progress(self) -> float:
         """Metres of progress since the last call."""
         return self.progress.step(*self.pose())
-

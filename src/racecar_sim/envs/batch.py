@@ -74,27 +74,49 @@ class DriveBatch:
     to ~1e-4 m, not bit for bit; lidar, noise and progress stay on the CPU.
     """
 
-    def __init__(self, num_worlds: int, world: str | Path = "walker", seeds: int | list[int] | None = None,
-                 control_rate: float = CONTROL_RATE, lidar: bool = True, action: str = "normalized",
-                 max_speed: float | None = None, max_steering: float | None = None,
-                 crash_penalty: float = CRASH_PENALTY, centerline: str | Path | None = None,
-                 max_episode_steps: int | None = MAX_EPISODE_STEPS, profile: str = "seed", physics: str = "default",
-                 sensor_noise: bool = True, threads: int | None = None, device: str = "cpu") -> None:
+    def __init__(
+        self,
+        num_worlds: int,
+        world: str | Path = "walker",
+        seeds: int | list[int] | None = None,
+        control_rate: float = CONTROL_RATE,
+        lidar: bool = True,
+        action: str = "normalized",
+        max_speed: float | None = None,
+        max_steering: float | None = None,
+        crash_penalty: float = CRASH_PENALTY,
+        centerline: str | Path | None = None,
+        max_episode_steps: int | None = MAX_EPISODE_STEPS,
+        profile: str = "seed",
+        physics: str = "default",
+        sensor_noise: bool = True,
+        threads: int | None = None,
+        device: str = "cpu",
+    ) -> None:
         if device not in DEVICES:
             raise ConfigError(f"DriveBatch device={device!r} is not one of {', '.join(DEVICES)}")
         if not (isinstance(num_worlds, int) and num_worlds >= 1):
             raise ConfigError(f"DriveBatch num_worlds must be a whole number >= 1, got {num_worlds!r}")
         if not (isinstance(control_rate, (int, float)) and 1.0 / NAVIGATION_TIMEOUT < control_rate < float("inf")):
-            raise ConfigError(f"DriveBatch control_rate {control_rate!r}: commands must come faster than "
-                              f"{1 / NAVIGATION_TIMEOUT:g} Hz (the navigation mux input's {NAVIGATION_TIMEOUT:g} s timeout)")
+            raise ConfigError(
+                f"DriveBatch control_rate {control_rate!r}: commands must come faster than "
+                f"{1 / NAVIGATION_TIMEOUT:g} Hz (the navigation mux input's {NAVIGATION_TIMEOUT:g} s timeout)"
+            )
         self.num_worlds, self.lidar_on = num_worlds, lidar
         self.action_mode = check_action_mode(action)
         self.limits = DriveLimits(max_speed or DriveLimits.max_speed, max_steering or DriveLimits.max_steering)
         self.crash_penalty, self.max_episode_steps = float(crash_penalty), max_episode_steps
         loaded = load_world(world)
         # near_walls off: every world steps the one model, so map walls cannot follow one world's car
-        self.template = sim = Simulator(world=loaded, profile=profile, physics=physics, camera=False, lidar=lidar,
-                                        sensor_noise=sensor_noise, near_walls=False)
+        self.template = sim = Simulator(
+            world=loaded,
+            profile=profile,
+            physics=physics,
+            camera=False,
+            lidar=lidar,
+            sensor_noise=sensor_noise,
+            near_walls=False,
+        )
         self.model, car = sim.model, sim.car
         self.period_ns, self.step_ns = to_ns(1.0 / control_rate), sim.step_ns
         self.commands = BatchCommands(car)
@@ -171,11 +193,16 @@ class DriveBatch:
         self._observe(worlds)
         return self.observation(), {"seed": np.array(seeds)}
 
-    def step(self, actions: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray,
-                                                 dict[str, Any]]:
+    def step(
+        self, actions: np.ndarray
+    ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Every world one control period with its action (N, 2); finished worlds are reset (SAME_STEP)."""
-        actions = checked_action(actions, self.action_space, f"DriveBatch.step ({self.num_worlds} worlds)",
-                                 (self.num_worlds, *self.action_space.shape))
+        actions = checked_action(
+            actions,
+            self.action_space,
+            f"DriveBatch.step ({self.num_worlds} worlds)",
+            (self.num_worlds, *self.action_space.shape),
+        )
         command = to_command(actions, self.action_mode, self.limits)
         self.commands.ctrl(command[:, 0], command[:, 1], self.ctrl)
         self.steps += 1
@@ -200,9 +227,12 @@ class DriveBatch:
 
     def observation(self) -> dict[str, np.ndarray]:
         """The current observation of every world (new arrays)."""
-        obs = {SPEED: self.speed.astype(np.float32)[:, None],
-               STEERING: steering_from_hinges(self.qpos[:, self._hinge_qpos], self._hinge_points, self._wheelbase,
-                                              self._servo).astype(np.float32)[:, None]}
+        obs = {
+            SPEED: self.speed.astype(np.float32)[:, None],
+            STEERING: steering_from_hinges(
+                self.qpos[:, self._hinge_qpos], self._hinge_points, self._wheelbase, self._servo
+            ).astype(np.float32)[:, None],
+        }
         if self.lidar is not None:
             obs = {SCAN: scan_observation(self.scan, self.range_max), **obs}
         return obs
@@ -237,15 +267,22 @@ class DriveBatch:
         self.crashed[worlds] = False
         self.speed[worlds] = 0.0  # mj_resetData + mj_forward: at rest
         if self.warp is not None:
-            self.warp.reset(self.qpos[worlds], self.qvel[worlds], worlds, ctrl=self.ctrl[worlds],
-                            qacc_warmstart=self._warmstart[worlds])
+            self.warp.reset(
+                self.qpos[worlds],
+                self.qvel[worlds],
+                worlds,
+                ctrl=self.ctrl[worlds],
+                qacc_warmstart=self._warmstart[worlds],
+            )
         xy, _ = self._planar_pose()
         self.progress.reset(worlds, xy[worlds])
 
     def _substeps(self, start: int, end: int) -> list[int]:
         """Physics steps between the crash checks (CHECK_RATE ticks since the episode start, and the end)."""
         tick = to_ns(1.0 / CHECK_RATE)
-        times = sorted({ceil_to_step(k * tick, self.step_ns) for k in range(start // tick + 1, end // tick + 1)} | {end})
+        times = sorted(
+            {ceil_to_step(k * tick, self.step_ns) for k in range(start // tick + 1, end // tick + 1)} | {end}
+        )
         times = [t for t in times if start < t <= end]
         return list(np.diff([start] + times) // self.step_ns)
 
@@ -318,7 +355,7 @@ class DriveBatch:
             self.scan[worlds] = self.lidar.scans(self.qpos[worlds], self.seeds[worlds], self.time_ns[worlds])
 
     def _planar_pose(self) -> tuple[np.ndarray, np.ndarray]:
-        root = self.qpos[:, self.root_qpos:self.root_qpos + 7]
+        root = self.qpos[:, self.root_qpos : self.root_qpos + 7]
         w, x, y, z = root[:, 3:].T
         return root[:, :2].copy(), np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 

@@ -25,7 +25,9 @@ import numpy as np
 
 from racecar_sim.core.errors import ConfigError
 
-GPU_HINT = "install the [gpu] extra (pip install 'racecar-sim[gpu]': mujoco-warp, warp-lang) on a machine with a CUDA GPU"
+GPU_HINT = (
+    "install the [gpu] extra (pip install 'racecar-sim[gpu]': mujoco-warp, warp-lang) on a machine with a CUDA GPU"
+)
 WARP_DEVICES = {"warp": "cuda", "warp-cpu": "cpu"}  # DriveBatch's device names -> Warp devices
 NCONMAX = 64  # contacts allocated per world: the car on the ground has 4 to 8; walls and other cars add a few
 _PID_INPUTS = {1: 1, 2: 2, 4: None}  # ctrlspec (mjINPUT_POS, _VEL, _FF) -> biasprm index of its gain (ff: gain 1)
@@ -56,9 +58,11 @@ def warp_model(model: mujoco.MjModel) -> mujoco.MjModel:
         spec = int(model.actuator_ctrlspec[i])
         stateful = model.actuator_dyntype[i] != mujoco.mjtDyn.mjDYN_NONE or model.actuator_gainprm[i, 0] != 0.0
         if spec not in _PID_INPUTS or stateful or model.actuator_biastype[i] != mujoco.mjtBias.mjBIAS_AFFINE:
-            raise ConfigError(f"actuator '{model.actuator(i).name}': MuJoCo Warp runs no pid actuator with integral "
-                              "or slew state or several setpoint inputs; use device='cpu' or drop the controller's "
-                              "i gain")
+            raise ConfigError(
+                f"actuator '{model.actuator(i).name}': MuJoCo Warp runs no pid actuator with integral "
+                "or slew state or several setpoint inputs; use device='cpu' or drop the controller's "
+                "i gain"
+            )
         index = _PID_INPUTS[spec]
         gain = 1.0 if index is None else -model.actuator_biasprm[i, index]
         model.actuator_gaintype[i] = mujoco.mjtGain.mjGAIN_FIXED
@@ -75,16 +79,16 @@ class WarpWorlds:
     "warp-cpu" (Warp's CPU device: slow, for tests); nconmax: contacts allocated per world.
     """
 
-    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, num_worlds: int, device: str = "warp",
-                 nconmax: int = NCONMAX) -> None:
+    def __init__(
+        self, model: mujoco.MjModel, data: mujoco.MjData, num_worlds: int, device: str = "warp", nconmax: int = NCONMAX
+    ) -> None:
         if device not in WARP_DEVICES:
             raise ConfigError(f"WarpWorlds device={device!r} is not one of {', '.join(WARP_DEVICES)}")
         mjw = _import_warp(device)
         import warp as wp
 
         if WARP_DEVICES[device] == "cuda" and not wp.get_cuda_device_count():
-            raise ConfigError(f"device={device!r} needs a CUDA GPU (warp sees none): {GPU_HINT}, or use "
-                              "device='cpu'")
+            raise ConfigError(f"device={device!r} needs a CUDA GPU (warp sees none): {GPU_HINT}, or use device='cpu'")
         self._wp, self._mjw = wp, mjw
         self.device = wp.get_device(WARP_DEVICES[device])
         self.num_worlds, self.model = num_worlds, model
@@ -103,14 +107,26 @@ class WarpWorlds:
         self._graphs: dict[int, Any] = {}
 
     # --- host -> device ---------------------------------------------------------------------------
-    def reset(self, qpos: np.ndarray, qvel: np.ndarray, worlds: np.ndarray | None = None,
-              ctrl: np.ndarray | None = None, qacc_warmstart: np.ndarray | None = None) -> None:
+    def reset(
+        self,
+        qpos: np.ndarray,
+        qvel: np.ndarray,
+        worlds: np.ndarray | None = None,
+        ctrl: np.ndarray | None = None,
+        qacc_warmstart: np.ndarray | None = None,
+    ) -> None:
         """Set the chosen worlds' state (default: all) from host arrays of one row per chosen world; their time
         and act go to zero, and ctrl and warm start too unless given. xpos and the contacts stay those of the
         last step until the next one."""
         rows = np.arange(self.num_worlds) if worlds is None else np.asarray(worlds)
-        for field, value in (("qpos", qpos), ("qvel", qvel), ("ctrl", ctrl), ("qacc_warmstart", qacc_warmstart),
-                             ("act", None), ("time", None)):
+        for field, value in (
+            ("qpos", qpos),
+            ("qvel", qvel),
+            ("ctrl", ctrl),
+            ("qacc_warmstart", qacc_warmstart),
+            ("act", None),
+            ("time", None),
+        ):
             target = getattr(self.dw, field)
             if target.size:
                 host = target.numpy()
@@ -158,8 +174,10 @@ class WarpWorlds:
 
     def body_pose(self, body: int) -> tuple[np.ndarray, np.ndarray]:
         """A body's frame in every world after the last step: xpos (N, 3) and xmat (N, 3, 3), float64."""
-        return (self.dw.xpos.numpy()[:, body].astype(np.float64),
-                self.dw.xmat.numpy()[:, body].reshape(self.num_worlds, 3, 3).astype(np.float64))
+        return (
+            self.dw.xpos.numpy()[:, body].astype(np.float64),
+            self.dw.xmat.numpy()[:, body].reshape(self.num_worlds, 3, 3).astype(np.float64),
+        )
 
     def body_velocity(self, body: int) -> np.ndarray:
         """(N, 6) [angular, linear] velocity of a body's frame in that frame, after the last step: what
@@ -177,8 +195,9 @@ class WarpWorlds:
         c = self.dw.contact
         n = int(self.dw.nacon.numpy()[0])
         if n > self.dw.naconmax:
-            raise ConfigError(f"MuJoCo Warp found {n} contacts, more than the {self.dw.naconmax} allocated: raise "
-                              "WarpWorlds nconmax")
+            raise ConfigError(
+                f"MuJoCo Warp found {n} contacts, more than the {self.dw.naconmax} allocated: raise WarpWorlds nconmax"
+            )
         return c.worldid.numpy()[:n], c.geom.numpy()[:n], c.frame.numpy()[:n, 0, 2].astype(np.float64)
 
     def crashed(self, kind: np.ndarray, support_normal_z: float) -> np.ndarray:

@@ -35,8 +35,9 @@ class ChaseCamera:
         rot = self.data.xmat[self.body].reshape(3, 3)
         self.camera.lookat[:] = pos + np.array([0.0, 0.0, 0.2])
         self.camera.azimuth = math.degrees(math.atan2(rot[1, 0], rot[0, 0]))
-        mujoco.mjv_updateScene(self.model, self.data, self.option, None, self.camera,
-                               mujoco.mjtCatBit.mjCAT_ALL, self.target.scene)
+        mujoco.mjv_updateScene(
+            self.model, self.data, self.option, None, self.camera, mujoco.mjtCatBit.mjCAT_ALL, self.target.scene
+        )
         return self.target.draw_later().result()[::-1].copy()
 
     def close(self) -> None:

@@ -75,25 +75,40 @@ class DriveEnv(gym.Env):
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array", "human"], "render_fps": CONTROL_RATE}
 
-    def __init__(self, world: str | Path = "walker", centerline: str | Path | None = None,
-                 control_rate: float = CONTROL_RATE, action: str = "normalized", max_speed: float | None = None,
-                 max_steering: float | None = None, crash_penalty: float = CRASH_PENALTY,
-                 time_limit: float | None = None, camera: bool = False, profile: str = "seed",
-                 physics: str = "default", sensor_noise: bool = True, render_mode: str | None = None) -> None:
+    def __init__(
+        self,
+        world: str | Path = "walker",
+        centerline: str | Path | None = None,
+        control_rate: float = CONTROL_RATE,
+        action: str = "normalized",
+        max_speed: float | None = None,
+        max_steering: float | None = None,
+        crash_penalty: float = CRASH_PENALTY,
+        time_limit: float | None = None,
+        camera: bool = False,
+        profile: str = "seed",
+        physics: str = "default",
+        sensor_noise: bool = True,
+        render_mode: str | None = None,
+    ) -> None:
         if not (isinstance(control_rate, (int, float)) and 0 < control_rate < float("inf")):
             raise ConfigError(f"env control_rate must be a positive number of Hz, got {control_rate!r}")
         if 1.0 / control_rate >= NAVIGATION_TIMEOUT:
-            raise ConfigError(f"env control_rate {control_rate:g} Hz: the navigation mux input times out after "
-                              f"{NAVIGATION_TIMEOUT:g} s, so commands must come faster than "
-                              f"{1 / NAVIGATION_TIMEOUT:g} Hz")
+            raise ConfigError(
+                f"env control_rate {control_rate:g} Hz: the navigation mux input times out after "
+                f"{NAVIGATION_TIMEOUT:g} s, so commands must come faster than "
+                f"{1 / NAVIGATION_TIMEOUT:g} Hz"
+            )
         if render_mode not in (None, *self.metadata["render_modes"]):
-            raise ConfigError(f"env render_mode={render_mode!r} is not one of "
-                              f"{', '.join(self.metadata['render_modes'])}")
+            raise ConfigError(
+                f"env render_mode={render_mode!r} is not one of {', '.join(self.metadata['render_modes'])}"
+            )
         if time_limit is not None and not time_limit > 0:
             raise ConfigError(f"env time_limit must be a positive number of seconds, got {time_limit!r}")
         self.action_mode = check_action_mode(action)
-        self.limits = DriveLimits(MAX_SPEED if max_speed is None else max_speed,
-                                  MAX_STEERING if max_steering is None else max_steering)
+        self.limits = DriveLimits(
+            MAX_SPEED if max_speed is None else max_speed, MAX_STEERING if max_steering is None else max_steering
+        )
         self.period_ns = to_ns(1.0 / control_rate)
         self.metadata = {**self.metadata, "render_fps": control_rate}
         self.crash_penalty = float(crash_penalty)
@@ -114,19 +129,28 @@ class DriveEnv(gym.Env):
         """(Re)build the Simulator on `world`; the spaces stay those of the car (its laser and camera)."""
         self.close()
         loaded = load_world(world)
-        self.sim = sim = Simulator(world=loaded, profile=self.profile, physics=self.physics, camera=self.camera,
-                                   sensor_noise=self.sensor_noise)
+        self.sim = sim = Simulator(
+            world=loaded, profile=self.profile, physics=self.physics, camera=self.camera, sensor_noise=self.sensor_noise
+        )
         self._world_key = str(world)
-        self.agent = CarAgent(sim, sim.car, self.action_mode, self.limits, self.camera,
-                              world_centerline(loaded, self._centerline_arg), self.period_ns)
+        self.agent = CarAgent(
+            sim,
+            sim.car,
+            self.action_mode,
+            self.limits,
+            self.camera,
+            world_centerline(loaded, self._centerline_arg),
+            self.period_ns,
+        )
         geometry = sim.car.servo.geometry
         self.crashes = CrashMonitor.for_cars(sim.model, [(sim.car.names, sim.car.robot.root, geometry)])
         sim.scheduler.every(CHECK_RATE, lambda now: self.crashes.check(sim.data, now), "env crash check")
         self._steps = 0
 
     # --- the Gymnasium API ------------------------------------------------------------------------
-    def reset(self, *, seed: int | None = None, options: Mapping[str, Any] | None = None
-              ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    def reset(
+        self, *, seed: int | None = None, options: Mapping[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """A new episode at the world's spawn pose (or options["spawn"]: a Spawn or (x, y, yaw)), in
         options["world"] if given (the Simulator is rebuilt for a new world; other keys are ignored). `seed` seeds
         the sensor noise; without one, a seed is drawn from the env's generator. Nothing of the last episode is

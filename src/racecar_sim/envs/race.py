@@ -51,44 +51,69 @@ class RaceEnv(ParallelEnv):
     The other keywords as DriveEnv's (world, centerline, control_rate, action, max_speed, max_steering,
     crash_penalty, camera, profile, physics, sensor_noise, render_mode)."""
 
-    metadata: ClassVar[dict[str, Any]] = {"name": "racecar_race_v0", "render_modes": ["rgb_array", "human"],
-                                          "render_fps": CONTROL_RATE, "is_parallelizable": True}
+    metadata: ClassVar[dict[str, Any]] = {
+        "name": "racecar_race_v0",
+        "render_modes": ["rgb_array", "human"],
+        "render_fps": CONTROL_RATE,
+        "is_parallelizable": True,
+    }
 
-    def __init__(self, num_cars: int = 2, world: str | Path = "walker", spawns: Sequence[Spawn] | None = None,
-                 collision: str = "involved", centerline: str | Path | None = None,
-                 control_rate: float = CONTROL_RATE, action: str = "normalized", max_speed: float | None = None,
-                 max_steering: float | None = None, crash_penalty: float = CRASH_PENALTY,
-                 max_cycles: int = MAX_CYCLES, camera: bool = False, profile: str = "seed",
-                 physics: str = "default", sensor_noise: bool = True, car_spacing: float = CAR_SPACING,
-                 render_mode: str | None = None) -> None:
+    def __init__(
+        self,
+        num_cars: int = 2,
+        world: str | Path = "walker",
+        spawns: Sequence[Spawn] | None = None,
+        collision: str = "involved",
+        centerline: str | Path | None = None,
+        control_rate: float = CONTROL_RATE,
+        action: str = "normalized",
+        max_speed: float | None = None,
+        max_steering: float | None = None,
+        crash_penalty: float = CRASH_PENALTY,
+        max_cycles: int = MAX_CYCLES,
+        camera: bool = False,
+        profile: str = "seed",
+        physics: str = "default",
+        sensor_noise: bool = True,
+        car_spacing: float = CAR_SPACING,
+        render_mode: str | None = None,
+    ) -> None:
         if isinstance(num_cars, bool) or not isinstance(num_cars, int) or num_cars < 1:
             raise ConfigError(f"race env num_cars must be a whole number >= 1, got {num_cars!r}")
         if collision not in COLLISION_MODES:
             raise ConfigError(f"race env collision={collision!r} is not one of {', '.join(COLLISION_MODES)}")
         if not (isinstance(control_rate, (int, float)) and 1.0 / NAVIGATION_TIMEOUT < control_rate < float("inf")):
-            raise ConfigError(f"race env control_rate must be above {1 / NAVIGATION_TIMEOUT:g} Hz (the navigation mux "
-                              f"input's timeout), got {control_rate!r}")
+            raise ConfigError(
+                f"race env control_rate must be above {1 / NAVIGATION_TIMEOUT:g} Hz (the navigation mux "
+                f"input's timeout), got {control_rate!r}"
+            )
         if render_mode not in (None, *self.metadata["render_modes"]):
-            raise ConfigError(f"race env render_mode={render_mode!r} is not one of "
-                              f"{', '.join(self.metadata['render_modes'])}")
+            raise ConfigError(
+                f"race env render_mode={render_mode!r} is not one of {', '.join(self.metadata['render_modes'])}"
+            )
         self.collision, self.render_mode, self.max_cycles = collision, render_mode, int(max_cycles)
         self.crash_penalty = float(crash_penalty)
         self.period_ns = to_ns(1.0 / control_rate)
-        limits = DriveLimits(MAX_SPEED if max_speed is None else max_speed,
-                             MAX_STEERING if max_steering is None else max_steering)
+        limits = DriveLimits(
+            MAX_SPEED if max_speed is None else max_speed, MAX_STEERING if max_steering is None else max_steering
+        )
         loaded = load_world(world)
         if spawns is None:
             spawns = starting_row(loaded, num_cars, car_spacing)
         if len(spawns) != num_cars:
             raise ConfigError(f"race env spawns: {len(spawns)} poses for {num_cars} cars")
         self.possible_agents = [f"car{i + 1}" for i in range(num_cars)]
-        cars = [Car(name, profile=profile, spawn=spawn_pose(s, what=f"race env spawns[{i}]"), camera=camera)
-                for i, (name, s) in enumerate(zip(self.possible_agents, spawns))]
+        cars = [
+            Car(name, profile=profile, spawn=spawn_pose(s, what=f"race env spawns[{i}]"), camera=camera)
+            for i, (name, s) in enumerate(zip(self.possible_agents, spawns))
+        ]
         self.sim = sim = Simulator(world=loaded, physics=physics, sensor_noise=sensor_noise, cars=cars)
         line = world_centerline(loaded, centerline)
         mode = check_action_mode(action)
-        self._agents = {name: CarAgent(sim, car, mode, limits, camera, line, self.period_ns)
-                        for name, car in zip(self.possible_agents, sim.cars)}
+        self._agents = {
+            name: CarAgent(sim, car, mode, limits, camera, line, self.period_ns)
+            for name, car in zip(self.possible_agents, sim.cars)
+        }
         self.observation_spaces = {name: a.observation_space for name, a in self._agents.items()}
         self.action_spaces = {name: a.action_space for name, a in self._agents.items()}
         self.crashes = CrashMonitor.for_cars(sim.model, [(c.names, c.robot.root, c.servo.geometry) for c in sim.cars])
@@ -104,8 +129,9 @@ class RaceEnv(ParallelEnv):
     def action_space(self, agent: str):
         return self.action_spaces[agent]
 
-    def reset(self, seed: int | None = None, options: Mapping[str, Any] | None = None
-              ) -> tuple[dict[str, dict[str, np.ndarray]], dict[str, dict[str, Any]]]:
+    def reset(
+        self, seed: int | None = None, options: Mapping[str, Any] | None = None
+    ) -> tuple[dict[str, dict[str, np.ndarray]], dict[str, dict[str, Any]]]:
         """Every car back at its start (or options["spawn"]: a pose per car, or a mapping of agent names to poses,
         each a Spawn or (x, y, yaw); other keys are ignored), sensor noise from `seed` (drawn from the env's
         generator if None)."""
@@ -119,8 +145,9 @@ class RaceEnv(ParallelEnv):
             try:
                 poses = list(spawn)
             except TypeError:
-                raise ConfigError(f"reset options spawn={spawn!r}: give a pose per car, or a mapping of agent names "
-                                  "to poses") from None
+                raise ConfigError(
+                    f"reset options spawn={spawn!r}: give a pose per car, or a mapping of agent names to poses"
+                ) from None
             spawn = [spawn_pose(pose, what=f"reset options spawn[{i}]") for i, pose in enumerate(poses)]
         self.sim.reset(seed if seed is not None else int(self._rng.integers(2**31)), spawn)
         self.crashes.clear()
@@ -141,8 +168,11 @@ class RaceEnv(ParallelEnv):
         if unknown:
             raise ConfigError(f"RaceEnv.step: no agent {unknown[0]!r} (agents: {', '.join(self.possible_agents)})")
         live = list(self.agents)
-        checked = {name: checked_action(actions[name], self.action_spaces[name], f"RaceEnv.step: {name}")
-                   for name in live if name in actions}  # every action checked before any is sent
+        checked = {
+            name: checked_action(actions[name], self.action_spaces[name], f"RaceEnv.step: {name}")
+            for name in live
+            if name in actions
+        }  # every action checked before any is sent
         for name, action in checked.items():
             self._agents[name].send(action)
         self._steps += 1
@@ -170,8 +200,11 @@ class RaceEnv(ParallelEnv):
             terminations[name] = name in ended
             truncations[name] = truncate and name not in ended
             touched = sorted(self.possible_agents[i] for i in self.crashes.cars[index[name]])
-            infos[name] = {"progress": progress, "crash": "wall" if self.crashes.wall[index[name]] else
-                           ("car" if touched else None), "cars_touched": touched}
+            infos[name] = {
+                "progress": progress,
+                "crash": "wall" if self.crashes.wall[index[name]] else ("car" if touched else None),
+                "cars_touched": touched,
+            }
         self.agents = [name for name in live if not (terminations[name] or truncations[name])]
         if self.render_mode == "human":
             self.render()

@@ -85,11 +85,15 @@ def checked_action(action: object, space: spaces.Box, where: str, shape: tuple[i
     try:
         array = np.asarray(action, np.float64)
     except (TypeError, ValueError):
-        raise ConfigError(f"{where}: action {_brief(action)} is not an array of numbers; the action space is "
-                          f"{space}") from None
+        raise ConfigError(
+            f"{where}: action {_brief(action)} is not an array of numbers; the action space is {space}"
+        ) from None
     if array.shape != shape:
-        expected = (f"the action space {space} takes shape {shape}" if shape == space.shape else
-                    f"it takes shape {shape}, a row per world in {space}")
+        expected = (
+            f"the action space {space} takes shape {shape}"
+            if shape == space.shape
+            else f"it takes shape {shape}, a row per world in {space}"
+        )
         raise ConfigError(f"{where}: action of shape {array.shape} given; {expected}")
     if np.isnan(array).any():
         raise CommandError(f"{where}: action {_brief(array.tolist())} holds a NaN; the action space is {space}")
@@ -99,7 +103,7 @@ def checked_action(action: object, space: spaces.Box, where: str, shape: tuple[i
 def _brief(value: object, limit: int = 80) -> str:
     """repr(value), cut to `limit` characters (an action may be a large array)."""
     text = " ".join(repr(value).split())
-    return text if len(text) <= limit else text[:limit - 3] + "..."
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def to_command(actions: np.ndarray, action: str = "normalized", limits: DriveLimits = DriveLimits()) -> np.ndarray:
@@ -131,8 +135,9 @@ def scan_observation(ranges: np.ndarray, range_max: float, out: np.ndarray | Non
     return out
 
 
-def steering_from_hinges(hinge_angles: np.ndarray, hinge_points: np.ndarray, wheelbase: float,
-                         servo: str = "ackermann") -> np.ndarray:
+def steering_from_hinges(
+    hinge_angles: np.ndarray, hinge_points: np.ndarray, wheelbase: float, servo: str = "ackermann"
+) -> np.ndarray:
     """The measured steering angle from the hinge angles (..., H) and the hinges' (x, y) in base_link (H, 2).
 
     ackermann: each hinge angle h at (x, y) steers the curvature kappa = tan h / (x + y tan h) (formula (2)

@@ -104,32 +104,54 @@ class _Parts:
         return inputs, outputs
 
 
-def map_plan(plan: LaunchPlan, ros: bool = False, profile: str = "seed", lidar: bool = True, camera: bool = True,
-             odometry: str = "original", scratch: Path | None = None, sensors_off: tuple[str, ...] = ()) -> SimSetup:
+def map_plan(
+    plan: LaunchPlan,
+    ros: bool = False,
+    profile: str = "seed",
+    lidar: bool = True,
+    camera: bool = True,
+    odometry: str = "original",
+    scratch: Path | None = None,
+    sensors_off: tuple[str, ...] = (),
+) -> SimSetup:
     """The sim that runs `plan`; `ros`: nodes without a sim equivalent go to the bridge. `scratch`: a folder for
     controller YAMLs built from the parameter tree (a temporary one by default). `lidar`, `camera`, `sensors_off`:
     the sensor switches of each car (runtime/plugins.py)."""
     world = world_of(plan)
     spawns = [parse_spawn(plan, n) for n in plan.nodes_of("gazebo_ros", "spawn_model")]
     if not spawns:
-        raise LaunchError(plan.file, "no gazebo_ros spawn_model node: there is no car to simulate",
-                          "spawn one: <node pkg=\"gazebo_ros\" type=\"spawn_model\" name=\"racecar_spawn\" "
-                          "args=\"-urdf -param robot_description -model racecar\"/>, or add --ros to start its nodes "
-                          "next to a running `racecar-sim run --ros`")
+        raise LaunchError(
+            plan.file,
+            "no gazebo_ros spawn_model node: there is no car to simulate",
+            'spawn one: <node pkg="gazebo_ros" type="spawn_model" name="racecar_spawn" '
+            'args="-urdf -param robot_description -model racecar"/>, or add --ros to start its nodes '
+            "next to a running `racecar-sim run --ros`",
+        )
     parts: dict[str, _Parts] = {}
     for spawn in spawns:
         if spawn.names.namespace in parts:
-            raise LaunchError(spawn.node.where, f"a second car in namespace '/{spawn.names.namespace}'",
-                              "give each spawn_model its own <group ns=\"carN\">")
+            raise LaunchError(
+                spawn.node.where,
+                f"a second car in namespace '/{spawn.names.namespace}'",
+                'give each spawn_model its own <group ns="carN">',
+            )
         parts[spawn.names.namespace] = _Parts(spawn)
     setup = SimSetup(plan, world, [])
     for node in plan.nodes:
         _sort_node(plan, node, parts, setup, ros)
     scratch = scratch or Path(tempfile.mkdtemp(prefix="racecar-sim-launch-"))
     for part in parts.values():
-        car = Car(part.names.namespace, profile=profile, controllers=_controllers(plan, part, scratch),
-                  spawn=part.spawn.spawn, lidar=lidar, camera=camera, odometry=odometry,
-                  nodes=_car_nodes(plan, part), sensors_off=sensors_off)
+        car = Car(
+            part.names.namespace,
+            profile=profile,
+            controllers=_controllers(plan, part, scratch),
+            spawn=part.spawn.spawn,
+            lidar=lidar,
+            camera=camera,
+            odometry=odometry,
+            nodes=_car_nodes(plan, part),
+            sensors_off=sensors_off,
+        )
         car.urdf = part.spawn.urdf
         setup.cars.append(car)
         for source, target, _ in part.relays:
@@ -157,8 +179,12 @@ def _sort_node(plan: LaunchPlan, node: NodeSpec, parts: dict[str, _Parts], setup
         plan.notes.append(f"{node.where}: {node.label}: {NO_OP[key]}")
         return
     if key in NO_JOYSTICK:
-        log.warning("%s: %s skipped: there is no joystick in the sim (drive with `racecar-sim teleop` or a "
-                    "racecar_control keyboard_teleop.py node)", node.where, node.label)
+        log.warning(
+            "%s: %s skipped: there is no joystick in the sim (drive with `racecar-sim teleop` or a "
+            "racecar_control keyboard_teleop.py node)",
+            node.where,
+            node.label,
+        )
         return
     part = _car_of(node, parts)
     if part is None and _is_sim_node(node):
@@ -180,8 +206,12 @@ def _sort_node(plan: LaunchPlan, node: NodeSpec, parts: dict[str, _Parts], setup
         part.relays.append((source, target, node))
     elif key == ("nodelet", "nodelet") and node.args[:1] == ("manager",):
         return
-    elif key == ("nodelet", "nodelet") and len(node.args) >= 2 and node.args[0] in ("load", "standalone") \
-            and node.args[1] == MUX_NODELET:
+    elif (
+        key == ("nodelet", "nodelet")
+        and len(node.args) >= 2
+        and node.args[0] in ("load", "standalone")
+        and node.args[1] == MUX_NODELET
+    ):
         part.muxes.append((node.full_name, _mux_config(plan, node), node))
     elif key == ("rostopic", "rostopic") and _default_command(node) is not None:
         part.defaults.append((node.resolve(node.args[-3]), *_default_command(node), node))
@@ -192,10 +222,16 @@ def _sort_node(plan: LaunchPlan, node: NodeSpec, parts: dict[str, _Parts], setup
 
 
 def _is_sim_node(node: NodeSpec) -> bool:
-    known = {("controller_manager", "spawner"), ("robot_state_publisher", "robot_state_publisher"),
-             ("robot_state_publisher", "state_publisher"), ("racecar_control", "servo_commands.py"),
-             ("racecar_gazebo", "gazebo_odometry.py"), ("racecar_control", "keyboard_teleop.py"),
-             ("topic_tools", "relay"), ("nodelet", "nodelet")}
+    known = {
+        ("controller_manager", "spawner"),
+        ("robot_state_publisher", "robot_state_publisher"),
+        ("robot_state_publisher", "state_publisher"),
+        ("racecar_control", "servo_commands.py"),
+        ("racecar_gazebo", "gazebo_odometry.py"),
+        ("racecar_control", "keyboard_teleop.py"),
+        ("topic_tools", "relay"),
+        ("nodelet", "nodelet"),
+    }
     return (node.package, node.type) in known or node.package == "racecar_sim"
 
 
@@ -206,19 +242,28 @@ def _other(node: NodeSpec, setup: SimSetup, ros: bool) -> None:
         setup.ros_nodes.append(node)
         return
     if node.required:
-        raise LaunchError(node.where, f"node {node.label} is required and the sim has no equivalent of it",
-                          "run with --ros to start it as a ROS node (needs ROS 1), or drop required=\"true\"")
-    log.warning("%s: node %s not started: the sim has no equivalent; run with --ros to start it as a ROS node",
-                node.where, node.label)
+        raise LaunchError(
+            node.where,
+            f"node {node.label} is required and the sim has no equivalent of it",
+            'run with --ros to start it as a ROS node (needs ROS 1), or drop required="true"',
+        )
+    log.warning(
+        "%s: node %s not started: the sim has no equivalent; run with --ros to start it as a ROS node",
+        node.where,
+        node.label,
+    )
     setup.skipped.append(node)
 
 
 def _mux_config(plan: LaunchPlan, node: NodeSpec) -> Path:
     value = plan.params.get(node.private("yaml_cfg_file"))
     if not isinstance(value, str) or not value:
-        raise LaunchError(node.where, "the ackermann_cmd_mux nodelet has no yaml_cfg_file param",
-                          "add <param name=\"yaml_cfg_file\" value=\"$(find racecar)/config/racecar-v2/"
-                          "low_level_mux.yaml\"/> to the node")
+        raise LaunchError(
+            node.where,
+            "the ackermann_cmd_mux nodelet has no yaml_cfg_file param",
+            'add <param name="yaml_cfg_file" value="$(find racecar)/config/racecar-v2/'
+            'low_level_mux.yaml"/> to the node',
+        )
     path = Path(value)
     if not path.is_file():
         raise LaunchError(node.where, f"yaml_cfg_file {value} does not exist", "check the path")
@@ -239,9 +284,15 @@ def _default_command(node: NodeSpec) -> tuple[float, float, float] | None:
 
 
 def _driver(plan: LaunchPlan, node: NodeSpec, part: _Parts) -> DriverSpec:
-    return DriverSpec(node.type.replace("-", "_"), part.names.namespace, plan.subtree(node.full_name), node,
-                      part.own(node.resolve(NAVIGATION)), part.own(node.resolve("/scan")),
-                      part.own(node.resolve(ODOM)))
+    return DriverSpec(
+        node.type.replace("-", "_"),
+        part.names.namespace,
+        plan.subtree(node.full_name),
+        node,
+        part.own(node.resolve(NAVIGATION)),
+        part.own(node.resolve("/scan")),
+        part.own(node.resolve(ODOM)),
+    )
 
 
 # --- one car's nodes ------------------------------------------------------------------------------
@@ -254,10 +305,16 @@ def _car_nodes(plan: LaunchPlan, part: _Parts) -> CarNodes:
     servo_input = part.rel(part.servo[-1].resolve(SERVO_INPUT)) if part.servo else None
     robot_state = part.robot_state[-1].resolve("joint_states") if part.robot_state else None
     controllers, stopped = _spawned(part)
-    return CarNodes(mux=_wiring(plan, part, servo_input), servo_input=servo_input, controllers=controllers,
-                    stopped=stopped, robot_state=bool(part.robot_state),
-                    joint_states=part.rel(robot_state) if robot_state else None,
-                    odometry=bool(part.odometry), odom_relay=None)
+    return CarNodes(
+        mux=_wiring(plan, part, servo_input),
+        servo_input=servo_input,
+        controllers=controllers,
+        stopped=stopped,
+        robot_state=bool(part.robot_state),
+        joint_states=part.rel(robot_state) if robot_state else None,
+        odometry=bool(part.odometry),
+        odom_relay=None,
+    )
 
 
 def _wiring(plan: LaunchPlan, part: _Parts, servo_input: str | None) -> dict[str, Any] | None:
@@ -274,12 +331,15 @@ def _wiring(plan: LaunchPlan, part: _Parts, servo_input: str | None) -> dict[str
     else:
         finals = [part.rel(o) for o in outputs if part.rel(o) not in sources]
         output = (finals or [part.rel(o) for o in outputs])[-1]
-    wiring: dict[str, Any] = {"source": str(plan.file), "output": output, "relays": relays,
-                              "muxes": {part.rel(ns): str(path) for ns, path, _ in part.muxes}}
+    wiring: dict[str, Any] = {
+        "source": str(plan.file),
+        "output": output,
+        "relays": relays,
+        "muxes": {part.rel(ns): str(path) for ns, path, _ in part.muxes},
+    }
     if part.defaults:
         topic, rate, speed, steering, _ = part.defaults[-1]
-        wiring["default_command"] = {"topic": part.rel(topic), "rate": rate, "speed": speed,
-                                     "steering_angle": steering}
+        wiring["default_command"] = {"topic": part.rel(topic), "rate": rate, "speed": speed, "steering_angle": steering}
     return wiring
 
 
@@ -297,8 +357,11 @@ def _spawned(part: _Parts) -> tuple[tuple[str, ...], tuple[str, ...]]:
                 names.append(word)
         (stopped if is_stopped else started).extend(n for n in names if n not in started + stopped)
     if not part.spawners:
-        log.warning("%s: no controller_manager spawner for car %s: its controllers are not started (it will not "
-                    "move)", part.spawn.node.where, part.names.model)
+        log.warning(
+            "%s: no controller_manager spawner for car %s: its controllers are not started (it will not move)",
+            part.spawn.node.where,
+            part.names.model,
+        )
     return tuple(started), tuple(stopped)
 
 
@@ -321,18 +384,27 @@ def _controllers(plan: LaunchPlan, part: _Parts, scratch: Path) -> Path:
     where = part.spawners[0].where if part.spawners else part.spawn.node.where
     if not entries:
         if part.spawners:
-            raise LaunchError(where, f"no controller parameters under {ns}",
-                              "load them first: <rosparam file=\"$(find racecar_control)/config/racecar_control.yaml\" "
-                              "command=\"load\"/>")
+            raise LaunchError(
+                where,
+                f"no controller parameters under {ns}",
+                'load them first: <rosparam file="$(find racecar_control)/config/racecar_control.yaml" '
+                'command="load"/>',
+            )
         return DEFAULT_CONTROLLERS
     for name in _spawned(part)[0] + _spawned(part)[1]:
         if name not in entries:
-            raise LaunchError(where, f"controller {name} has no parameters at {ns}{name}",
-                              "load its parameters (type, joint, pid) with <rosparam>, or drop it from the spawner")
+            raise LaunchError(
+                where,
+                f"controller {name} has no parameters at {ns}{name}",
+                "load its parameters (type, joint, pid) with <rosparam>, or drop it from the spawner",
+            )
     key = strip_ns(ns, part.names.namespace).strip(SEP)
     if not key:
-        raise LaunchError(where, "the spawner runs in the car's root namespace",
-                          "run it in the controllers' namespace (ns=\"/racecar\"), as racecar_control.launch does")
+        raise LaunchError(
+            where,
+            "the spawner runs in the car's root namespace",
+            'run it in the controllers\' namespace (ns="/racecar"), as racecar_control.launch does',
+        )
     leaves = [k for k in plan.params if k.startswith(ns)]
     files = {plan.sources.get(k) for k in leaves}
     if len(files) == 1 and None not in files:
@@ -343,6 +415,8 @@ def _controllers(plan: LaunchPlan, part: _Parts, scratch: Path) -> Path:
         except (OSError, yaml.YAMLError):
             pass
     path = scratch / f"{part.names.model}_controllers.yaml"
-    path.write_text(f"# {part.names.model}'s controller parameters under {ns}, from {plan.file}\n"
-                    + yaml.safe_dump({key: entries}, sort_keys=False))
+    path.write_text(
+        f"# {part.names.model}'s controller parameters under {ns}, from {plan.file}\n"
+        + yaml.safe_dump({key: entries}, sort_keys=False)
+    )
     return path

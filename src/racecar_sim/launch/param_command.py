@@ -25,8 +25,10 @@ def run_param_command(command: str) -> str:
         raise SubstitutionError(f"command {command!r} cannot be split into words ({exc})") from None
     if not words or Path(words[0]).name not in XACRO_NAMES:
         program = words[0] if words else "(empty)"
-        raise SubstitutionError(f"command {program!r} is not run by the sim (it runs no shell); only "
-                                "\"$(find xacro)/xacro FILE name:=value\" is: use value= or textfile= instead")
+        raise SubstitutionError(
+            f"command {program!r} is not run by the sim (it runs no shell); only "
+            '"$(find xacro)/xacro FILE name:=value" is: use value= or textfile= instead'
+        )
     files, mappings = [], {}
     for word in words[1:]:
         if ":=" in word:

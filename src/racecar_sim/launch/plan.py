@@ -97,7 +97,7 @@ class LaunchPlan:
         tree: dict[str, Any] = {}
         for key, value in self.params.items():
             if key.startswith(prefix):
-                *parents, leaf = key[len(prefix):].split(SEP)
+                *parents, leaf = key[len(prefix) :].split(SEP)
                 level = tree
                 for part in parents:
                     level = level.setdefault(part, {})

@@ -39,8 +39,15 @@ class RosOnlyLaunch:
             self.ros.set_params(plan.params)
             for node in plan.nodes:
                 try:
-                    self.ros.start_node(node.package, node.type, node.name, node.namespace, node.args, node.remaps,
-                                        dict(node.env) or None)
+                    self.ros.start_node(
+                        node.package,
+                        node.type,
+                        node.name,
+                        node.namespace,
+                        node.args,
+                        node.remaps,
+                        dict(node.env) or None,
+                    )
                 except ConfigError as exc:  # no such package or node type
                     if node.required:
                         raise LaunchError(node.where, " ".join(str(exc).split())) from None

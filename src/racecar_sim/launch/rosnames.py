@@ -52,5 +52,5 @@ def strip_ns(name: str, ns: str) -> str:
     a name outside `ns` comes back unchanged."""
     ns = global_ns(ns)
     if ns != SEP and (name + SEP).startswith(ns):
-        return SEP + name[len(ns):]
+        return SEP + name[len(ns) :]
     return name

@@ -23,19 +23,35 @@ DRIVER_NAMES = {"wall_follow": "wall-follow", "pure_pursuit": "pure-pursuit", "c
 class LaunchRun:
     """The sim a launch file describes. Use as a context manager (close() stops the bridge and its nodes)."""
 
-    def __init__(self, setup: SimSetup, seed: int = 0, physics: str = "default", sensor_noise: bool = True,
-                 model_path: Sequence[str | Path] = (), ros: bool = False, master_uri: str | None = None) -> None:
+    def __init__(
+        self,
+        setup: SimSetup,
+        seed: int = 0,
+        physics: str = "default",
+        sensor_noise: bool = True,
+        model_path: Sequence[str | Path] = (),
+        ros: bool = False,
+        master_uri: str | None = None,
+    ) -> None:
         self.setup = setup
-        self.sim = Simulator(world=setup.world.world, cars=setup.cars, seed=seed, physics=physics,
-                             model_path=list(model_path), sensor_noise=sensor_noise)
+        self.sim = Simulator(
+            world=setup.world.world,
+            cars=setup.cars,
+            seed=seed,
+            physics=physics,
+            model_path=list(model_path),
+            sensor_noise=sensor_noise,
+        )
         self.bridge: Any = None
         try:
             self.sim.paused = setup.world.paused  # gazebo -u: sim time waits for /gazebo/unpause_physics
             self.drivers = [self._driver(spec) for spec in setup.drivers]
             for source, target in setup.relays:
                 self.sim.subscribe(source, lambda msg, target=target: self.sim.bus.publish(target, msg))
-            self.teleops = [KeyboardTeleop(self.sim.bus, self.sim.scheduler, lambda: self.sim.time_ns, topic=topic)
-                            for topic in setup.teleop_topics]
+            self.teleops = [
+                KeyboardTeleop(self.sim.bus, self.sim.scheduler, lambda: self.sim.time_ns, topic=topic)
+                for topic in setup.teleop_topics
+            ]
             if ros:
                 self._start_ros(master_uri)
         except BaseException:
@@ -44,11 +60,19 @@ class LaunchRun:
 
     def _driver(self, spec: DriverSpec) -> object:
         try:
-            return attach_driver(self.sim, self.sim.car_named(spec.car), DRIVER_NAMES[spec.kind], spec.params,
-                                 spec.topic, spec.scan_topic, spec.odom_topic)
+            return attach_driver(
+                self.sim,
+                self.sim.car_named(spec.car),
+                DRIVER_NAMES[spec.kind],
+                spec.params,
+                spec.topic,
+                spec.scan_topic,
+                spec.odom_topic,
+            )
         except (ConfigError, TypeError, ValueError) as exc:
-            raise LaunchError(spec.node.where, f"{spec.kind}: {' '.join(str(exc).split())}",
-                              "fix the node's private params") from None
+            raise LaunchError(
+                spec.node.where, f"{spec.kind}: {' '.join(str(exc).split())}", "fix the node's private params"
+            ) from None
 
     def _start_ros(self, master_uri: str | None) -> None:
         from racecar_sim.bridges.ros1 import RosBridge  # only a --ros run needs ROS 1
@@ -59,8 +83,9 @@ class LaunchRun:
         for node in self.setup.ros_nodes:
             log.info("starting ROS node %s", node.label)
             try:
-                self.bridge.start_node(node.package, node.type, node.name, node.namespace, node.args, node.remaps,
-                                       dict(node.env) or None)
+                self.bridge.start_node(
+                    node.package, node.type, node.name, node.namespace, node.args, node.remaps, dict(node.env) or None
+                )
             except ConfigError as exc:  # no such package or node type
                 raise LaunchError(node.where, " ".join(str(exc).split())) from None
 

@@ -19,8 +19,17 @@ log = logging.getLogger("racecar_sim.launch")
 SERVERS = ("gzserver", "debug", "gazebo")
 EMPTY = "empty"
 _POSE_FLAGS = {"-x": 0, "-y": 1, "-z": 2, "-R": 3, "-P": 4, "-Y": 5}
-_VALUE_FLAGS = ("-param", "-file", "-model", "-robot_namespace", "-reference_frame", "-gazebo_namespace", "-database",
-                "-J", "-package_to_model")
+_VALUE_FLAGS = (
+    "-param",
+    "-file",
+    "-model",
+    "-robot_namespace",
+    "-reference_frame",
+    "-gazebo_namespace",
+    "-database",
+    "-J",
+    "-package_to_model",
+)
 _SWITCHES = ("-urdf", "-sdf", "-gazebo", "-trimesh", "-unpause", "-wait", "-b")
 
 
@@ -55,9 +64,11 @@ def world_of(plan: LaunchPlan) -> WorldChoice:
     name = Path(world).stem
     if name in world_names():
         return WorldChoice(name, paused)
-    raise LaunchError(node.where, f"world {world} is neither a file nor a built-in world",
-                      "give world_name a .world file ($(find pkg)/worlds/NAME.world) or one of "
-                      f"{', '.join(world_names())}")
+    raise LaunchError(
+        node.where,
+        f"world {world} is neither a file nor a built-in world",
+        f"give world_name a .world file ($(find pkg)/worlds/NAME.world) or one of {', '.join(world_names())}",
+    )
 
 
 @dataclass(frozen=True)
@@ -85,8 +96,9 @@ def parse_spawn(plan: LaunchPlan, node: NodeSpec) -> CarSpawn:
                 try:
                     pose[_POSE_FLAGS[word]] = float(args[i + 1])
                 except ValueError:
-                    raise LaunchError(node.where, f"spawn_model {word} {args[i + 1]} is not a number",
-                                      "give a number") from None
+                    raise LaunchError(
+                        node.where, f"spawn_model {word} {args[i + 1]} is not a number", "give a number"
+                    ) from None
             else:
                 flags[word] = args[i + 1]
             i += 2
@@ -95,19 +107,29 @@ def parse_spawn(plan: LaunchPlan, node: NodeSpec) -> CarSpawn:
             flags[word] = ""
         i += 1
     if "-sdf" in flags or "-database" in flags:
-        raise LaunchError(node.where, "spawn_model of an SDF model is not a car the sim can drive",
-                          "spawn the car with -urdf (a robot_description param or -file)")
+        raise LaunchError(
+            node.where,
+            "spawn_model of an SDF model is not a car the sim can drive",
+            "spawn the car with -urdf (a robot_description param or -file)",
+        )
     urdf = _urdf_text(plan, node, flags)
     namespace = flags.get("-robot_namespace", node.namespace).strip(SEP)
     try:
         names = CarNames(namespace)
     except ConfigError as exc:
-        raise LaunchError(node.where, f"robot namespace '{namespace}': {exc}",
-                          "spawn each car in a one-level <group ns=\"car1\">") from None
+        raise LaunchError(
+            node.where, f"robot namespace '{namespace}': {exc}", 'spawn each car in a one-level <group ns="car1">'
+        ) from None
     model = flags.get("-model")
     if model and model != names.model:
-        log.warning("%s: the car of namespace '/%s' is Gazebo model '%s' in the sim, not '%s' (its name derives from "
-                    "its namespace)", node.where, namespace, names.model, model)
+        log.warning(
+            "%s: the car of namespace '/%s' is Gazebo model '%s' in the sim, not '%s' (its name derives from "
+            "its namespace)",
+            node.where,
+            namespace,
+            names.model,
+            model,
+        )
     if pose[3] or pose[4]:
         log.warning("%s: spawn_model -R/-P ignored: a car spawns level, with only its heading (-Y)", node.where)
     if not all(math.isfinite(v) for v in pose):
@@ -120,14 +142,19 @@ def _urdf_text(plan: LaunchPlan, node: NodeSpec, flags: dict[str, str]) -> str:
         name = node.resolve(flags["-param"])
         value = plan.params.get(name)
         if not isinstance(value, str) or not value.strip():
-            raise LaunchError(node.where, f"spawn_model -param {flags['-param']}: parameter {name} is not set",
-                              f"set it first, e.g. <param name=\"{flags['-param']}\" command=\"$(find xacro)/xacro "
-                              "FILE.xacro\"/>")
+            raise LaunchError(
+                node.where,
+                f"spawn_model -param {flags['-param']}: parameter {name} is not set",
+                f'set it first, e.g. <param name="{flags["-param"]}" command="$(find xacro)/xacro FILE.xacro"/>',
+            )
         return value
     if "-file" in flags:
         try:
             return Path(flags["-file"]).read_text()
         except OSError as exc:
-            raise LaunchError(node.where, f"spawn_model -file {flags['-file']}: cannot read it "
-                                          f"({exc.strerror or exc})", "check the path") from None
+            raise LaunchError(
+                node.where,
+                f"spawn_model -file {flags['-file']}: cannot read it ({exc.strerror or exc})",
+                "check the path",
+            ) from None
     raise LaunchError(node.where, "spawn_model names no robot description", "add -urdf -param robot_description")

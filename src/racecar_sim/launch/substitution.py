@@ -77,14 +77,17 @@ class Context:
 
     def arg(self, name: str) -> str:
         if name not in self.args:
-            raise SubstitutionError(f"$(arg {name}): no arg {name!r} is declared here; "
-                                    f"declare it with <arg name=\"{name}\" default=\"...\"/> or pass it in")
+            raise SubstitutionError(
+                f"$(arg {name}): no arg {name!r} is declared here; "
+                f'declare it with <arg name="{name}" default="..."/> or pass it in'
+            )
         return self.args[name]
 
     def env(self, name: str) -> str:
         if name not in os.environ:
-            raise SubstitutionError(f"$(env {name}): environment variable {name} is not set; set it, "
-                                    f"or use $(optenv {name} DEFAULT)")
+            raise SubstitutionError(
+                f"$(env {name}): environment variable {name} is not set; set it, or use $(optenv {name} DEFAULT)"
+            )
         return os.environ[name]
 
     @staticmethod
@@ -122,8 +125,9 @@ def _replace(text: str, ctx: Context, find: bool) -> str:
             raise SubstitutionError(f"empty substitution {match.group(0)}; write $(arg NAME), $(find PKG), ...")
         command, rest = words[0], words[1:]
         if command not in COMMANDS:
-            raise SubstitutionError(f"unknown substitution {match.group(0)}; use one of "
-                                    f"{', '.join(f'$({c} ...)' for c in COMMANDS)}")
+            raise SubstitutionError(
+                f"unknown substitution {match.group(0)}; use one of {', '.join(f'$({c} ...)' for c in COMMANDS)}"
+            )
         if (command == "find") != find:
             return match.group(0)
         return _command(command, rest, match.group(0), ctx)
@@ -137,8 +141,9 @@ def _command(command: str, rest: list[str], whole: str, ctx: Context) -> str:
         raise SubstitutionError(f"{whole}: $(eval ...) must be the whole attribute value")
     low, high = expects[command]
     if not low <= len(rest) <= high:
-        raise SubstitutionError(f"{whole}: $({command}) takes {low if low == high else f'{low} or more'} "
-                                f"argument{'s' if high != 1 else ''}")
+        raise SubstitutionError(
+            f"{whole}: $({command}) takes {low if low == high else f'{low} or more'} argument{'s' if high != 1 else ''}"
+        )
     if command == "arg":
         return ctx.arg(rest[0])
     if command == "env":
@@ -172,9 +177,20 @@ def _eval(expression: str, ctx: Context) -> str:
         raise SubstitutionError(f"$(eval {expression}): double underscores are not allowed in $(eval)")
     functions: dict[str, Any] = {name: value for name, value in vars(math).items() if not name.startswith("_")}
     functions.update(_EVAL_BUILTINS)
-    functions.update({"true": True, "false": False, "True": True, "False": False,
-                      "arg": lambda name: convert_value(ctx.arg(name)), "env": ctx.env, "optenv": ctx.optenv,
-                      "find": ctx.find_path, "anon": ctx.anon_name, "dirname": ctx.dirname})
+    functions.update(
+        {
+            "true": True,
+            "false": False,
+            "True": True,
+            "False": False,
+            "arg": lambda name: convert_value(ctx.arg(name)),
+            "env": ctx.env,
+            "optenv": ctx.optenv,
+            "find": ctx.find_path,
+            "anon": ctx.anon_name,
+            "dirname": ctx.dirname,
+        }
+    )
     try:
         tree = ast.parse(expression.strip(), mode="eval")
     except SyntaxError as exc:
@@ -184,24 +200,41 @@ def _eval(expression: str, ctx: Context) -> str:
     except SubstitutionError:
         raise
     except KeyError as exc:
-        raise SubstitutionError(f"$(eval {expression}): name {exc.args[0]!r} is not defined; declare the arg or "
-                                "fix the name") from None
+        raise SubstitutionError(
+            f"$(eval {expression}): name {exc.args[0]!r} is not defined; declare the arg or fix the name"
+        ) from None
     except Exception as exc:  # a user's expression can raise anything
         raise SubstitutionError(f"$(eval {expression}) failed: {type(exc).__name__}: {exc}") from None
 
 
 _BINARY: dict[type, Callable[[Any, Any], Any]] = {
-    ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
-    ast.FloorDiv: operator.floordiv, ast.Mod: operator.mod, ast.Pow: operator.pow}
+    ast.Add: operator.add,
+    ast.Sub: operator.sub,
+    ast.Mult: operator.mul,
+    ast.Div: operator.truediv,
+    ast.FloorDiv: operator.floordiv,
+    ast.Mod: operator.mod,
+    ast.Pow: operator.pow,
+}
 _UNARY: dict[type, Callable[[Any], Any]] = {ast.UAdd: operator.pos, ast.USub: operator.neg, ast.Not: operator.not_}
 _COMPARE: dict[type, Callable[[Any, Any], Any]] = {
-    ast.Eq: operator.eq, ast.NotEq: operator.ne, ast.Lt: operator.lt, ast.LtE: operator.le, ast.Gt: operator.gt,
-    ast.GtE: operator.ge, ast.In: lambda a, b: a in b, ast.NotIn: lambda a, b: a not in b,
-    ast.Is: operator.is_, ast.IsNot: operator.is_not}
+    ast.Eq: operator.eq,
+    ast.NotEq: operator.ne,
+    ast.Lt: operator.lt,
+    ast.LtE: operator.le,
+    ast.Gt: operator.gt,
+    ast.GtE: operator.ge,
+    ast.In: lambda a, b: a in b,
+    ast.NotIn: lambda a, b: a not in b,
+    ast.Is: operator.is_,
+    ast.IsNot: operator.is_not,
+}
 _LARGEST = 10**6  # elements a repetition (`'ab' * n`) may make, bits a power may have: values, not memory bombs
-_ALLOWED = ("the args by name, literals, + - * / // % **, comparisons, and/or/not, `a if c else b`, [], and calls "
-            "of arg(), find(), env(), optenv(), anon(), dirname(), str(), int(), float(), list(), dict(), map() and "
-            "math's functions")
+_ALLOWED = (
+    "the args by name, literals, + - * / // % **, comparisons, and/or/not, `a if c else b`, [], and calls "
+    "of arg(), find(), env(), optenv(), anon(), dirname(), str(), int(), float(), list(), dict(), map() and "
+    "math's functions"
+)
 
 
 class _Evaluator:
@@ -269,16 +302,44 @@ class _Evaluator:
 
 
 # Every kind of node an $(eval) may hold (with their operators and the Load context); nothing else is evaluated.
-_NODES = (ast.Constant, ast.Name, ast.Load, ast.BinOp, ast.UnaryOp, ast.BoolOp, ast.And, ast.Or, ast.Compare,
-          ast.IfExp, ast.Call, ast.keyword, ast.Subscript, ast.Slice, ast.List, ast.Tuple, ast.Set, ast.Dict,
-          *_BINARY, *_UNARY, *_COMPARE)
+_NODES = (
+    ast.Constant,
+    ast.Name,
+    ast.Load,
+    ast.BinOp,
+    ast.UnaryOp,
+    ast.BoolOp,
+    ast.And,
+    ast.Or,
+    ast.Compare,
+    ast.IfExp,
+    ast.Call,
+    ast.keyword,
+    ast.Subscript,
+    ast.Slice,
+    ast.List,
+    ast.Tuple,
+    ast.Set,
+    ast.Dict,
+    *_BINARY,
+    *_UNARY,
+    *_COMPARE,
+)
 
 
 def _describe(node: ast.AST) -> str:
     """How a refused node reads in the message: its source and what Python calls it."""
-    kinds = {ast.Attribute: "attribute access", ast.Lambda: "a lambda", ast.NamedExpr: "an assignment (:=)",
-             ast.GeneratorExp: "a generator", ast.ListComp: "a comprehension", ast.SetComp: "a comprehension",
-             ast.DictComp: "a comprehension", ast.JoinedStr: "an f-string", ast.Starred: "unpacking (*)"}
+    kinds = {
+        ast.Attribute: "attribute access",
+        ast.Lambda: "a lambda",
+        ast.NamedExpr: "an assignment (:=)",
+        ast.GeneratorExp: "a generator",
+        ast.ListComp: "a comprehension",
+        ast.SetComp: "a comprehension",
+        ast.DictComp: "a comprehension",
+        ast.JoinedStr: "an f-string",
+        ast.Starred: "unpacking (*)",
+    }
     kind = kinds.get(type(node), type(node).__name__)
     try:
         text = ast.unparse(node)
@@ -293,6 +354,11 @@ def _check_size(op: ast.operator, left: Any, right: Any) -> None:
         for seq, times in ((left, right), (right, left)):
             if isinstance(seq, (str, bytes, list, tuple)) and isinstance(times, int) and len(seq) * times > _LARGEST:
                 raise ValueError(f"the repetition makes {len(seq) * times} elements (at most {_LARGEST})")
-    if (isinstance(op, ast.Pow) and isinstance(left, int) and isinstance(right, int) and abs(left) > 1
-            and right * left.bit_length() > _LARGEST):
+    if (
+        isinstance(op, ast.Pow)
+        and isinstance(left, int)
+        and isinstance(right, int)
+        and abs(left) > 1
+        and right * left.bit_length() > _LARGEST
+    ):
         raise ValueError(f"{left} ** {right} is too large (more than {_LARGEST} bits)")

@@ -32,8 +32,11 @@ from racecar_sim.launch.xml_tree import Tag, parse_file
 
 log = logging.getLogger("racecar_sim.launch")
 MAX_DEPTH = 32  # includes within includes: deeper is a loop
-IGNORED = {"machine": "the sim runs every node on this machine", "test": "rostest tests are not run by the sim",
-           "master": "the master is the bridge's (--ros)"}
+IGNORED = {
+    "machine": "the sim runs every node on this machine",
+    "test": "rostest tests are not run by the sim",
+    "master": "the master is the bridge's (--ros)",
+}
 
 
 @dataclass
@@ -53,8 +56,14 @@ class _Scope:
     lenient: bool = False  # pass_all_args: undeclared passed args are no error
 
     def child(self, ns: str | None) -> _Scope:
-        return replace(self, ns=child_ns(self.ns, ns), args=dict(self.args), remaps=list(self.remaps),
-                       env=list(self.env), private=list(self.private))
+        return replace(
+            self,
+            ns=child_ns(self.ns, ns),
+            args=dict(self.args),
+            remaps=list(self.remaps),
+            env=list(self.env),
+            private=list(self.private),
+        )
 
     def context(self) -> Context:
         return Context(self.args, self.file, self.anon)
@@ -80,15 +89,21 @@ class _Loader:
     def load_file(self, path: Path, scope: _Scope, depth: int) -> None:
         root = parse_file(path)
         if root.name != "launch":
-            raise LaunchError(Where(path, root.line, root.describe()), "the root element is not <launch>",
-                              "a roslaunch file holds <launch> ... </launch>")
+            raise LaunchError(
+                Where(path, root.line, root.describe()),
+                "the root element is not <launch>",
+                "a roslaunch file holds <launch> ... </launch>",
+            )
         self.children(root, scope, depth)
         unused = [] if scope.lenient else sorted(set(scope.passed) - scope.declared)
         if unused:
             how = "on the command line" if scope.top else "by the <include>"
-            raise LaunchError(path, f"arg{'s' if len(unused) > 1 else ''} {', '.join(unused)} given {how} "
-                                    f"{'are' if len(unused) > 1 else 'is'} not declared in this file",
-                              f"declare it with <arg name=\"{unused[0]}\" default=\"...\"/> or drop it")
+            raise LaunchError(
+                path,
+                f"arg{'s' if len(unused) > 1 else ''} {', '.join(unused)} given {how} "
+                f"{'are' if len(unused) > 1 else 'is'} not declared in this file",
+                f'declare it with <arg name="{unused[0]}" default="..."/> or drop it',
+            )
 
     def children(self, tag: Tag, scope: _Scope, depth: int) -> None:
         for child in tag.children:
@@ -116,23 +131,30 @@ class _Loader:
         scope.declared.add(name)
         if value is not None:
             if name in scope.passed:
-                raise LaunchError(where, f"arg {name!r} has a fixed value= and cannot be set from outside",
-                                  "use default= to let it be overridden")
+                raise LaunchError(
+                    where,
+                    f"arg {name!r} has a fixed value= and cannot be set from outside",
+                    "use default= to let it be overridden",
+                )
             scope.args[name] = value
         elif name in scope.passed:
             scope.args[name] = scope.passed[name]
         elif default is not None:
             scope.args[name] = default
         else:
-            how = f"on the command line as {name}:=VALUE" if scope.top else \
-                f"in the <include> with <arg name=\"{name}\" value=\"...\"/>"
-            raise LaunchError(where, f"arg {name!r} has no value", f"give it {how}, or add default=\"...\"")
+            how = (
+                f"on the command line as {name}:=VALUE"
+                if scope.top
+                else f'in the <include> with <arg name="{name}" value="..."/>'
+            )
+            raise LaunchError(where, f"arg {name!r} has no value", f'give it {how}, or add default="..."')
 
     def tag_include(self, tag: Tag, scope: _Scope, depth: int) -> None:
         where = self.where(tag, scope)
         if depth >= MAX_DEPTH:
-            raise LaunchError(where, f"includes nest deeper than {MAX_DEPTH}",
-                              "an include includes itself: break the loop")
+            raise LaunchError(
+                where, f"includes nest deeper than {MAX_DEPTH}", "an include includes itself: break the loop"
+            )
         file = Path(self.attr(tag, scope, "file", required=True))
         inner = scope.child(self.attr(tag, scope, "ns"))
         pass_all = self.boolean(tag, scope, "pass_all_args", False)
@@ -145,16 +167,20 @@ class _Loader:
                 value = self.attr(child, scope, "value")
                 value = self.attr(child, scope, "default") if value is None else value
                 if value is None:
-                    raise LaunchError(self.where(child, scope), f"<arg name=\"{name}\"> in an <include> has no value",
-                                      "add value=\"...\"")
+                    raise LaunchError(
+                        self.where(child, scope), f'<arg name="{name}"> in an <include> has no value', 'add value="..."'
+                    )
                 passed[name] = value
             elif child.name == "env":
                 self.tag_env(child, inner, depth)
             else:
                 self.note(f"{self.where(child, scope)}: ignored inside <include> (it takes <arg> and <env>)")
         if not file.is_file():
-            raise LaunchError(where, f"included file {file} does not exist",
-                              "check the path and the package $(find ...) resolves to (--package-path DIR)")
+            raise LaunchError(
+                where,
+                f"included file {file} does not exist",
+                "check the path and the package $(find ...) resolves to (--package-path DIR)",
+            )
         included = _Scope(file, inner.ns, {}, passed, set(), inner.remaps, inner.env, inner.private, scope.anon)
         included.lenient = pass_all  # args passed along but not declared there are fine, as in roslaunch
         self.load_file(file, included, depth + 1)
@@ -166,8 +192,9 @@ class _Loader:
         sources = {key: self.attr(tag, scope, key) for key in ("value", "textfile", "binfile", "command")}
         given = [key for key, text in sources.items() if text is not None]
         if len(given) != 1:
-            raise LaunchError(where, "a <param> needs exactly one of value=, textfile=, binfile=, command=",
-                              "keep one of them")
+            raise LaunchError(
+                where, "a <param> needs exactly one of value=, textfile=, binfile=, command=", "keep one of them"
+            )
         source, text = given[0], sources[given[0]]
         try:
             if source == "value":
@@ -216,11 +243,12 @@ class _Loader:
         try:
             data = yaml.safe_load(text)
         except yaml.YAMLError as exc:
-            raise LaunchError(where, f"bad YAML in {file or 'the <rosparam> text'}: {' '.join(str(exc).split())}",
-                              "fix the YAML") from None
+            raise LaunchError(
+                where, f"bad YAML in {file or 'the <rosparam> text'}: {' '.join(str(exc).split())}", "fix the YAML"
+            ) from None
         data = {} if data is None else data
         if full == SEP and not isinstance(data, dict):
-            raise LaunchError(where, "a YAML that is not a mapping needs a name", "add param=\"NAME\"")
+            raise LaunchError(where, "a YAML that is not a mapping needs a name", 'add param="NAME"')
         self.plan.set_param(full, data, Path(file) if file is not None else None)
 
     def tag_remap(self, tag: Tag, scope: _Scope, depth: int) -> None:
@@ -253,15 +281,27 @@ class _Loader:
             elif child.name == "rosparam":
                 self.tag_rosparam(child, scope, depth, node=full_name)
             elif child.name == "env":
-                env.append((self.attr(child, scope, "name", required=True),
-                            self.attr(child, scope, "value", required=True)))
+                env.append(
+                    (self.attr(child, scope, "name", required=True), self.attr(child, scope, "value", required=True))
+                )
             else:
                 self.note(f"{self.where(child, scope)}: unknown element inside <node>, ignored")
-        self.plan.nodes.append(NodeSpec(
-            package, node_type, name, ns, args, tuple(remaps), tuple(env),
-            required=self.boolean(tag, scope, "required", False), respawn=self.boolean(tag, scope, "respawn", False),
-            output=self.attr(tag, scope, "output") or "log", launch_prefix=self.attr(tag, scope, "launch-prefix") or "",
-            where=where))
+        self.plan.nodes.append(
+            NodeSpec(
+                package,
+                node_type,
+                name,
+                ns,
+                args,
+                tuple(remaps),
+                tuple(env),
+                required=self.boolean(tag, scope, "required", False),
+                respawn=self.boolean(tag, scope, "respawn", False),
+                output=self.attr(tag, scope, "output") or "log",
+                launch_prefix=self.attr(tag, scope, "launch-prefix") or "",
+                where=where,
+            )
+        )
 
     def note(self, text: str) -> None:
         """Something of the launch file the sim leaves out: kept in the plan and shown as a warning."""
@@ -283,8 +323,7 @@ class _Loader:
     def attr(self, tag: Tag, scope: _Scope, key: str, required: bool = False) -> str | None:
         if key not in tag.attrs:
             if required:
-                raise LaunchError(self.where(tag, scope), f"<{tag.name}> needs a {key}= attribute",
-                                  f"add {key}=\"...\"")
+                raise LaunchError(self.where(tag, scope), f"<{tag.name}> needs a {key}= attribute", f'add {key}="..."')
             return None
         return self.resolve(tag.attrs[key], scope, self.where(tag, scope))
 
@@ -297,7 +336,7 @@ class _Loader:
             return True
         if value in ("false", "0"):
             return False
-        raise LaunchError(self.where(tag, scope), f"{key}=\"{text}\" is not a boolean", "write true or false")
+        raise LaunchError(self.where(tag, scope), f'{key}="{text}" is not a boolean', "write true or false")
 
     def active(self, tag: Tag, scope: _Scope) -> bool:
         """roslaunch's if/unless on any element: both at once is an error, a non-boolean value too."""

@@ -32,8 +32,11 @@ def parse_file(path: Path) -> Tag:
     try:
         data = path.read_bytes()
     except OSError as exc:
-        raise LaunchError(path, f"cannot read the launch file ({exc.strerror or exc})",
-                          "check the path (and the $(find ...) package it is in)") from None
+        raise LaunchError(
+            path,
+            f"cannot read the launch file ({exc.strerror or exc})",
+            "check the path (and the $(find ...) package it is in)",
+        ) from None
     parser = expat.ParserCreate()
     stack: list[Tag] = []
     root: list[Tag] = []
@@ -54,6 +57,9 @@ def parse_file(path: Path) -> Tag:
     try:
         parser.Parse(data, True)
     except expat.ExpatError as exc:
-        raise LaunchError(f"{path}:{exc.lineno}", f"bad XML: {expat.ErrorString(exc.code)} (column {exc.offset + 1})",
-                          "fix the XML (every tag closed, attributes quoted)") from None
+        raise LaunchError(
+            f"{path}:{exc.lineno}",
+            f"bad XML: {expat.ErrorString(exc.code)} (column {exc.offset + 1})",
+            "fix the XML (every tag closed, attributes quoted)",
+        ) from None
     return root[0]

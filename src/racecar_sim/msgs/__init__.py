@@ -27,8 +27,16 @@ from racecar_sim.msgs.idl import schema_text
 from racecar_sim.msgs.nav_msgs import Odometry
 from racecar_sim.msgs.registry import message_class, msgtype_of
 from racecar_sim.msgs.rosgraph_msgs import Clock
-from racecar_sim.msgs.sensor_msgs import (CameraInfo, Image, Imu, JointState, LaserScan, PointCloud2, PointField,
-                                         RegionOfInterest)
+from racecar_sim.msgs.sensor_msgs import (
+    CameraInfo,
+    Image,
+    Imu,
+    JointState,
+    LaserScan,
+    PointCloud2,
+    PointField,
+    RegionOfInterest,
+)
 from racecar_sim.msgs.std_msgs import Float64, Header, Int8, String
 from racecar_sim.msgs.tf2_msgs import TFMessage
 

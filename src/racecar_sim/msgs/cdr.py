@@ -45,9 +45,7 @@ def serialize(msg: object) -> bytes:
         encode = _ENCODERS[type(msg)]
     except KeyError:
         if isinstance(msg, type):
-            raise TypeError(
-                f"serialize() needs a message instance, got the class {msg.__name__}"
-            ) from None
+            raise TypeError(f"serialize() needs a message instance, got the class {msg.__name__}") from None
         encode = _ENCODERS.setdefault(type(msg), _encoder(msgtype_of(msg)))
     out: list[Any] = [CDR_LE_HEADER]
     encode(msg, out, 0)
@@ -218,9 +216,7 @@ def _bytes_op(msgtype: str, path: str, size: int | None) -> Encoder:
 
 
 def _as_array(msgtype: str, path: str, value: Any, dtype: np.dtype[Any]) -> np.ndarray:
-    if type(value) is not np.ndarray and (
-        value is None or isinstance(value, (str, bytes)) or np.ndim(value) == 0
-    ):
+    if type(value) is not np.ndarray and (value is None or isinstance(value, (str, bytes)) or np.ndim(value) == 0):
         raise _error(TypeError, msgtype, path, f"expected an array, got {type(value).__name__}")
     try:
         array = np.ascontiguousarray(value, dtype=dtype)
@@ -317,6 +313,7 @@ def _message_array_op(msgtype: str, path: str, element_type: str, size: int | No
         return pos
 
     if uniform is None:
+
         def op(msg: Any, out: list[Any], pos: int) -> int:
             items = _sequence(msgtype, path, get(msg), size)
             prefix, pos = _length_prefix(pos, len(items), size)

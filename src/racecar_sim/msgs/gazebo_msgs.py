@@ -193,8 +193,22 @@ class GetWorldProperties:
 
 
 __all__ = [
-    "DeleteModel", "DeleteModelRequest", "DeleteModelResponse", "GetModelState", "GetModelStateRequest",
-    "GetModelStateResponse", "GetWorldProperties", "GetWorldPropertiesRequest", "GetWorldPropertiesResponse",
-    "LinkStates", "ModelState", "ModelStates", "SetModelState", "SetModelStateRequest", "SetModelStateResponse",
-    "SpawnModel", "SpawnModelRequest", "SpawnModelResponse",
+    "DeleteModel",
+    "DeleteModelRequest",
+    "DeleteModelResponse",
+    "GetModelState",
+    "GetModelStateRequest",
+    "GetModelStateResponse",
+    "GetWorldProperties",
+    "GetWorldPropertiesRequest",
+    "GetWorldPropertiesResponse",
+    "LinkStates",
+    "ModelState",
+    "ModelStates",
+    "SetModelState",
+    "SetModelStateRequest",
+    "SetModelStateResponse",
+    "SpawnModel",
+    "SpawnModelRequest",
+    "SpawnModelResponse",
 ]

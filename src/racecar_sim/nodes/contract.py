@@ -52,8 +52,14 @@ class Timers(Protocol):
 
     step_ns: int
 
-    def every(self, rate_hz: float, callback: Callable[[int], None], name: str, start_ns: int = 0,
-              unheard: Callable[[int], bool] | None = None) -> Cancellable: ...
+    def every(
+        self,
+        rate_hz: float,
+        callback: Callable[[int], None],
+        name: str,
+        start_ns: int = 0,
+        unheard: Callable[[int], bool] | None = None,
+    ) -> Cancellable: ...
 
     def at(self, time_ns: int, callback: Callable[[int], None], name: str) -> Cancellable: ...
 

@@ -24,8 +24,13 @@ class ScopedBus:
         self._subscriptions: list[Any] = []
         self._services: list[str] = []
 
-    def subscribe(self, topic: str, callback: Callable[[Any], None], msgtype: type | None = None,
-                  feeds: Mapping[str, type] | None = None) -> Any:
+    def subscribe(
+        self,
+        topic: str,
+        callback: Callable[[Any], None],
+        msgtype: type | None = None,
+        feeds: Mapping[str, type] | None = None,
+    ) -> Any:
         """The bus's subscribe(), remembered."""
         sub = self._bus.subscribe(topic, callback, msgtype, feeds)
         self._subscriptions.append(sub)
@@ -60,8 +65,14 @@ class ScopedTimers:
         self.step_ns = timers.step_ns
         self._tasks: weakref.WeakSet[Any] = weakref.WeakSet()
 
-    def every(self, rate_hz: float, callback: Callable[[int], None], name: str, start_ns: int = 0,
-              unheard: Callable[[int], bool] | None = None) -> Cancellable:
+    def every(
+        self,
+        rate_hz: float,
+        callback: Callable[[int], None],
+        name: str,
+        start_ns: int = 0,
+        unheard: Callable[[int], bool] | None = None,
+    ) -> Cancellable:
         """The scheduler's every(), from the car's start at the earliest, remembered."""
         task = self._timers.every(rate_hz, callback, name, max(start_ns, self._start_ns), unheard)
         self._tasks.add(task)

@@ -16,20 +16,18 @@ import numpy as np
 
 from racecar_sim.core.errors import ConfigError, DescriptionError, WorldError
 from racecar_sim.core.names import CarNames
-from racecar_sim.description.ros_packages import PackageNotFound, resolve_uri
 from racecar_sim.core.transforms import quat_from_axis_angle, quat_from_rpy
+from racecar_sim.description.ros_packages import PackageNotFound, resolve_uri
 from racecar_sim.description.urdf import Link, Robot, Shape
 from racecar_sim.physics.contact import solref_solimp
 from racecar_sim.physics.near_walls import add_slots
 from racecar_sim.physics.presets import CONES, INTEGRATORS, SOLVERS, PhysicsPreset
-from racecar_sim.physics.world_geoms import (COLLISION_GROUP, GEOM_TYPES, SLEEP_POLICY, VISUAL_GROUP, add_world,
-                                             mj_size)
+from racecar_sim.physics.world_geoms import COLLISION_GROUP, GEOM_TYPES, SLEEP_POLICY, VISUAL_GROUP, add_world, mj_size
 from racecar_sim.worlds.materials import gazebo_material_rgba
 from racecar_sim.worlds.meshes import MeshPart, convex_pieces, load_mesh
 from racecar_sim.worlds.world import Mesh, Spawn, World
 
 ROOT_JOINT = "root"
-
 
 
 def build_spec(robot: Robot, world: World, preset: PhysicsPreset, names: CarNames = CarNames()) -> mujoco.MjSpec:
@@ -59,8 +57,14 @@ def fit_near_walls(spec: mujoco.MjSpec, model: mujoco.MjModel) -> bool:
     return add_slots(spec, model, friction_min_rule)
 
 
-def add_car(spec: mujoco.MjSpec, robot: Robot, spawn: Spawn, preset: PhysicsPreset,
-            names: CarNames = CarNames(), rank_friction: bool = True) -> None:
+def add_car(
+    spec: mujoco.MjSpec,
+    robot: Robot,
+    spawn: Spawn,
+    preset: PhysicsPreset,
+    names: CarNames = CarNames(),
+    rank_friction: bool = True,
+) -> None:
     """One car from its URDF at `spawn`, every MuJoCo name of it from `names` (no prefix for the unnamed car).
 
     rank_friction=False leaves friction_min_rule to the caller: a fleet ranks every geom once, after its last car
@@ -137,36 +141,63 @@ def _add_mesh(spec: mujoco.MjSpec, mesh: Mesh, name: str) -> str:
     return name
 
 
-def _add_shapes(spec: mujoco.MjSpec, body: mujoco.MjsBody, link: Link, robot: Robot, preset: PhysicsPreset,
-                is_wheel: bool, names: CarNames) -> None:
+def _add_shapes(
+    spec: mujoco.MjSpec,
+    body: mujoco.MjsBody,
+    link: Link,
+    robot: Robot,
+    preset: PhysicsPreset,
+    is_wheel: bool,
+    names: CarNames,
+) -> None:
     _add_collisions(spec, body, link, robot, preset, is_wheel, names)
     _add_visuals(spec, body, link, robot, names)
 
 
-def _add_collisions(spec: mujoco.MjSpec, body: mujoco.MjsBody, link: Link, robot: Robot, preset: PhysicsPreset,
-                    is_wheel: bool, names: CarNames) -> None:
+def _add_collisions(
+    spec: mujoco.MjSpec,
+    body: mujoco.MjsBody,
+    link: Link,
+    robot: Robot,
+    preset: PhysicsPreset,
+    is_wheel: bool,
+    names: CarNames,
+) -> None:
     """Collision geoms; a mesh collides as the convex hulls of its connected pieces (as SDF meshes do)."""
     for i, shape in enumerate(link.collisions):
         base_name = names.mj(f"{link.name}_collision{'' if i == 0 else i}")
         surface = link.surface
         mu = surface.mu1 if surface.mu1 is not None else 1.0  # SDF default friction
         solref, solimp = solref_solimp(surface.kp, _sprung_mass(robot), preset.contact_timeconst)
-        contact = dict(pos=list(shape.origin.xyz), quat=list(quat_from_rpy(shape.origin.rpy)), group=COLLISION_GROUP,
-                       contype=1, conaffinity=1, condim=3, friction=[mu, 0.0, 0.0], solref=solref, solimp=solimp,
-                       rgba=[0.9, 0.3, 0.3, 0.4])
+        contact = dict(
+            pos=list(shape.origin.xyz),
+            quat=list(quat_from_rpy(shape.origin.rpy)),
+            group=COLLISION_GROUP,
+            contype=1,
+            conaffinity=1,
+            condim=3,
+            friction=[mu, 0.0, 0.0],
+            solref=solref,
+            solimp=solimp,
+            rgba=[0.9, 0.3, 0.3, 0.4],
+        )
         if shape.geometry.kind == "mesh":
             pieces = []
             for part in _mesh_parts(robot, link, shape, "collision"):
                 part_pieces, convex = convex_pieces(part.mesh)
                 if not convex:
-                    warnings.warn(f"{robot.source or robot.name}: link {link.name} collision mesh "
-                                  f"{shape.geometry.filename} is not convex: it collides as the convex hull of each "
-                                  "of its connected pieces", stacklevel=3)
+                    warnings.warn(
+                        f"{robot.source or robot.name}: link {link.name} collision mesh "
+                        f"{shape.geometry.filename} is not convex: it collides as the convex hull of each "
+                        "of its connected pieces",
+                        stacklevel=3,
+                    )
                 pieces += part_pieces
             for j, piece in enumerate(pieces):
                 name = base_name if j == 0 else f"{base_name}#{j}"
-                body.add_geom(name=name, type=GEOM_TYPES["mesh"], meshname=_add_mesh(spec, piece, f"{name}/mesh"),
-                              **contact)
+                body.add_geom(
+                    name=name, type=GEOM_TYPES["mesh"], meshname=_add_mesh(spec, piece, f"{name}/mesh"), **contact
+                )
             continue
         geom_type, geom_size = _collision_type(shape, is_wheel, preset)
         body.add_geom(name=base_name, type=geom_type, size=geom_size, **contact)
@@ -176,25 +207,44 @@ def _add_visuals(spec: mujoco.MjSpec, body: mujoco.MjsBody, link: Link, robot: R
     """Visual geoms (drawn, never touched); a mesh's parts keep the file's own colours unless the URDF gives one."""
     for i, shape in enumerate(link.visuals):
         name = names.mj(f"{link.name}_visual{'' if i == 0 else i}")
-        placed = dict(pos=list(shape.origin.xyz), quat=list(quat_from_rpy(shape.origin.rpy)), group=VISUAL_GROUP,
-                      contype=0, conaffinity=0, mass=0.0)
+        placed = dict(
+            pos=list(shape.origin.xyz),
+            quat=list(quat_from_rpy(shape.origin.rpy)),
+            group=VISUAL_GROUP,
+            contype=0,
+            conaffinity=0,
+            mass=0.0,
+        )
         if shape.geometry.kind == "mesh":
             own_colour = shape.rgba is not None or link.surface.material
             for j, part in enumerate(_mesh_parts(robot, link, shape, "visual")):
                 part_name = name if j == 0 else f"{name}#{j}"
                 rgba = _link_rgba(link, shape) if own_colour or part.rgba is None else list(part.rgba)
-                body.add_geom(name=part_name, type=GEOM_TYPES["mesh"], rgba=rgba,
-                              meshname=_add_mesh(spec, part.mesh, f"{part_name}/mesh"), **placed)
+                body.add_geom(
+                    name=part_name,
+                    type=GEOM_TYPES["mesh"],
+                    rgba=rgba,
+                    meshname=_add_mesh(spec, part.mesh, f"{part_name}/mesh"),
+                    **placed,
+                )
             continue
-        body.add_geom(name=name, type=GEOM_TYPES[shape.geometry.kind],
-                      size=mj_size(shape.geometry.kind, shape.geometry.size), rgba=_link_rgba(link, shape), **placed)
+        body.add_geom(
+            name=name,
+            type=GEOM_TYPES[shape.geometry.kind],
+            size=mj_size(shape.geometry.kind, shape.geometry.size),
+            rgba=_link_rgba(link, shape),
+            **placed,
+        )
 
 
-def _add_link(spec: mujoco.MjSpec, parent: mujoco.MjsBody, robot: Robot, name: str, preset: PhysicsPreset,
-              names: CarNames) -> None:
+def _add_link(
+    spec: mujoco.MjSpec, parent: mujoco.MjsBody, robot: Robot, name: str, preset: PhysicsPreset, names: CarNames
+) -> None:
     link = robot.links[name]
     joint = robot.joint_to(name)
-    pos, quat = (joint.origin.xyz, quat_from_rpy(joint.origin.rpy)) if joint else ((0.0, 0.0, 0.0), np.array([1.0, 0, 0, 0]))
+    pos, quat = (
+        (joint.origin.xyz, quat_from_rpy(joint.origin.rpy)) if joint else ((0.0, 0.0, 0.0), np.array([1.0, 0, 0, 0]))
+    )
     body = parent.add_body(name=names.mj(name), pos=list(pos), quat=list(quat))
     if link.inertial:
         i = link.inertial
@@ -205,8 +255,11 @@ def _add_link(spec: mujoco.MjSpec, parent: mujoco.MjsBody, robot: Robot, name: s
         body.fullinertia = [i.inertia[0], i.inertia[1], i.inertia[2], i.inertia[3], i.inertia[4], i.inertia[5]]
     body.add_site(name=names.mj(name), size=[0.005, 0.005, 0.005], group=4)  # the URDF frame, kept through fusion
     if joint and joint.moves:
-        mj_joint = body.add_joint(name=names.mj(joint.name), axis=list(joint.axis),
-                                  type=mujoco.mjtJoint.mjJNT_HINGE if joint.type != "prismatic" else mujoco.mjtJoint.mjJNT_SLIDE)
+        mj_joint = body.add_joint(
+            name=names.mj(joint.name),
+            axis=list(joint.axis),
+            type=mujoco.mjtJoint.mjJNT_HINGE if joint.type != "prismatic" else mujoco.mjtJoint.mjJNT_SLIDE,
+        )
         if joint.type in ("revolute", "prismatic"):
             mj_joint.range = [joint.limit.lower, joint.limit.upper]
             mj_joint.limited = mujoco.mjtLimited.mjLIMITED_TRUE

@@ -23,6 +23,6 @@ class CarContacts:
         """(i, j), i < j, for every two cars in contact now."""
         if data.ncon == 0:
             return set()
-        cars = self._car_of_geom[data.contact.geom[:data.ncon]]
+        cars = self._car_of_geom[data.contact.geom[: data.ncon]]
         touching = (cars[:, 0] >= 0) & (cars[:, 1] >= 0) & (cars[:, 0] != cars[:, 1])
         return {(int(min(a, b)), int(max(a, b))) for a, b in cars[touching]}

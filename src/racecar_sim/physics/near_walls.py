@@ -52,7 +52,7 @@ class WallBoxes:
         for i in range(model.nnumeric):
             if mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_NUMERIC, i).startswith(LIBRARY):
                 adr, size = model.numeric_adr[i], model.numeric_size[i]
-                data = model.numeric_data[adr:adr + size]
+                data = model.numeric_data[adr : adr + size]
                 friction = float(data[0])
                 rows.append(data[1:].reshape(-1, _ROW))
         if not rows:
@@ -76,16 +76,18 @@ class WallBoxes:
         """A model of the boxes alone on the world body, in `group`, posed: for MuJoCo's 3-D ray casts."""
         spec = mujoco.MjSpec()
         for pos, quat, half in zip(self.pos.tolist(), self.quat.tolist(), self.half.tolist()):
-            spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, pos=pos, quat=quat, size=half, group=group,
-                                    contype=0, conaffinity=0)
+            spec.worldbody.add_geom(
+                type=mujoco.mjtGeom.mjGEOM_BOX, pos=pos, quat=quat, size=half, group=group, contype=0, conaffinity=0
+            )
         model = spec.compile()
         data = mujoco.MjData(model)
         mujoco.mj_kinematics(model, data)
         return model, data
 
 
-def hold_out(spec: mujoco.MjSpec, name: str, friction: float,
-             boxes: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> None:
+def hold_out(
+    spec: mujoco.MjSpec, name: str, friction: float, boxes: list[tuple[np.ndarray, np.ndarray, np.ndarray]]
+) -> None:
     """Put the collision boxes (pos, quat, full size) of the static body `name` into `spec` as data."""
     rows = [[*pos, *quat, *(0.5 * np.asarray(size[:3]))] for pos, quat, size in boxes]
     spec.add_numeric(name=LIBRARY + name, data=[friction, *np.ravel(rows).tolist()])
@@ -121,9 +123,18 @@ def add_slots(spec: mujoco.MjSpec, model: mujoco.MjModel, friction_rule: object)
     if boxes is None or need <= have:
         return False
     for k in range(have, need):
-        spec.worldbody.add_geom(name=f"{SLOT}{k}", type=mujoco.mjtGeom.mjGEOM_BOX, size=_PARK_HALF.tolist(),
-                                pos=_parking(k).tolist(), group=NEAR_WALL_GROUP, contype=1, conaffinity=1, condim=3,
-                                friction=[boxes.friction, 0.0, 0.0], rgba=[0.5, 0.5, 0.5, 1.0])
+        spec.worldbody.add_geom(
+            name=f"{SLOT}{k}",
+            type=mujoco.mjtGeom.mjGEOM_BOX,
+            size=_PARK_HALF.tolist(),
+            pos=_parking(k).tolist(),
+            group=NEAR_WALL_GROUP,
+            contype=1,
+            conaffinity=1,
+            condim=3,
+            friction=[boxes.friction, 0.0, 0.0],
+            rgba=[0.5, 0.5, 0.5, 1.0],
+        )
     friction_rule(spec)  # type: ignore[operator]
     return True
 
@@ -140,8 +151,16 @@ def _movers(model: mujoco.MjModel) -> tuple[np.ndarray, list[float]]:
     at qpos0: the same figure wherever the tree is, so that slots_needed and NearWalls agree)."""
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
-    roots = np.array([b for b in range(1, model.nbody) if model.body_parentid[b] == 0 and model.body_dofnum[b] > 0
-                      and model.jnt_type[model.body_jntadr[b]] == mujoco.mjtJoint.mjJNT_FREE], int)
+    roots = np.array(
+        [
+            b
+            for b in range(1, model.nbody)
+            if model.body_parentid[b] == 0
+            and model.body_dofnum[b] > 0
+            and model.jnt_type[model.body_jntadr[b]] == mujoco.mjtJoint.mjJNT_FREE
+        ],
+        int,
+    )
     colliding = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
     reach = []
     for root in roots.tolist():
@@ -207,15 +226,19 @@ class NearWalls:
         self._rotations = rotations.reshape(-1, 9)
         self._extent = (np.abs(rotations) @ self.boxes.half[:, :, None])[:, :, 0]  # half sizes of the world bound
         slots = [g for g in range(model.ngeom) if _name(model, g).startswith(SLOT)]
-        self.geoms = np.array(sorted(slots, key=lambda g: int(_name(model, g)[len(SLOT):])), int)
+        self.geoms = np.array(sorted(slots, key=lambda g: int(_name(model, g)[len(SLOT) :])), int)
         self._tree = _WorldTree(model)
         self._leaves = np.array([self._tree.node_of_geom[g] for g in self.geoms.tolist()], int)
         self.roots, self.reach = _movers(model)
         self._dofs = model.body_dofadr[self.roots].tolist()  # a free joint's linear, then angular velocity
         self.held = np.full(len(self.geoms), -1)  # box in each slot, -1 parked
         k = len(self.geoms)
-        self._parked = (_parking(np.arange(k)), np.tile([1.0, 0.0, 0.0, 0.0], (k, 1)), np.tile(_PARK_HALF, (k, 1)),
-                        np.tile(np.eye(3).ravel(), (k, 1)))
+        self._parked = (
+            _parking(np.arange(k)),
+            np.tile([1.0, 0.0, 0.0, 0.0], (k, 1)),
+            np.tile(_PARK_HALF, (k, 1)),
+            np.tile(np.eye(3).ravel(), (k, 1)),
+        )
         self._cells: tuple[tuple[int, int], ...] | None = None
         self._lists: dict[tuple[int, int, int], np.ndarray] = {}
         self._park(np.arange(len(self.geoms)))
@@ -238,7 +261,7 @@ class NearWalls:
         for (x, y), adr, reach in zip(xy, self._dofs, self.reach):
             u, v = x / CELL - math.floor(x / CELL), y / CELL - math.floor(y / CELL)
             room = min(room, CELL * min(u, 1.0 - u, v, 1.0 - v))
-            vx, vy, vz, wx, wy, wz = qvel[adr:adr + 6].tolist()
+            vx, vy, vz, wx, wy, wz = qvel[adr : adr + 6].tolist()
             speed = max(speed, math.sqrt(vx * vx + vy * vy + vz * vz) + math.sqrt(wx * wx + wy * wy + wz * wz) * reach)
         return min(LONGEST_WAIT, (SLACK + room) / (2.0 * speed + SPEED_FLOOR))
 
@@ -250,7 +273,7 @@ class NearWalls:
         keep = np.isin(self.held, wanted)
         self._park(np.flatnonzero(~keep & (self.held >= 0)))
         new = np.setdiff1d(wanted, self.held[keep])
-        self._put(np.flatnonzero(self.held < 0)[:len(new)], new)
+        self._put(np.flatnonzero(self.held < 0)[: len(new)], new)
         self._tree.refit(self.model)
 
     def _near(self, mover: int, cell: tuple[int, int]) -> np.ndarray:
@@ -267,17 +290,31 @@ class NearWalls:
     def _put(self, slots: np.ndarray, boxes: np.ndarray) -> None:
         """Put `boxes` into `slots`: the geoms' pose, size and bounds in the model and, as the world's geoms are
         posed only at a reset, their posed frames in the data; their leaves of the world's tree (refit after)."""
-        self._write(slots, boxes, self.boxes.pos[boxes], self.boxes.quat[boxes], self.boxes.half[boxes],
-                    self._rotations[boxes], self._extent[boxes])
+        self._write(
+            slots,
+            boxes,
+            self.boxes.pos[boxes],
+            self.boxes.quat[boxes],
+            self.boxes.half[boxes],
+            self._rotations[boxes],
+            self._extent[boxes],
+        )
 
     def _park(self, slots: np.ndarray) -> None:
         """Send `slots` to their parking places, out of the collision (contype and conaffinity 0)."""
         pos, quat, half, rotation = self._parked
-        self._write(slots, np.full(len(slots), -1), pos[slots], quat[slots], half[slots], rotation[slots],
-                    half[slots])
+        self._write(slots, np.full(len(slots), -1), pos[slots], quat[slots], half[slots], rotation[slots], half[slots])
 
-    def _write(self, slots: np.ndarray, boxes: np.ndarray, pos: np.ndarray, quat: np.ndarray, half: np.ndarray,
-               rotation: np.ndarray, extent: np.ndarray) -> None:
+    def _write(
+        self,
+        slots: np.ndarray,
+        boxes: np.ndarray,
+        pos: np.ndarray,
+        quat: np.ndarray,
+        half: np.ndarray,
+        rotation: np.ndarray,
+        extent: np.ndarray,
+    ) -> None:
         m, d, geoms = self.model, self.data, self.geoms[slots]
         self.held[slots] = boxes
         m.geom_contype[geoms] = m.geom_conaffinity[geoms] = (boxes >= 0).astype(m.geom_contype.dtype)

@@ -11,8 +11,12 @@ from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.tables import read_table, table_entry
 
 _FILE = Path(__file__).parent / "data" / "presets.yaml"
-INTEGRATORS = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
-               "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT, "rk4": mujoco.mjtIntegrator.mjINT_RK4}
+INTEGRATORS = {
+    "euler": mujoco.mjtIntegrator.mjINT_EULER,
+    "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+    "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
+    "rk4": mujoco.mjtIntegrator.mjINT_RK4,
+}
 SOLVERS = {"newton": mujoco.mjtSolver.mjSOL_NEWTON, "cg": mujoco.mjtSolver.mjSOL_CG, "pgs": mujoco.mjtSolver.mjSOL_PGS}
 CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
 
@@ -40,8 +44,12 @@ def load_preset(name: str) -> PhysicsPreset:
     """A preset by name; ConfigError names the file and the preset."""
     preset = table_entry(_FILE, name, PhysicsPreset, "physics preset")
     where = f"{_FILE}: preset '{name}'"
-    for field, choices in (("integrator", INTEGRATORS), ("solver", SOLVERS), ("cone", CONES),
-                           ("wheel_contact", ("ellipsoid", "cylinder"))):
+    for field, choices in (
+        ("integrator", INTEGRATORS),
+        ("solver", SOLVERS),
+        ("cone", CONES),
+        ("wheel_contact", ("ellipsoid", "cylinder")),
+    ):
         if getattr(preset, field) not in choices:
             raise ConfigError(f"{where}: {field} must be one of {', '.join(choices)}, got {getattr(preset, field)!r}")
     if preset.timestep <= 0 or preset.iterations < 1:

@@ -22,9 +22,8 @@ from racecar_sim.core.time import NS_PER_S, to_ns
 from racecar_sim.physics.builder import fit_near_walls, friction_min_rule, world_spec
 from racecar_sim.physics.near_walls import NearWalls
 from racecar_sim.physics.near_walls import drop as drop_held_walls
-from racecar_sim.physics.world_geoms import add_world
 from racecar_sim.physics.presets import PhysicsPreset
-from racecar_sim.physics.world_geoms import mujoco_rejected
+from racecar_sim.physics.world_geoms import add_world, mujoco_rejected
 from racecar_sim.worlds import World
 from racecar_sim.worlds.world import WorldBody
 
@@ -115,7 +114,7 @@ class Scene:
         self.spec.attach(child, frame=self.spec.worldbody.add_frame(), prefix=prefix)
         for element in [*self.spec.bodies, *self.spec.geoms, *self.spec.joints, *self.spec.sites, *self.spec.lights]:
             if element.name.startswith(prefix):
-                element.name = element.name[len(prefix):]
+                element.name = element.name[len(prefix) :]
         sky = self.spec.texture(f"{prefix}sky")  # the loader's skybox: the scene has its own
         if sky is not None:
             self.spec.delete(sky)

@@ -50,8 +50,15 @@ _PARKED = Spawn(0.0, 0.0, -1e6, 0.0)  # SpawnProbe's second car when no other is
 _G = mujoco.mjtGeom
 
 
-def check_spawn(model: mujoco.MjModel, data: mujoco.MjData, world: World, robot: Robot,
-                names: CarNames = CarNames(), spawn: Spawn | None = None, car_name: str | None = None) -> None:
+def check_spawn(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    world: World,
+    robot: Robot,
+    names: CarNames = CarNames(),
+    spawn: Spawn | None = None,
+    car_name: str | None = None,
+) -> None:
     """Raise WorldError if the car, at its spawn pose in `data` (after mj_forward), overlaps the world or has no
     ground under it; warn if it will fall more than DROP_WARN. The car is the body tree of `robot.root`.
     `car_name`: how the message names the car (default: its namespace)."""
@@ -72,8 +79,10 @@ def check_spawn(model: mujoco.MjModel, data: mujoco.MjData, world: World, robot:
     for name, point in probes:
         drop = _drop_below(model, data, point, solid)
         if drop is None:
-            raise WorldError(f"{where} has no ground under it: nothing within {GROUND_SEARCH:g} m below the "
-                             f"{name} (the car would fall forever)")
+            raise WorldError(
+                f"{where} has no ground under it: nothing within {GROUND_SEARCH:g} m below the "
+                f"{name} (the car would fall forever)"
+            )
         drops.append(drop)
     fall = min(drops)  # the car falls until its first wheel lands
     if fall > DROP_WARN:
@@ -101,8 +110,7 @@ def _subtree_geoms(model: mujoco.MjModel, root: int) -> np.ndarray:
     return np.flatnonzero(inside[model.geom_bodyid])
 
 
-def _check_overlap(model: mujoco.MjModel, data: mujoco.MjData, car: np.ndarray, solid: np.ndarray,
-                   where: str) -> None:
+def _check_overlap(model: mujoco.MjModel, data: mujoco.MjData, car: np.ndarray, solid: np.ndarray, where: str) -> None:
     """WorldError naming the deepest overlap of a car geom with a colliding world geom, if beyond PENETRATION_TOL."""
     gap = np.linalg.norm(data.geom_xpos[car][:, None] - data.geom_xpos[solid][None], axis=2)
     reach = model.geom_rbound[car][:, None] + model.geom_rbound[solid][None] + PENETRATION_TOL
@@ -120,19 +128,26 @@ def _check_overlap(model: mujoco.MjModel, data: mujoco.MjData, car: np.ndarray, 
     _, dist, part, obstacle, out = min(found, key=lambda f: f[:2])  # the deepest, a collision geom if one overlaps
     length = float(np.linalg.norm(out))
     if length > 0 and out[2] >= SEPARATE_UP * length:
-        raise WorldError(f"{where} is below the ground: the car's {_name(model, part)} is {-dist:.3g} m under the "
-                         f"surface of {_name(model, obstacle)}")
-    raise WorldError(f"{where} is inside an obstacle: the car's {_name(model, part)} is {-dist:.3g} m into "
-                     f"{_name(model, obstacle)}")
+        raise WorldError(
+            f"{where} is below the ground: the car's {_name(model, part)} is {-dist:.3g} m under the "
+            f"surface of {_name(model, obstacle)}"
+        )
+    raise WorldError(
+        f"{where} is inside an obstacle: the car's {_name(model, part)} is {-dist:.3g} m into {_name(model, obstacle)}"
+    )
 
 
-def _probes(model: mujoco.MjModel, data: mujoco.MjData, car: np.ndarray, robot: Robot,
-            names: CarNames) -> list[tuple[str, np.ndarray]]:
+def _probes(
+    model: mujoco.MjModel, data: mujoco.MjData, car: np.ndarray, robot: Robot, names: CarNames
+) -> list[tuple[str, np.ndarray]]:
     """(name, lowest point) of each wheel's collision geoms; of the car's lowest collision geom if it has no wheels."""
     colliding = car[_colliding(model, car)]
     wheels = {model.body(names.mj(j.child)).id for j in robot.joints.values() if j.type == "continuous"}
-    probes = [(model.body(model.geom_bodyid[g]).name, lowest_point(model, data, g))
-              for g in colliding if model.geom_bodyid[g] in wheels]
+    probes = [
+        (model.body(model.geom_bodyid[g]).name, lowest_point(model, data, g))
+        for g in colliding
+        if model.geom_bodyid[g] in wheels
+    ]
     if not probes and len(colliding):
         lowest = [lowest_point(model, data, g) for g in colliding]
         k = int(np.argmin([p[2] for p in lowest]))
@@ -161,7 +176,7 @@ def lowest_point(model: mujoco.MjModel, data: mujoco.MjData, geom: int) -> np.nd
             local = end + (size[0] * radial / n if n > 1e-12 else 0.0)
     elif kind == _G.mjGEOM_MESH:
         mesh = model.geom_dataid[geom]
-        vertices = model.mesh_vert[model.mesh_vertadr[mesh]:model.mesh_vertadr[mesh] + model.mesh_vertnum[mesh]]
+        vertices = model.mesh_vert[model.mesh_vertadr[mesh] : model.mesh_vertadr[mesh] + model.mesh_vertnum[mesh]]
         local = vertices[int(np.argmax(vertices @ down))].astype(float)
     else:
         local = model.geom_rbound[geom] * down
@@ -217,13 +232,17 @@ class SpawnProbe:
         mujoco.mj_forward(self.model, self.data)
         car = _subtree_geoms(self.model, roots[0])
         # how far from base_link a part of the car reaches: two cars farther apart than twice this cannot touch
-        self.reach = float(np.max(np.linalg.norm(self.data.geom_xpos[car] - self.data.xpos[roots[0]], axis=1)
-                                  + self.model.geom_rbound[car]))
+        self.reach = float(
+            np.max(
+                np.linalg.norm(self.data.geom_xpos[car] - self.data.xpos[roots[0]], axis=1)
+                + self.model.geom_rbound[car]
+            )
+        )
 
     def _place(self, spawn: Spawn, other: Spawn = _PARKED) -> None:
         for adr, pose in zip(self._qpos, (spawn, other)):
-            self.data.qpos[adr:adr + 3] = (pose.x, pose.y, pose.z)
-            self.data.qpos[adr + 3:adr + 7] = (math.cos(pose.yaw / 2), 0.0, 0.0, math.sin(pose.yaw / 2))
+            self.data.qpos[adr : adr + 3] = (pose.x, pose.y, pose.z)
+            self.data.qpos[adr + 3 : adr + 7] = (math.cos(pose.yaw / 2), 0.0, 0.0, math.sin(pose.yaw / 2))
 
     def check(self, spawn: Spawn, car_name: str = "", others: Sequence[tuple[str, Spawn]] = ()) -> None:
         """WorldError if a car at `spawn` would be beyond MAX_COORDINATE, in the world's geometry or over nothing;
@@ -231,11 +250,16 @@ class SpawnProbe:
         left to the Simulator's own check."""
         who = f"{car_name}'s " if car_name else ""
         if not (math.hypot(spawn.x, spawn.y, spawn.z) <= MAX_COORDINATE):
-            raise WorldError(f"{self.world.label}: {who}spawn pose ({_pose(spawn)}) is beyond {MAX_COORDINATE:g} m "
-                             "from the origin, the largest world coordinate")
+            raise WorldError(
+                f"{self.world.label}: {who}spawn pose ({_pose(spawn)}) is beyond {MAX_COORDINATE:g} m "
+                "from the origin, the largest world coordinate"
+            )
         near = 2 * self.reach + PENETRATION_TOL
-        beside = [(name, pose) for name, pose in others
-                  if math.hypot(pose.x - spawn.x, pose.y - spawn.y, pose.z - spawn.z) < near]
+        beside = [
+            (name, pose)
+            for name, pose in others
+            if math.hypot(pose.x - spawn.x, pose.y - spawn.y, pose.z - spawn.z) < near
+        ]
         for other_name, other in beside or [("", _PARKED)]:
             self._place(spawn, other)
             mujoco.mj_forward(self.model, self.data)

@@ -9,15 +9,15 @@ from racecar_sim.core.names import CarNames
 from racecar_sim.core.transforms import quat_from_axis_angle
 from racecar_sim.physics.builder import ROOT_JOINT
 
-
 _XBODY = int(mujoco.mjtObj.mjOBJ_XBODY)  # as a plain int: MuJoCo's functions take it, and convert it faster
 
 
 class CarState:
     """Named access to joints, actuators and the base_link body of the car in a compiled model."""
 
-    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, root_link: str,
-                 names: CarNames = CarNames()) -> None:
+    def __init__(
+        self, model: mujoco.MjModel, data: mujoco.MjData, root_link: str, names: CarNames = CarNames()
+    ) -> None:
         self.names, self.root_link = names, root_link
         self._vel = np.zeros(6)
         self._handed_out: list[tuple[list[str], np.ndarray, np.ndarray]] = []  # joint_indices() answers
@@ -48,8 +48,10 @@ class CarState:
     def actuator_ctrl(self, actuator: str) -> list[int]:
         """ctrl addresses of a controller's actuator and its I-term companion (looked up once)."""
         if actuator not in self._actuators:
-            ids = [mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_ACTUATOR, self.names.mj(name))
-                   for name in (actuator, f"{actuator}/i_term")]
+            ids = [
+                mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_ACTUATOR, self.names.mj(name))
+                for name in (actuator, f"{actuator}/i_term")
+            ]
             self._actuators[actuator] = [int(self.model.actuator_ctrladr[i]) for i in ids if i >= 0]
         return self._actuators[actuator]
 
@@ -58,8 +60,10 @@ class CarState:
         model: reset() re-enables every controller and must stay cheap)."""
         ids = self._actuator_ids.get(actuator)
         if ids is None:
-            found = [mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_ACTUATOR, self.names.mj(name))
-                     for name in (actuator, f"{actuator}/i_term")]
+            found = [
+                mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_ACTUATOR, self.names.mj(name))
+                for name in (actuator, f"{actuator}/i_term")
+            ]
             ids = self._actuator_ids[actuator] = [i for i in found if i >= 0]
         return ids
 
@@ -95,7 +99,7 @@ class CarState:
 
     def base_pose(self) -> tuple[np.ndarray, np.ndarray]:
         """World position and (w, x, y, z) orientation of the base_link frame."""
-        q = self.data.qpos[self._root_qpos:self._root_qpos + 7]
+        q = self.data.qpos[self._root_qpos : self._root_qpos + 7]
         return q[:3].copy(), q[3:].copy()
 
     def base_velocity(self, local: bool = False) -> tuple[np.ndarray, np.ndarray]:
@@ -109,7 +113,7 @@ class CarState:
         mujoco.mj_objectVelocity(self.model, self.data, _XBODY, self._base, self._vel, int(local))
         adr = self._root_qpos
         angular_linear = self._vel.tolist()
-        return self.data.qpos[adr:adr + 7].tolist() + angular_linear[3:] + angular_linear[:3]
+        return self.data.qpos[adr : adr + 7].tolist() + angular_linear[3:] + angular_linear[:3]
 
     @property
     def body_id(self) -> int:
@@ -119,9 +123,9 @@ class CarState:
     def set_base_pose(self, x: float, y: float, z: float, yaw: float) -> None:
         """Put base_link at (x, y, z) facing `yaw`, at rest (the caller runs mj_forward)."""
         adr, dof = self._root_qpos, self._root_dof
-        self.data.qpos[adr:adr + 3] = (x, y, z)
-        self.data.qpos[adr + 3:adr + 7] = quat_from_axis_angle((0.0, 0.0, 1.0), yaw)
-        self.data.qvel[dof:dof + 6] = 0.0
+        self.data.qpos[adr : adr + 3] = (x, y, z)
+        self.data.qpos[adr + 3 : adr + 7] = quat_from_axis_angle((0.0, 0.0, 1.0), yaw)
+        self.data.qvel[dof : dof + 6] = 0.0
 
     def reset(self, qpos0: np.ndarray) -> None:
         """Back to the initial state, every car at its spawn pose (resets the whole MjData)."""

@@ -7,7 +7,7 @@ from numba import njit
 
 
 @njit(cache=True, nogil=True)
-def refit(aabb, inner, children):  # noqa: ANN001, ANN201
+def refit(aabb, inner, children):
     """Set each node of `inner` (children before parents) to the union of its two `children` rows; rows of
     `aabb` are centre (3) and half sizes (3)."""
     for k in range(len(inner)):

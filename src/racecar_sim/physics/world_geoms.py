@@ -21,10 +21,15 @@ from racecar_sim.worlds.world import Light, Mesh, Scene, World, WorldBody, World
 VISUAL_GROUP = 1  # rendered by the camera and viewer
 COLLISION_GROUP = 3  # hidden, but seen by contacts and ray casts
 SLEEP_POLICY = mujoco.mjtSleepPolicy.mjSLEEP_NEVER  # of every moving tree: sleeping only spares the static geoms
-GEOM_TYPES = {"box": mujoco.mjtGeom.mjGEOM_BOX, "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
-              "sphere": mujoco.mjtGeom.mjGEOM_SPHERE, "plane": mujoco.mjtGeom.mjGEOM_PLANE,
-              "capsule": mujoco.mjtGeom.mjGEOM_CAPSULE, "ellipsoid": mujoco.mjtGeom.mjGEOM_ELLIPSOID,
-              "mesh": mujoco.mjtGeom.mjGEOM_MESH}
+GEOM_TYPES = {
+    "box": mujoco.mjtGeom.mjGEOM_BOX,
+    "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
+    "sphere": mujoco.mjtGeom.mjGEOM_SPHERE,
+    "plane": mujoco.mjtGeom.mjGEOM_PLANE,
+    "capsule": mujoco.mjtGeom.mjGEOM_CAPSULE,
+    "ellipsoid": mujoco.mjtGeom.mjGEOM_ELLIPSOID,
+    "mesh": mujoco.mjtGeom.mjGEOM_MESH,
+}
 _LIGHT_TYPES = {True: mujoco.mjtLightType.mjLIGHT_DIRECTIONAL, False: mujoco.mjtLightType.mjLIGHT_POINT}
 CHECKER_SIZE = 0.5  # m, side of the squares drawn on ground planes, so that the camera sees the ground move
 CHECKER_SHADE = 0.85  # brightness of the darker squares relative to the plane's colour
@@ -61,8 +66,9 @@ class _Assets:
         key = id(mesh)
         if key not in self.meshes:
             name = f"{geom}{MESH_SUFFIX}"
-            m = self.spec.add_mesh(name=name, uservert=mesh.vertices.ravel().tolist(),
-                                   userface=mesh.faces.ravel().tolist())
+            m = self.spec.add_mesh(
+                name=name, uservert=mesh.vertices.ravel().tolist(), userface=mesh.faces.ravel().tolist()
+            )
             m.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL  # open surfaces (a floor sheet) are valid
             if textured and mesh.texcoord is not None:
                 m.usertexcoord = mesh.texcoord.ravel().tolist()
@@ -74,12 +80,14 @@ class _Assets:
         key = id(image)
         if key not in self.materials:
             name = f"material{len(self.materials)}"
-            rgba = np.ascontiguousarray(image[..., :4] if image.shape[-1] >= 4 else
-                                        np.dstack([image, np.full(image.shape[:2], 255, np.uint8)]))
+            rgba = np.ascontiguousarray(
+                image[..., :4] if image.shape[-1] >= 4 else np.dstack([image, np.full(image.shape[:2], 255, np.uint8)])
+            )
             # MuJoCo's texture rows run bottom-up relative to texcoord v; images are stored top-down
             rgba = np.ascontiguousarray(rgba[::-1])
-            texture = self.spec.add_texture(name=name, type=mujoco.mjtTexture.mjTEXTURE_2D, width=rgba.shape[1],
-                                            height=rgba.shape[0], nchannel=4)
+            texture = self.spec.add_texture(
+                name=name, type=mujoco.mjtTexture.mjTEXTURE_2D, width=rgba.shape[1], height=rgba.shape[0], nchannel=4
+            )
             texture.data = rgba.tobytes()
             material = self.spec.add_material(name=name)
             material.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = name
@@ -91,20 +99,28 @@ class _Assets:
         key = tuple(rgba)
         if key not in self.checkers:
             name = f"checker{len(self.checkers)}"
-            self.spec.add_texture(name=name, type=mujoco.mjtTexture.mjTEXTURE_2D,
-                                  builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, width=64, height=64,
-                                  rgb1=list(rgba[:3]), rgb2=[CHECKER_SHADE * c for c in rgba[:3]])
+            self.spec.add_texture(
+                name=name,
+                type=mujoco.mjtTexture.mjTEXTURE_2D,
+                builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
+                width=64,
+                height=64,
+                rgb1=list(rgba[:3]),
+                rgb2=[CHECKER_SHADE * c for c in rgba[:3]],
+            )
             # one texture tile (2 x 2 squares) spans 2 / texrepeat metres on a uniform material
-            material = self.spec.add_material(name=name, texrepeat=[1 / CHECKER_SIZE] * 2, texuniform=True,
-                                              specular=0.1)
+            material = self.spec.add_material(
+                name=name, texrepeat=[1 / CHECKER_SIZE] * 2, texuniform=True, specular=0.1
+            )
             material.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = name
             self.checkers[key] = name
         return self.checkers[key]
 
 
 def _add_geom(body: mujoco.MjsBody, geom: WorldGeom, pos: np.ndarray, quat: np.ndarray, assets: _Assets) -> None:
-    g = body.add_geom(name=geom.name, type=GEOM_TYPES[geom.kind], size=mj_size(geom.kind, geom.size),
-                      pos=list(pos), quat=list(quat))
+    g = body.add_geom(
+        name=geom.name, type=GEOM_TYPES[geom.kind], size=mj_size(geom.kind, geom.size), pos=list(pos), quat=list(quat)
+    )
     if geom.mesh is not None:
         g.meshname = assets.mesh(geom.mesh, textured=geom.texture is not None, geom=geom.name)
     if geom.collides:
@@ -123,9 +139,15 @@ def _add_geom(body: mujoco.MjsBody, geom: WorldGeom, pos: np.ndarray, quat: np.n
 
 
 def _add_light(spec: mujoco.MjSpec, light: Light) -> None:
-    mj = spec.worldbody.add_light(name=light.name, pos=list(light.pos), dir=list(light.direction),
-                                  diffuse=list(light.diffuse), specular=list(light.specular),
-                                  castshadow=light.cast_shadows, attenuation=list(light.attenuation))
+    mj = spec.worldbody.add_light(
+        name=light.name,
+        pos=list(light.pos),
+        dir=list(light.direction),
+        diffuse=list(light.diffuse),
+        specular=list(light.specular),
+        castshadow=light.cast_shadows,
+        attenuation=list(light.attenuation),
+    )
     if light.spot_cutoff is not None:
         mj.type = mujoco.mjtLightType.mjLIGHT_SPOT
         mj.cutoff = float(np.degrees(light.spot_cutoff))
@@ -140,8 +162,15 @@ def _scene(spec: mujoco.MjSpec, scene: Scene) -> None:
     light.ambient = list(scene.ambient)  # Gazebo multiplies it by the material colour, as MuJoCo does
     light.diffuse = [HEADLIGHT_DIFFUSE] * 3
     light.specular = [0.0] * 3
-    spec.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX, builtin=mujoco.mjtBuiltin.mjBUILTIN_FLAT,
-                     width=8, height=8, rgb1=list(scene.background), rgb2=list(scene.background))
+    spec.add_texture(
+        name="sky",
+        type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+        builtin=mujoco.mjtBuiltin.mjBUILTIN_FLAT,
+        width=8,
+        height=8,
+        rgb1=list(scene.background),
+        rgb2=list(scene.background),
+    )
 
 
 def box_mesh(boxes: list[tuple[WorldGeom, np.ndarray, np.ndarray]]) -> Mesh:
@@ -176,8 +205,7 @@ def _add_static(spec: mujoco.MjSpec, wb: WorldBody, assets: _Assets, near_walls:
     """
     boxes: dict[tuple[float, ...], list[tuple[WorldGeom, np.ndarray, np.ndarray]]] = {}
     walls = [g for g in wb.geoms if g.kind == "box" and g.collides]
-    held = (near_walls and len(walls) >= MIN_BOXES and len({g.mu for g in walls}) == 1
-            and can_hold(spec, walls[0].mu))
+    held = near_walls and len(walls) >= MIN_BOXES and len({g.mu for g in walls}) == 1 and can_hold(spec, walls[0].mu)
     if held:
         hold_out(spec, wb.name, walls[0].mu, [(*compose(wb.pos, wb.quat, g.pos, g.quat), g.size) for g in walls])
     for geom in wb.geoms:
@@ -197,8 +225,16 @@ def _add_static(spec: mujoco.MjSpec, wb: WorldBody, assets: _Assets, near_walls:
             _add_geom(spec.worldbody, *group[0], assets)
             continue
         first = group[0][0]
-        merged = WorldGeom(first.name, "mesh", (), np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]), collides=False,
-                           rgba=first.rgba, mesh=box_mesh(group))
+        merged = WorldGeom(
+            first.name,
+            "mesh",
+            (),
+            np.zeros(3),
+            np.array([1.0, 0.0, 0.0, 0.0]),
+            collides=False,
+            rgba=first.rgba,
+            mesh=box_mesh(group),
+        )
         _add_geom(spec.worldbody, merged, merged.pos, merged.quat, assets)
 
 
@@ -211,8 +247,15 @@ def add_world(spec: mujoco.MjSpec, world: World, near_walls: bool = False) -> No
         if wb.static:
             _add_static(spec, wb, assets, near_walls)
             continue
-        body = spec.worldbody.add_body(name=wb.name, pos=list(wb.pos), quat=list(wb.quat), mass=wb.mass,
-                                       ipos=list(wb.com), fullinertia=list(wb.inertia), explicitinertial=True)
+        body = spec.worldbody.add_body(
+            name=wb.name,
+            pos=list(wb.pos),
+            quat=list(wb.quat),
+            mass=wb.mass,
+            ipos=list(wb.com),
+            fullinertia=list(wb.inertia),
+            explicitinertial=True,
+        )
         body.add_freejoint(name=f"{wb.name}::free")
         body.sleep = SLEEP_POLICY
         for geom in wb.geoms:
@@ -224,9 +267,11 @@ def add_world(spec: mujoco.MjSpec, world: World, near_walls: bool = False) -> No
 
 def _check_names(world: World) -> None:
     """A WorldError naming the world and the name if two free bodies, two geoms or two lights share a name."""
-    for kind, names in (("models' links", [body.name for body in world.bodies if not body.static]),
-                        ("geoms", [geom.name for _, geom in world.geoms()]),
-                        ("lights", [light.name for light in world.lights])):
+    for kind, names in (
+        ("models' links", [body.name for body in world.bodies if not body.static]),
+        ("geoms", [geom.name for _, geom in world.geoms()]),
+        ("lights", [light.name for light in world.lights]),
+    ):
         seen: set[str] = set()
         for name in names:
             if name in seen:

@@ -71,20 +71,45 @@ Z_RAYS, Z_HALO, Z_PATH, Z_SCAN, Z_MARKS = 2.5, 3.0, 3.1, 3.5, 6.0
 Trajectories = np.ndarray | Mapping[str, np.ndarray]
 
 
-def save_summary(path: str | Path, world: World, trajectory: Trajectories, *, scan_origin: np.ndarray | None = None,
-                 scan_points: np.ndarray | None = None, camera_bgr: np.ndarray | None = None, title: str = "",
-                 lines: Sequence[str] = (), rate: float = TRAJECTORY_RATE) -> Path:
+def save_summary(
+    path: str | Path,
+    world: World,
+    trajectory: Trajectories,
+    *,
+    scan_origin: np.ndarray | None = None,
+    scan_points: np.ndarray | None = None,
+    camera_bgr: np.ndarray | None = None,
+    title: str = "",
+    lines: Sequence[str] = (),
+    rate: float = TRAJECTORY_RATE,
+) -> Path:
     """Write the run's summary PNG (1600x1000 px) and return its path; see summary_figure for the arguments."""
-    fig, _ = summary_figure(world, trajectory, scan_origin=scan_origin, scan_points=scan_points,
-                            camera_bgr=camera_bgr, title=title, lines=lines, rate=rate)
+    fig, _ = summary_figure(
+        world,
+        trajectory,
+        scan_origin=scan_origin,
+        scan_points=scan_points,
+        camera_bgr=camera_bgr,
+        title=title,
+        lines=lines,
+        rate=rate,
+    )
     path = Path(path)
     fig.savefig(path, format="png", dpi=DPI)
     return path
 
 
-def summary_figure(world: World, trajectory: Trajectories, *, scan_origin: np.ndarray | None = None,
-                   scan_points: np.ndarray | None = None, camera_bgr: np.ndarray | None = None, title: str = "",
-                   lines: Sequence[str] = (), rate: float = TRAJECTORY_RATE) -> tuple[Figure, Axes]:
+def summary_figure(
+    world: World,
+    trajectory: Trajectories,
+    *,
+    scan_origin: np.ndarray | None = None,
+    scan_points: np.ndarray | None = None,
+    camera_bgr: np.ndarray | None = None,
+    title: str = "",
+    lines: Sequence[str] = (),
+    rate: float = TRAJECTORY_RATE,
+) -> tuple[Figure, Axes]:
     """The summary figure (not attached to pyplot) and its map Axes.
 
     trajectory: (N, 3) x, y (m, world frame) and ground speed (m/s), row i at i / rate s (a long run's RunLog keeps
@@ -93,8 +118,11 @@ def summary_figure(world: World, trajectory: Trajectories, *, scan_origin: np.nd
     scan_origin: (x, y) of the laser; scan_points: (M, 2) world end points of the finite beams.
     camera_bgr: (H, W, 3) uint8 BGR image. lines: summary text, one item a line. Scan and camera may be None.
     """
-    paths = {name: _checked(path) for name, path in trajectory.items()} if isinstance(trajectory, Mapping) else {
-        "": _checked(trajectory)}
+    paths = (
+        {name: _checked(path) for name, path in trajectory.items()}
+        if isinstance(trajectory, Mapping)
+        else {"": _checked(trajectory)}
+    )
     fleet = len(paths) > 1
     traj = np.vstack(list(paths.values())) if paths else np.zeros((0, 3))
     origin = None if scan_origin is None else np.asarray(scan_origin, dtype=float).reshape(-1)[:2]
@@ -143,8 +171,9 @@ def fleet_color(index: int) -> str:
     return FLEET_COLORS[index % len(FLEET_COLORS)]
 
 
-def _fill_panel(fig: Figure, layout: Layout, image: np.ndarray | None, handles: list[Line2D],
-                lines: Sequence[str], owner: str = "") -> None:
+def _fill_panel(
+    fig: Figure, layout: Layout, image: np.ndarray | None, handles: list[Line2D], lines: Sequence[str], owner: str = ""
+) -> None:
     """The camera frame, the legend and the text box, one after the other from the panel's corner."""
     renderer = fig.canvas.get_renderer()
     x, top = layout.panel
@@ -159,21 +188,38 @@ def _fill_panel(fig: Figure, layout: Layout, image: np.ndarray | None, handles: 
             x = box.x1 + GAP
 
     if image is not None:
-        width = min(layout.camera_width, layout.camera_height * image.shape[1] / image.shape[0] * FIGSIZE[1]
-                    / FIGSIZE[0])
+        width = min(
+            layout.camera_width, layout.camera_height * image.shape[1] / image.shape[0] * FIGSIZE[1] / FIGSIZE[0]
+        )
         height = width * image.shape[0] / image.shape[1] * FIGSIZE[0] / FIGSIZE[1]
         title_room = 0.03
         cam = fig.add_axes((x, top - title_room - height, width, height))
         _draw_camera(cam, image, f"{owner}camera, last frame")
         advance(cam.get_tightbbox(renderer))
     if handles:
-        legend = fig.legend(handles=handles, loc="upper left", bbox_to_anchor=(x, top), frameon=False, fontsize=11,
-                            handlelength=2.2, borderaxespad=0.0, borderpad=0.0)
+        legend = fig.legend(
+            handles=handles,
+            loc="upper left",
+            bbox_to_anchor=(x, top),
+            frameon=False,
+            fontsize=11,
+            handlelength=2.2,
+            borderaxespad=0.0,
+            borderpad=0.0,
+        )
         advance(legend.get_window_extent(renderer))
     if lines:
-        fig.text(x + 0.006, top - 0.01, "\n".join(lines), ha="left", va="top", family="monospace", fontsize=11,
-                 linespacing=1.5, bbox={"boxstyle": "round,pad=0.6", "facecolor": (0.96, 0.96, 0.96),
-                                        "edgecolor": (0.7, 0.7, 0.7)})
+        fig.text(
+            x + 0.006,
+            top - 0.01,
+            "\n".join(lines),
+            ha="left",
+            va="top",
+            family="monospace",
+            fontsize=11,
+            linespacing=1.5,
+            bbox={"boxstyle": "round,pad=0.6", "facecolor": (0.96, 0.96, 0.96), "edgecolor": (0.7, 0.7, 0.7)},
+        )
 
 
 def _view_points(traj: np.ndarray, origin: np.ndarray | None, points: np.ndarray, world: World) -> np.ndarray:
@@ -209,22 +255,62 @@ def _draw_trajectory(ax: Axes, traj: np.ndarray, norm: Normalize, rate: float = 
         return []
     xy = traj[:, :2]
     if len(traj) >= 2:
-        ax.plot(xy[:, 0], xy[:, 1], color=HALO, linewidth=PATH_WIDTH + 2.5, solid_capstyle="round",
-                solid_joinstyle="round", zorder=Z_HALO)
+        ax.plot(
+            xy[:, 0],
+            xy[:, 1],
+            color=HALO,
+            linewidth=PATH_WIDTH + 2.5,
+            solid_capstyle="round",
+            solid_joinstyle="round",
+            zorder=Z_HALO,
+        )
         segments = np.stack([xy[:-1], xy[1:]], axis=1)
         speed = (traj[:-1, 2] + traj[1:, 2]) / 2
-        ax.add_collection(LineCollection(segments, array=speed, cmap=SPEED_CMAP, norm=norm, linewidths=PATH_WIDTH,
-                                         capstyle="round", joinstyle="round", zorder=Z_PATH), autolim=False)
+        ax.add_collection(
+            LineCollection(
+                segments,
+                array=speed,
+                cmap=SPEED_CMAP,
+                norm=norm,
+                linewidths=PATH_WIDTH,
+                capstyle="round",
+                joinstyle="round",
+                zorder=Z_PATH,
+            ),
+            autolim=False,
+        )
     step = max(round(TIME_MARK_EVERY * rate), 1)
     for i in range(step, len(traj) - step // 4, step):  # none right before the end marker
         ax.plot(*xy[i], "o", color="white", markeredgecolor="black", markersize=4, zorder=Z_MARKS)
-        ax.annotate(f"{i / rate:g} s", xy[i], xytext=(5, 5), textcoords="offset points", fontsize=8,
-                    zorder=Z_MARKS, bbox={"boxstyle": "round,pad=0.15", "facecolor": "white", "alpha": 0.7,
-                                          "linewidth": 0})
-    start, = ax.plot(*xy[0], "o", color=START_COLOR, markeredgecolor="white", markeredgewidth=1.5, markersize=11,
-                     zorder=Z_MARKS, label="start")
-    end, = ax.plot(*xy[-1], "s", color="black", markeredgecolor="white", markeredgewidth=1.5, markersize=10,
-                   zorder=Z_MARKS, label="end")
+        ax.annotate(
+            f"{i / rate:g} s",
+            xy[i],
+            xytext=(5, 5),
+            textcoords="offset points",
+            fontsize=8,
+            zorder=Z_MARKS,
+            bbox={"boxstyle": "round,pad=0.15", "facecolor": "white", "alpha": 0.7, "linewidth": 0},
+        )
+    (start,) = ax.plot(
+        *xy[0],
+        "o",
+        color=START_COLOR,
+        markeredgecolor="white",
+        markeredgewidth=1.5,
+        markersize=11,
+        zorder=Z_MARKS,
+        label="start",
+    )
+    (end,) = ax.plot(
+        *xy[-1],
+        "s",
+        color="black",
+        markeredgecolor="white",
+        markeredgewidth=1.5,
+        markersize=10,
+        zorder=Z_MARKS,
+        label="end",
+    )
     mid = float(norm.vmax) / 2
     path = Line2D([], [], color=_cmap_color(norm, mid), linewidth=PATH_WIDTH, label="path, coloured by speed")
     return [path, start, end]
@@ -241,16 +327,48 @@ def _draw_fleet(ax: Axes, paths: Mapping[str, np.ndarray]) -> list[Line2D]:
             continue
         xy = traj[:, :2]
         if len(traj) >= 2:
-            ax.plot(xy[:, 0], xy[:, 1], color=HALO, linewidth=PATH_WIDTH + 2.5, solid_capstyle="round",
-                    solid_joinstyle="round", zorder=Z_HALO)
-            ax.plot(xy[:, 0], xy[:, 1], color=color, linewidth=PATH_WIDTH, solid_capstyle="round",
-                    solid_joinstyle="round", zorder=Z_PATH)
+            ax.plot(
+                xy[:, 0],
+                xy[:, 1],
+                color=HALO,
+                linewidth=PATH_WIDTH + 2.5,
+                solid_capstyle="round",
+                solid_joinstyle="round",
+                zorder=Z_HALO,
+            )
+            ax.plot(
+                xy[:, 0],
+                xy[:, 1],
+                color=color,
+                linewidth=PATH_WIDTH,
+                solid_capstyle="round",
+                solid_joinstyle="round",
+                zorder=Z_PATH,
+            )
         ax.plot(*xy[0], "o", color=color, markeredgecolor="white", markeredgewidth=1.5, markersize=10, zorder=Z_MARKS)
         ax.plot(*xy[-1], "s", color=color, markeredgecolor="black", markeredgewidth=1.0, markersize=9, zorder=Z_MARKS)
-    start = Line2D([], [], marker="o", linestyle="", color="0.55", markeredgecolor="white", markeredgewidth=1.5,
-                   markersize=10, label="start")
-    end = Line2D([], [], marker="s", linestyle="", color="0.55", markeredgecolor="black", markeredgewidth=1.0,
-                 markersize=9, label="end")
+    start = Line2D(
+        [],
+        [],
+        marker="o",
+        linestyle="",
+        color="0.55",
+        markeredgecolor="white",
+        markeredgewidth=1.5,
+        markersize=10,
+        label="start",
+    )
+    end = Line2D(
+        [],
+        [],
+        marker="s",
+        linestyle="",
+        color="0.55",
+        markeredgecolor="black",
+        markeredgewidth=1.0,
+        markersize=9,
+        label="end",
+    )
     return handles + [start, end]
 
 
@@ -261,12 +379,12 @@ def _cmap_color(norm: Normalize, value: float) -> tuple[float, float, float, flo
 def _draw_scan(ax: Axes, origin: np.ndarray, points: np.ndarray, owner: str = "") -> Line2D:
     """The last scan from the laser: faint rays and the points they hit."""
     rays = np.stack([np.broadcast_to(origin, points.shape), points], axis=1)
-    ax.add_collection(LineCollection(rays, colors=SCAN_COLOR, linewidths=0.5, alpha=0.18, zorder=Z_RAYS),
-                      autolim=False)
+    ax.add_collection(LineCollection(rays, colors=SCAN_COLOR, linewidths=0.5, alpha=0.18, zorder=Z_RAYS), autolim=False)
     ax.scatter(points[:, 0], points[:, 1], s=5, color=SCAN_COLOR, linewidths=0, zorder=Z_SCAN)
     label = f"last lidar scan ({len(points)} hits)"
-    return Line2D([], [], marker="o", linestyle="", color=SCAN_COLOR, markersize=5,
-                  label=f"{owner}'s {label}" if owner else label)
+    return Line2D(
+        [], [], marker="o", linestyle="", color=SCAN_COLOR, markersize=5, label=f"{owner}'s {label}" if owner else label
+    )
 
 
 def _camera_rgb(camera_bgr: np.ndarray) -> np.ndarray:

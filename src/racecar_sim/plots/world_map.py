@@ -78,8 +78,12 @@ def footprint(body: WorldBody, geom: WorldGeom) -> Footprint | None:
     local = _local_points(geom)
     if not len(local):
         return None
-    pos, quat = compose(np.asarray(body.pos, float), np.asarray(body.quat, float),
-                        np.asarray(geom.pos, float), np.asarray(geom.quat, float))
+    pos, quat = compose(
+        np.asarray(body.pos, float),
+        np.asarray(body.quat, float),
+        np.asarray(geom.pos, float),
+        np.asarray(geom.quat, float),
+    )
     world = local @ quat_to_matrix(quat).T + pos
     return Footprint(body, geom, convex_hull(world[:, :2]), float(world[:, 2].min()), float(world[:, 2].max()))
 
@@ -204,14 +208,34 @@ def draw_spawn(ax: Axes, spawn: Spawn) -> None:
     c, s = math.cos(spawn.yaw), math.sin(spawn.yaw)
     ax.plot([spawn.x], [spawn.y], "o", color=SPAWN_COLOR, markersize=5, zorder=Z_SPAWN)
     # The head sits at the offset end (posA), so the arrow keeps its on-screen length at any map scale.
-    ax.annotate("", (spawn.x, spawn.y), xytext=(SPAWN_ARROW * c, SPAWN_ARROW * s), textcoords="offset points",
-                arrowprops={"arrowstyle": "<|-,head_length=0.6,head_width=0.3", "color": SPAWN_COLOR, "lw": 1.8,
-                            "shrinkA": 0, "shrinkB": 0}, zorder=Z_SPAWN)
+    ax.annotate(
+        "",
+        (spawn.x, spawn.y),
+        xytext=(SPAWN_ARROW * c, SPAWN_ARROW * s),
+        textcoords="offset points",
+        arrowprops={
+            "arrowstyle": "<|-,head_length=0.6,head_width=0.3",
+            "color": SPAWN_COLOR,
+            "lw": 1.8,
+            "shrinkA": 0,
+            "shrinkB": 0,
+        },
+        zorder=Z_SPAWN,
+    )
     # The label sits on the car's right and runs along its heading, so it stays beside the arrow, inside the map.
     ha = "left" if c > 0.3 or (c >= -0.3 and s > 0) else "right"
     va = "top" if c > 0.3 else "bottom" if c < -0.3 else "center"
-    ax.annotate(f"spawn ({spawn.x:g}, {spawn.y:g}, yaw {spawn.yaw:g})", (spawn.x, spawn.y), xytext=(8 * s, -8 * c),
-                textcoords="offset points", ha=ha, va=va, color=SPAWN_COLOR, fontsize=8, zorder=Z_SPAWN)
+    ax.annotate(
+        f"spawn ({spawn.x:g}, {spawn.y:g}, yaw {spawn.yaw:g})",
+        (spawn.x, spawn.y),
+        xytext=(8 * s, -8 * c),
+        textcoords="offset points",
+        ha=ha,
+        va=va,
+        color=SPAWN_COLOR,
+        fontsize=8,
+        zorder=Z_SPAWN,
+    )
 
 
 def world_figure(world: World, size: float = 8.0) -> tuple[Figure, Axes]:

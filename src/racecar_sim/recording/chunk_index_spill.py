@@ -85,7 +85,7 @@ def spill_chunk_indexes(writer: Writer, path: str | os.PathLike[str], stream: Bi
             folders.insert(0, os.path.dirname(os.path.abspath(os.fspath(path))))
     for folder in folders:
         try:
-            file = tempfile.TemporaryFile(prefix=".mcap-chunk-indexes-", dir=folder)  # noqa: SIM115 (the Writer's)
+            file = tempfile.TemporaryFile(prefix=".mcap-chunk-indexes-", dir=folder)
         except OSError:
             continue
         spilled = SpilledChunkIndexes(file)

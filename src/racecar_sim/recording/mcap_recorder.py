@@ -7,8 +7,8 @@ import errno
 import fcntl
 import functools
 import os
-import stat
 import signal
+import stat
 import threading
 from collections.abc import Iterable
 from importlib.metadata import PackageNotFoundError, version
@@ -79,8 +79,10 @@ def open_recording_file(path: str | os.PathLike[str], overwrite: bool = True) ->
     try:
         fd = os.open(name, flags, 0o666)
     except FileExistsError:
-        raise RecordingInUseError(f"{name}: the file exists and a recording is never replaced unless asked: give "
-                                  "--overwrite to replace it, or another file name") from None
+        raise RecordingInUseError(
+            f"{name}: the file exists and a recording is never replaced unless asked: give "
+            "--overwrite to replace it, or another file name"
+        ) from None
     except OSError as exc:
         reason = exc.strerror or str(exc)
         raise _file_error_type(type(exc))(exc.errno, reason, name) from None
@@ -89,8 +91,9 @@ def open_recording_file(path: str | os.PathLike[str], overwrite: bool = True) ->
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError as exc:  # another errno: a file system without locks (some network ones), written unguarded
             if exc.errno in (errno.EWOULDBLOCK, errno.EAGAIN):
-                raise RecordingInUseError(f"{name}: another recording is writing this file (two would mix into "
-                                          "one): give another file name") from None
+                raise RecordingInUseError(
+                    f"{name}: another recording is writing this file (two would mix into one): give another file name"
+                ) from None
         if stat.S_ISREG(os.fstat(fd).st_mode):
             os.ftruncate(fd, 0)
         return os.fdopen(fd, "wb")  # the recorder closes it
@@ -256,9 +259,7 @@ class McapRecorder:
         self._interrupt = DeferredInterrupt()
         self._interrupt.hold()
         try:
-            self._writer = Writer(
-                self._stream, chunk_size=chunk_size, compression=_COMPRESSION[compression]
-            )
+            self._writer = Writer(self._stream, chunk_size=chunk_size, compression=_COMPRESSION[compression])
             spill_chunk_indexes(self._writer, self.path, self._stream)  # memory flat in a long recording
             self._writer.start(profile="ros2", library=_library())
             # With a 'rosbag2' record lacking 'serialized_metadata', rosbag2 (Jazzy and
@@ -286,9 +287,7 @@ class McapRecorder:
         """Whether :meth:`close` has run."""
         return self._closed
 
-    def write(
-        self, topic: str, msg: Any, log_time_ns: int, publish_time_ns: int | None = None
-    ) -> None:
+    def write(self, topic: str, msg: Any, log_time_ns: int, publish_time_ns: int | None = None) -> None:
         """Serialize ``msg`` and append it to ``topic``.
 
         Args:
@@ -313,9 +312,7 @@ class McapRecorder:
         it was published is recorded as it was.
         """
         log_time = _timestamp(log_time_ns, "log_time_ns")
-        publish_time = (
-            log_time if publish_time_ns is None else _timestamp(publish_time_ns, "publish_time_ns")
-        )
+        publish_time = log_time if publish_time_ns is None else _timestamp(publish_time_ns, "publish_time_ns")
         with self._lock:
             if self._failed is not None:
                 raise self._failed
@@ -381,28 +378,27 @@ class McapRecorder:
         if self._kept_ns is None:
             kept = "it keeps no message"
         else:
-            kept = (f"it keeps the messages up to sim time {self._kept_ns / 1e9:.3f} s, without its index: "
-                    f"`racecar-sim recover {self.path}` makes it readable")
+            kept = (
+                f"it keeps the messages up to sim time {self._kept_ns / 1e9:.3f} s, without its index: "
+                f"`racecar-sim recover {self.path}` makes it readable"
+            )
         self._failed = RecordingWriteError(exc.errno, exc.strerror or str(exc), self.path)
-        self._failed.message = f"{self.path}: the recording stopped {when}: cannot write the file " \
-                               f"({exc.strerror or exc}); {kept}"
+        self._failed.message = (
+            f"{self.path}: the recording stopped {when}: cannot write the file ({exc.strerror or exc}); {kept}"
+        )
         return self._failed
 
     def _channel(self, topic: str, msgtype: str) -> tuple[int, str]:
         if topic in self._channels:
             recorded = self._channels[topic][1]
-            raise ValueError(
-                f"topic {topic!r} is recorded as {recorded}; cannot also record {msgtype} on it"
-            )
+            raise ValueError(f"topic {topic!r} is recorded as {recorded}; cannot also record {msgtype} on it")
         schema_id = self._schemas.get(msgtype)
         if schema_id is None:
             schema = schema_text(msgtype).encode()
             schema_id = self._writer.register_schema(msgtype, "ros2msg", schema)
             self._schemas[msgtype] = schema_id
         qos = LATCHED_QOS if topic in self.latched_topics else VOLATILE_QOS
-        channel_id = self._writer.register_channel(
-            topic, "cdr", schema_id, {"offered_qos_profiles": qos}
-        )
+        channel_id = self._writer.register_channel(topic, "cdr", schema_id, {"offered_qos_profiles": qos})
         self._channels[topic] = (channel_id, msgtype)
         self._counts[topic] = 0
         return self._channels[topic]

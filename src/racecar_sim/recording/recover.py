@@ -98,7 +98,7 @@ def recover_mcap(source: str | os.PathLike[str], output: str | os.PathLike[str] 
     if dst.is_dir():
         raise RecordingError(f"{dst}: is a directory; give the recovered file's name")
     try:
-        stream = open(src, "rb")  # noqa: SIM115  # closed below
+        stream = open(src, "rb")  # closed below
     except OSError as exc:
         raise RecordingError(f"{src}: cannot read it ({_reason(exc)})") from None
     with stream:
@@ -139,8 +139,15 @@ def _parse(opcode: int, body: bytes) -> Any:
     try:
         if opcode == Opcode.MESSAGE:
             return Message.read(stream, len(body))
-        parser = {Opcode.HEADER: Header, Opcode.SCHEMA: Schema, Opcode.CHANNEL: Channel, Opcode.CHUNK: Chunk,
-                  Opcode.METADATA: Metadata, Opcode.ATTACHMENT: Attachment, Opcode.FOOTER: Footer}[opcode]
+        parser = {
+            Opcode.HEADER: Header,
+            Opcode.SCHEMA: Schema,
+            Opcode.CHANNEL: Channel,
+            Opcode.CHUNK: Chunk,
+            Opcode.METADATA: Metadata,
+            Opcode.ATTACHMENT: Attachment,
+            Opcode.FOOTER: Footer,
+        }[opcode]
         return parser.read(stream)
     except (EndOfFile, McapError, struct.error, UnicodeDecodeError, KeyError) as exc:
         raise ValueError(f"corrupt {_name(opcode)} record") from exc
@@ -312,7 +319,7 @@ def _write(scan: _Scan, dst: Path) -> Recovery:
     result = Recovery(scan.path, dst, scan.size, scan.intact, scan.complete, stopped_at=scan.stopped_at)
     tmp = dst.with_name(f".{dst.name}.{os.getpid()}.tmp")
     try:
-        out = open(tmp, "wb")  # noqa: SIM115  # closed below
+        out = open(tmp, "wb")  # closed below
     except OSError as exc:
         raise RecordingError(f"{dst}: cannot write the recovered file ({_reason(exc)})") from None
     try:
@@ -343,8 +350,9 @@ def _write_records(scan: _Scan, out: IO[bytes], result: Recovery) -> None:
     channel_ids: dict[int, tuple[int, str]] = {}
     for channel in scan.channels.values():
         if channel.schema_id in schema_ids:  # a channel whose schema was lost cannot be decoded: dropped
-            new_id = writer.register_channel(channel.topic, channel.message_encoding, schema_ids[channel.schema_id],
-                                             dict(channel.metadata))
+            new_id = writer.register_channel(
+                channel.topic, channel.message_encoding, schema_ids[channel.schema_id], dict(channel.metadata)
+            )
             channel_ids[channel.id] = (new_id, channel.topic)
     for message in _in_log_time_order(scan):
         target = channel_ids.get(message.channel_id)

@@ -40,9 +40,19 @@ class RunRecording:
     `recorder`: the McapRecorder underneath when writing on a thread.
     """
 
-    def __init__(self, bus: Bus, clock: Callable[[], int], path: str | os.PathLike[str], *,
-                 image_topics: Iterable[str] = (), raw_images: bool = False, jpeg_quality: int = JPEG_QUALITY,
-                 compression: str = "zstd", process: bool = True, overwrite: bool = True) -> None:
+    def __init__(
+        self,
+        bus: Bus,
+        clock: Callable[[], int],
+        path: str | os.PathLike[str],
+        *,
+        image_topics: Iterable[str] = (),
+        raw_images: bool = False,
+        jpeg_quality: int = JPEG_QUALITY,
+        compression: str = "zstd",
+        process: bool = True,
+        overwrite: bool = True,
+    ) -> None:
         self._path = os.fspath(path)
         stream = open_recording_file(self._path, overwrite)  # a bad path is the caller's error now, not the writer's
         self.clock = clock
@@ -76,8 +86,16 @@ class RunRecording:
     def _record(self, topic: str, msg: object) -> None:
         if self.process is not None:
             if topic in self.compressed and isinstance(msg, Image):
-                self.process.send((JPEG, self.compressed[topic], COMPRESSED_MSGTYPE, self.process.image(msg),
-                                   self.clock(), self.jpeg_quality))
+                self.process.send(
+                    (
+                        JPEG,
+                        self.compressed[topic],
+                        COMPRESSED_MSGTYPE,
+                        self.process.image(msg),
+                        self.clock(),
+                        self.jpeg_quality,
+                    )
+                )
             else:
                 self.process.message(topic, msgtype_of(msg), serialize(msg), self.clock())
             return
@@ -135,6 +153,7 @@ class RunRecording:
     def __enter__(self) -> RunRecording:
         return self
 
-    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
-                 tb: TracebackType | None) -> None:
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
         self.close()

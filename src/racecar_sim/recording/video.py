@@ -96,8 +96,9 @@ class VideoWriter:
     def __enter__(self) -> VideoWriter:
         return self
 
-    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
-                 tb: TracebackType | None) -> None:
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
         self.close()
 
 
@@ -174,7 +175,7 @@ class _GifEncoder:
         paletted = image.quantize(GIF_COLORS, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)
         if self.file is None:
             header, _ = GifImagePlugin.getheader(paletted, info={"loop": 0, "duration": self.delay_ms})
-            self.file = open(self.path, "wb")  # noqa: SIM115 - closed by close()
+            self.file = open(self.path, "wb")
             self.file.writelines(header)
         params: dict[str, Any] = {"duration": self.delay_ms, "include_color_table": True}
         self.file.writelines(GifImagePlugin.getdata(paletted, **params))

@@ -81,13 +81,20 @@ class WriterProcess:
         # (racecar-sim recover mends it), never finished behind the back of whoever reads it next. Only when the
         # main thread starts it: the signal comes when the starting thread ends.
         linked = os.getpid() if threading.current_thread() is threading.main_thread() else 0
-        command = [sys.executable, "-c", "from racecar_sim.recording.writer_process import serve; serve()",
-                   str(data_read), str(back_write), str(linked)]
+        command = [
+            sys.executable,
+            "-c",
+            "from racecar_sim.recording.writer_process import serve; serve()",
+            str(data_read),
+            str(back_write),
+            str(linked),
+        ]
         # the child starts with SIGINT and SIGTERM blocked, so none arrives before it ignores them
         blocked = signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
         try:
-            self._process = subprocess.Popen(command, pass_fds=(data_read, back_write, *pass_fds),
-                                             stdin=subprocess.DEVNULL, env=_child_environment())
+            self._process = subprocess.Popen(
+                command, pass_fds=(data_read, back_write, *pass_fds), stdin=subprocess.DEVNULL, env=_child_environment()
+            )
         except BaseException:
             os.close(data_write)
             os.close(back_read)
@@ -208,8 +215,9 @@ class WriterProcess:
         """The child is gone: wait for it, and make its end an error unless it had reported one or finished."""
         code = self._process.wait()
         if self._error is None and not self.results:
-            self._error = RecordingError(f"{self.name}: the writer process exited (code {code}) before the files "
-                                         f"were finished")
+            self._error = RecordingError(
+                f"{self.name}: the writer process exited (code {code}) before the files were finished"
+            )
 
     def _raise(self) -> None:
         if self._error is not None and not self._reported:
@@ -277,8 +285,9 @@ class ProcessVideo:
     `owns_process`: close() closes the process too (a video without a recording).
     """
 
-    def __init__(self, process: WriterProcess, path: str | Path, fps: float, width: int, height: int,
-                 owns_process: bool = False) -> None:
+    def __init__(
+        self, process: WriterProcess, path: str | Path, fps: float, width: int, height: int, owns_process: bool = False
+    ) -> None:
         self.process = process
         self.path = Path(path)
         self.frames = 0
@@ -308,6 +317,7 @@ class ProcessVideo:
 
 # ---- the child ----
 
+
 def serve() -> None:
     """The child's main: do the operations read from the pipe (fd argv[1]) until its end; report on fd argv[2]."""
     for signum in _SIGNALS:
@@ -334,12 +344,12 @@ def serve() -> None:
             body, buffers = hand_over
             for op in pickle.loads(body, buffers=buffers):
                 files.do(op)
-        except BaseException as exc:  # noqa: BLE001 - reported to the parent
+        except BaseException as exc:
             error = exc
             back.send("error", exc)
     try:
         files.close()
-    except BaseException as exc:  # noqa: BLE001 - reported to the parent
+    except BaseException as exc:
         if error is None:
             back.send("error", exc)
     back.send("closed", files.results())
@@ -382,7 +392,7 @@ class _Reports(logging.Handler):
     def send(self, kind: str, value: Any) -> None:
         try:
             data = pickle.dumps((kind, value))
-        except Exception:  # noqa: BLE001 - an exception that does not pickle: its one line
+        except Exception:
             data = pickle.dumps((kind, RecordingError(f"{type(value).__name__}: {value}")))
         with self.lock_:
             os.write(self.fd, _SIZE.pack(len(data)) + data)
@@ -417,19 +427,21 @@ class _Files:
             from racecar_sim.recording.images import compress_image
 
             _, topic, msgtype, pixels, log_time, quality = op
-            self.recorder.write_serialized(topic, msgtype, serialize(compress_image(self.image(pixels), quality)),
-                                           log_time)
+            self.recorder.write_serialized(
+                topic, msgtype, serialize(compress_image(self.image(pixels), quality)), log_time
+            )
         elif kind == FRAME:
             try:
                 self.video.write(self.image(op[1]).bgr_pixels())
             except OSError as exc:  # a full disk, a file size limit: one line, not the encoder's traceback
-                raise RecordingError(f"{self.video_path}: the video stopped: cannot write the file "
-                                     f"({exc.strerror or exc})") from None
+                raise RecordingError(
+                    f"{self.video_path}: the video stopped: cannot write the file ({exc.strerror or exc})"
+                ) from None
         elif kind == OPEN_MCAP:
             from racecar_sim.recording.mcap_recorder import McapRecorder
 
             _, fd, path, compression = op
-            self.recorder = McapRecorder(path, compression=compression, stream=open(fd, "wb"))  # noqa: SIM115
+            self.recorder = McapRecorder(path, compression=compression, stream=open(fd, "wb"))
         elif kind == OPEN_VIDEO:
             from racecar_sim.recording.video import VideoWriter
 

@@ -50,7 +50,7 @@ class WriterThread:
             if self._error is None:
                 try:
                     job()  # type: ignore[operator]
-                except BaseException as exc:  # noqa: BLE001 - handed to the submitting thread
+                except BaseException as exc:
                     self._error = exc
 
     def _raise(self) -> None:

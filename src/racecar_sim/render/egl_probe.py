@@ -12,10 +12,21 @@ import ctypes
 
 _PLATFORM_DEVICE = 0x313F  # EGL_PLATFORM_DEVICE_EXT
 _OPENGL_API = 0x30A2  # EGL_OPENGL_API
-_CONFIG = (0x3024, 8, 0x3023, 8, 0x3022, 8, 0x3025, 24,  # red, green, blue, depth sizes
-           0x3033, 0x0001,  # surface type: pbuffer
-           0x3040, 0x0008,  # renderable type: OpenGL
-           0x3038)  # EGL_NONE
+_CONFIG = (
+    0x3024,
+    8,
+    0x3023,
+    8,
+    0x3022,
+    8,
+    0x3025,
+    24,  # red, green, blue, depth sizes
+    0x3033,
+    0x0001,  # surface type: pbuffer
+    0x3040,
+    0x0008,  # renderable type: OpenGL
+    0x3038,
+)  # EGL_NONE
 _VP = ctypes.c_void_p
 
 
@@ -35,7 +46,7 @@ def egl_problem() -> str | None:
     if not query_devices(query)(16, devices, ctypes.byref(count)) or count.value == 0:
         return "no EGL device (is libgl1-mesa-dri installed?)"
     platform_display = ctypes.CFUNCTYPE(_VP, ctypes.c_uint, _VP, _VP)(get_display)
-    for device in devices[:count.value]:
+    for device in devices[: count.value]:
         display = platform_display(_PLATFORM_DEVICE, device, None)
         if display and _context_works(egl, display):
             return None
@@ -43,12 +54,14 @@ def egl_problem() -> str | None:
 
 
 def _context_works(egl: ctypes.CDLL, display: int) -> bool:
-    for fn, restype, argtypes in (("eglInitialize", ctypes.c_uint, [_VP, _VP, _VP]),
-                                  ("eglTerminate", ctypes.c_uint, [_VP]),
-                                  ("eglBindAPI", ctypes.c_uint, [ctypes.c_uint]),
-                                  ("eglChooseConfig", ctypes.c_uint, [_VP, _VP, _VP, ctypes.c_int, _VP]),
-                                  ("eglCreateContext", _VP, [_VP, _VP, _VP, _VP]),
-                                  ("eglDestroyContext", ctypes.c_uint, [_VP, _VP])):
+    for fn, restype, argtypes in (
+        ("eglInitialize", ctypes.c_uint, [_VP, _VP, _VP]),
+        ("eglTerminate", ctypes.c_uint, [_VP]),
+        ("eglBindAPI", ctypes.c_uint, [ctypes.c_uint]),
+        ("eglChooseConfig", ctypes.c_uint, [_VP, _VP, _VP, ctypes.c_int, _VP]),
+        ("eglCreateContext", _VP, [_VP, _VP, _VP, _VP]),
+        ("eglDestroyContext", ctypes.c_uint, [_VP, _VP]),
+    ):
         getattr(egl, fn).restype, getattr(egl, fn).argtypes = restype, argtypes
     if not egl.eglInitialize(display, None, None):
         return False

@@ -38,8 +38,16 @@ LABELS = {"egl": "EGL", "osmesa": "OSMesa"}
 PACKAGES = {"egl": "libegl1 libgl1-mesa-dri", "osmesa": "libosmesa6"}
 _SONAMES = {"egl": ("libEGL.so.1", "libEGL.so"), "osmesa": ("libOSMesa.so.8", "libOSMesa.so.6", "libOSMesa.so")}
 
-__all__ = ["BACKENDS", "HeadlessGL", "RenderingError", "create_context", "guard_mujoco_import", "library_present",
-           "mujoco_gl_disabled", "shared_context"]
+__all__ = [
+    "BACKENDS",
+    "HeadlessGL",
+    "RenderingError",
+    "create_context",
+    "guard_mujoco_import",
+    "library_present",
+    "mujoco_gl_disabled",
+    "shared_context",
+]
 
 
 @dataclass
@@ -77,7 +85,8 @@ class GLThread:
 
     def __init__(self) -> None:
         self._jobs: queue.SimpleQueue[tuple[Callable[..., Any], tuple[Any, ...], Future[Any]] | None] = (
-            queue.SimpleQueue())
+            queue.SimpleQueue()
+        )
         threading.Thread(target=self._run, name="racecar-sim GL", daemon=True).start()
 
     def submit(self, fn: Callable[..., T], *args: Any) -> Future[T]:
@@ -93,7 +102,7 @@ class GLThread:
             fn, args, future = job
             try:
                 future.set_result(fn(*args))
-            except BaseException as exc:  # noqa: BLE001 - handed to the caller with the future
+            except BaseException as exc:
                 future.set_exception(exc)
 
 
@@ -176,15 +185,18 @@ def create_context(width: int = 640, height: int = 480) -> HeadlessGL:
     guard_mujoco_import()  # the backend's import below imports mujoco itself when nothing has yet
     requested = _requested_before_import or os.environ.get("MUJOCO_GL", "").strip().lower()
     if requested in _OFF:
-        raise RenderingError(f"MUJOCO_GL={requested} switches OpenGL off: unset it (or set egl or osmesa), "
-                             "or run with --no-camera")
+        raise RenderingError(
+            f"MUJOCO_GL={requested} switches OpenGL off: unset it (or set egl or osmesa), or run with --no-camera"
+        )
     if requested in BACKENDS:
         candidates = [requested]
     else:
         bound = _pyopengl_platform()
         if bound and bound not in BACKENDS:
-            raise RenderingError(f"PyOpenGL was imported for the {bound} platform before the camera could choose: "
-                                 "set PYOPENGL_PLATFORM=egl (or osmesa), or run with --no-camera")
+            raise RenderingError(
+                f"PyOpenGL was imported for the {bound} platform before the camera could choose: "
+                "set PYOPENGL_PLATFORM=egl (or osmesa), or run with --no-camera"
+            )
         candidates = [bound] if bound else list(BACKENDS)
         requested = ""
     thread = GLThread()
@@ -193,7 +205,7 @@ def create_context(width: int = 640, height: int = 480) -> HeadlessGL:
         try:
             context, renderer = thread.submit(_open, backend, width, height).result()
             return HeadlessGL(backend, context, renderer, thread)
-        except Exception as exc:  # noqa: BLE001 - backends fail their own ways: ImportError, OSError, ...
+        except Exception as exc:
             reasons[backend] = _reason(backend, exc)
     thread.stop()
     raise RenderingError(_message(reasons, requested))
@@ -258,7 +270,7 @@ def _renderer_string() -> str:
         from OpenGL import GL
 
         return GL.glGetString(GL.GL_RENDERER).decode()
-    except Exception:  # noqa: BLE001 - only a label for reports
+    except Exception:
         return "unknown"
 
 

@@ -30,8 +30,14 @@ def visual_only_option() -> mujoco.MjvOption:
     option = mujoco.MjvOption()
     option.geomgroup[:] = 0
     option.geomgroup[VISUAL_GROUP] = 1
-    for groups in (option.sitegroup, option.jointgroup, option.tendongroup, option.actuatorgroup, option.flexgroup,
-                   option.skingroup):
+    for groups in (
+        option.sitegroup,
+        option.jointgroup,
+        option.tendongroup,
+        option.actuatorgroup,
+        option.flexgroup,
+        option.skingroup,
+    ):
         groups[:] = 0
     for flag in (mujoco.mjtVisFlag.mjVIS_RANGEFINDER, mujoco.mjtVisFlag.mjVIS_PERTOBJ, mujoco.mjtVisFlag.mjVIS_TENDON):
         option.flags[flag] = 0
@@ -50,7 +56,7 @@ def flat_sky(model: mujoco.MjModel) -> np.ndarray | None:
     tex = int(skyboxes[0])
     channels = int(model.tex_nchannel[tex])
     size = int(model.tex_width[tex]) * int(model.tex_height[tex]) * channels
-    texels = model.tex_data[model.tex_adr[tex]:model.tex_adr[tex] + size].reshape(-1, channels)
+    texels = model.tex_data[model.tex_adr[tex] : model.tex_adr[tex] + size].reshape(-1, channels)
     if channels < 3 or not (texels == texels[0]).all():
         return None
     visual = model.geom_group == VISUAL_GROUP
@@ -75,8 +81,9 @@ class GLScene:
         self.depth: np.ndarray | None = None  # made by the first depth drawing
         self.sky = flat_sky(model)
         try:
-            self.context: mujoco.MjrContext | None = gl.call(mujoco.MjrContext, model,
-                                                             mujoco.mjtFontScale.mjFONTSCALE_50)
+            self.context: mujoco.MjrContext | None = gl.call(
+                mujoco.MjrContext, model, mujoco.mjtFontScale.mjFONTSCALE_50
+            )
         except mujoco.FatalError as exc:  # e.g. MuJoCo's GL loader bound to another backend earlier in the process
             raise RenderingError(f"MuJoCo cannot render in the {gl.backend} context ({exc}): {fix}") from None
 
@@ -141,12 +148,21 @@ class OffscreenCamera:
     after mj_step, MjData's positions describe the start of the last step, one step behind qpos and the stamp.
     """
 
-    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, camera: str, width: int, height: int,
-                 gl: HeadlessGL | None = None) -> None:
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
+        camera: str,
+        width: int,
+        height: int,
+        gl: HeadlessGL | None = None,
+    ) -> None:
         if model.vis.global_.offwidth < width or model.vis.global_.offheight < height:
-            raise ValueError(f"the model's offscreen buffer is {model.vis.global_.offwidth}x"
-                             f"{model.vis.global_.offheight}, smaller than the {width}x{height} image: "
-                             "add the camera with add_camera() before compiling")
+            raise ValueError(
+                f"the model's offscreen buffer is {model.vis.global_.offwidth}x"
+                f"{model.vis.global_.offheight}, smaller than the {width}x{height} image: "
+                "add the camera with add_camera() before compiling"
+            )
         self.gl = gl or shared_context(width, height)
         self.camera = mujoco.MjvCamera()
         self.camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
@@ -191,8 +207,15 @@ class OffscreenCamera:
         mujoco.mj_kinematics(self.model, pose)
         mujoco.mj_camlight(self.model, pose)
         scene = self.target.scene
-        mujoco.mjv_updateScene(self.model, pose, self.option, None, self.camera,
-                               mujoco.mjtCatBit.mjCAT_STATIC | mujoco.mjtCatBit.mjCAT_DYNAMIC, scene)
+        mujoco.mjv_updateScene(
+            self.model,
+            pose,
+            self.option,
+            None,
+            self.camera,
+            mujoco.mjtCatBit.mjCAT_STATIC | mujoco.mjtCatBit.mjCAT_DYNAMIC,
+            scene,
+        )
         for flag in _OFF:
             scene.flags[flag] = 0
 

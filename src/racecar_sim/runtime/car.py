@@ -81,10 +81,20 @@ class Car:
     nodes: which of the launch files' nodes it runs (`CarNodes`).
     """
 
-    def __init__(self, name: str = "", xacro: str | Path = DEFAULT_XACRO, xacro_args: Mapping[str, str] | None = None,
-                 profile: str = "seed", controllers: str | Path | None = None, spawn: Spawn | None = None,
-                 lidar: bool = True, camera: bool = True, odometry: str = "original",
-                 nodes: CarNodes = CarNodes(), sensors_off: Iterable[str] = ()) -> None:
+    def __init__(
+        self,
+        name: str = "",
+        xacro: str | Path = DEFAULT_XACRO,
+        xacro_args: Mapping[str, str] | None = None,
+        profile: str = "seed",
+        controllers: str | Path | None = None,
+        spawn: Spawn | None = None,
+        lidar: bool = True,
+        camera: bool = True,
+        odometry: str = "original",
+        nodes: CarNodes = CarNodes(),
+        sensors_off: Iterable[str] = (),
+    ) -> None:
         self.names = CarNames(name)
         self.name = name
         self.xacro = Path(xacro)
@@ -200,8 +210,7 @@ class Car:
         self._planned = plugins.plan(self.robot, self.off)
 
     def _load_key(self) -> tuple[object, ...]:
-        return (self.profile_name, self.xacro, tuple(sorted(self.xacro_args.items())), self.controllers_file,
-                self.urdf)
+        return (self.profile_name, self.xacro, tuple(sorted(self.xacro_args.items())), self.controllers_file, self.urdf)
 
     def add_to(self, spec: mujoco.MjSpec, preset: PhysicsPreset, spawn: Spawn, rank_friction: bool = True) -> None:
         """Put the car into the scene's MjSpec at `spawn`, with what each of its nodes needs in the model (actuators,
@@ -213,21 +222,52 @@ class Car:
             if planned.kind.prepare is not None:
                 planned.kind.prepare(spec, planned.block, mount)
 
-    def start(self, model: mujoco.MjModel, data: mujoco.MjData, bus: BusPort, timers: Timers, now: Callable[[], int],
-              static_tf: StaticTf, seed: int, noise: bool) -> None:
+    def start(
+        self,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
+        bus: BusPort,
+        timers: Timers,
+        now: Callable[[], int],
+        static_tf: StaticTf,
+        seed: int,
+        noise: bool,
+    ) -> None:
         """Start the car's nodes on the bus. Called once: they live as long as the Simulator (or until stop(): the car
         was deleted). Their timers start now (a car spawned at t = 2 s scans at 2.025 s..., as a Gazebo sensor counts
         from its load), and everything they hold on the bus is kept for stop()."""
         self._state = state = CarState(model, data, self.robot.root, self.names)
-        ctx = self._context = NodeContext(ScopedBus(bus), ScopedTimers(timers, now()), model, data, self.names, seed,
-                                          now, noise, self.robot, state, self.controllers, static_tf)
+        ctx = self._context = NodeContext(
+            ScopedBus(bus),
+            ScopedTimers(timers, now()),
+            model,
+            data,
+            self.names,
+            seed,
+            now,
+            noise,
+            self.robot,
+            state,
+            self.controllers,
+            static_tf,
+        )
         plan, names = self.plan, self.names
         if plan.mux is not None:
             self.chain = self.hold(CommandChain(ctx.bus, ctx.timers, now, plan.mux, names=names))
         if plan.servo_input is not None:
             servo_input = names.topic(plan.servo_input) if plan.servo_input else self._chain_output()
-            self.servo = self.hold(ServoCommands(ctx.bus, self.robot, self.controllers, self.profile.servo, servo_input,
-                                                 self.profile.wheel_rate_per_speed, now, names))
+            self.servo = self.hold(
+                ServoCommands(
+                    ctx.bus,
+                    self.robot,
+                    self.controllers,
+                    self.profile.servo,
+                    servo_input,
+                    self.profile.wheel_rate_per_speed,
+                    now,
+                    names,
+                )
+            )
         model_plugins, sensors = self._planned
         for planned in model_plugins:
             node = self.hold(planned.kind.build(ctx, planned.block))
@@ -239,8 +279,11 @@ class Car:
             rsp_input = names.topic(plan.joint_states) if plan.joint_states else joint_states
             self.robot_state = self.hold(RobotStatePublisher(ctx.bus, self.robot, rsp_input, names, static_tf))
         if plan.odometry:
-            self.odometry = self.hold(OdometryPublisher(ctx.bus, ctx.timers, state, self.odometry_mode,
-                                                        relay_topic=plan.odom_relay, names=names))
+            self.odometry = self.hold(
+                OdometryPublisher(
+                    ctx.bus, ctx.timers, state, self.odometry_mode, relay_topic=plan.odom_relay, names=names
+                )
+            )
         kept = []
         for planned in sensors:
             node = planned.kind.build(ctx, planned.block)
@@ -266,8 +309,10 @@ class Car:
 
     def _chain_output(self) -> str:
         if self.chain is None:
-            raise ConfigError(f"{self.model_name}: servo_commands reads the mux chain's output, but the car has no "
-                              "mux chain: give CarNodes(servo_input=TOPIC)")
+            raise ConfigError(
+                f"{self.model_name}: servo_commands reads the mux chain's output, but the car has no "
+                "mux chain: give CarNodes(servo_input=TOPIC)"
+            )
         return self.chain.output_topic
 
     def _spawn_controllers(self) -> None:
@@ -279,8 +324,10 @@ class Car:
         keep = stopped | set(defined if wanted is None else wanted)
         unknown = sorted(keep - set(defined))
         if unknown:
-            raise ConfigError(f"{self.model_name}: controller {', '.join(unknown)} is not in the controller parameters "
-                              f"(namespace {self.controllers.namespace}): load its parameters (rosparam) or drop it")
+            raise ConfigError(
+                f"{self.model_name}: controller {', '.join(unknown)} is not in the controller parameters "
+                f"(namespace {self.controllers.namespace}): load its parameters (rosparam) or drop it"
+            )
         manager = self.ros_control.manager
         manager.switch_controller([], [c for c in defined if c not in keep or c in stopped])
         for name in [c for c in defined if c not in keep]:

@@ -41,8 +41,9 @@ class CarCollisions(NodeBase):
         """Whether there are two cars or more to watch."""
         return self._contacts is not None
 
-    def watch(self, model: mujoco.MjModel, data: mujoco.MjData, roots: Sequence[int], names: Sequence[str],
-              known: bool = True) -> None:
+    def watch(
+        self, model: mujoco.MjModel, data: mujoco.MjData, roots: Sequence[int], names: Sequence[str], known: bool = True
+    ) -> None:
         """Watch these cars (their root bodies and model names, in order) in this model. `known`: the pairs touching
         now are not announced (a model spawned or deleted); else the first check announces them (a start)."""
         self._names, self._data = list(names), data

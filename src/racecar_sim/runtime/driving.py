@@ -52,8 +52,15 @@ def track_path(world: World) -> Waypoints | None:
     return Waypoints(line.points, None, True, line.source)
 
 
-def attach_driver(sim: Simulator, car: Car, driver: str, params: Mapping[str, object] | None = None,
-                  topic: str | None = None, scan_topic: str | None = None, odom_topic: str | None = None) -> object:
+def attach_driver(
+    sim: Simulator,
+    car: Car,
+    driver: str,
+    params: Mapping[str, object] | None = None,
+    topic: str | None = None,
+    scan_topic: str | None = None,
+    odom_topic: str | None = None,
+) -> object:
     """A new `driver` node for `car`, on its topics (`/carK/...` in a fleet), commanding the navigation mux input.
 
     `topic`, `scan_topic`, `odom_topic`: other topics than the car's navigation input, scan and odometry (a
@@ -70,21 +77,34 @@ def attach_driver(sim: Simulator, car: Car, driver: str, params: Mapping[str, ob
         raise ConfigError(f"{driver} has no parameter {unknown[0]!r} (it takes: {', '.join(known)})")
     navigation, odom = topic or car.topic(NAVIGATION), odom_topic or car.topic(ODOM)
     if driver == "constant":
-        options = {name: finite_number(value, f"constant: {name}")
-                   for name, value in {**CONSTANT_DEFAULTS, **params}.items()}
+        options = {
+            name: finite_number(value, f"constant: {name}") for name, value in {**CONSTANT_DEFAULTS, **params}.items()
+        }
         # ConfigError from the scheduler for a rate above the physics rate
-        return car.hold(ConstantCommand(sim.bus, sim.scheduler, options["speed"], options["steering"], options["rate"],
-                                        topic=navigation))
+        return car.hold(
+            ConstantCommand(
+                sim.bus, sim.scheduler, options["speed"], options["steering"], options["rate"], topic=navigation
+            )
+        )
     if driver == "wall-follow":
         if car.lidar is None and scan_topic is None:  # a given scan topic may be fed from elsewhere (ROS)
             raise ConfigError("wall-follow steers by the lidar: the car needs its lidar on")
-        return car.hold(WallFollower(sim.bus, wall_follow_config(**params), topic=navigation,
-                                     scan_topic=scan_topic or car.lidar.topic, odom_topic=odom))
+        return car.hold(
+            WallFollower(
+                sim.bus,
+                wall_follow_config(**params),
+                topic=navigation,
+                scan_topic=scan_topic or car.lidar.topic,
+                odom_topic=odom,
+            )
+        )
     path = params.pop("path", None)
     waypoints = load_waypoints(path) if path else track_path(sim.world)
     if waypoints is None:
-        raise ConfigError("pure-pursuit needs a path: a waypoint CSV (x,y[,speed]) or a track centerline, or a track "
-                          ".csv as the world")
+        raise ConfigError(
+            "pure-pursuit needs a path: a waypoint CSV (x,y[,speed]) or a track centerline, or a track "
+            ".csv as the world"
+        )
     wheelbase = VehicleGeometry.from_robot(car.robot).wheelbase  # the loaded xacro's, not the YAML's default
     config = pure_pursuit_config(**{"wheelbase": wheelbase, **params})
     return car.hold(PurePursuit(sim.bus, waypoints, config, topic=navigation, odom_topic=odom))

@@ -19,8 +19,11 @@ from racecar_sim.physics.scene import Scene
 from racecar_sim.runtime.scheduler import Scheduler
 
 log = logging.getLogger("racecar_sim")
-_DIVERGENCE_WARNINGS = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,
-                        mujoco.mjtWarning.mjWARN_BADQACC)
+_DIVERGENCE_WARNINGS = (
+    mujoco.mjtWarning.mjWARN_BADQPOS,
+    mujoco.mjtWarning.mjWARN_BADQVEL,
+    mujoco.mjtWarning.mjWARN_BADQACC,
+)
 _BADQPOS, _BADQVEL, _BADQACC = (int(kind) for kind in _DIVERGENCE_WARNINGS)  # plain ints index numpy fastest
 
 
@@ -79,8 +82,11 @@ class EventLoop:
             raise PhysicsError(self._divergence)
         if self._paused:
             if not self._pause_told and self.time_ns < end:
-                log.warning("the physics is paused (/gazebo/pause_physics): sim time stays at %.3f s until "
-                            "/gazebo/unpause_physics", self.time)
+                log.warning(
+                    "the physics is paused (/gazebo/pause_physics): sim time stays at %.3f s until "
+                    "/gazebo/unpause_physics",
+                    self.time,
+                )
                 self._pause_told = True
             return
         scheduler, step, scene, counted, warnings = self.scheduler, mujoco.mj_step, self.scene, None, None
@@ -120,6 +126,8 @@ class EventLoop:
         else:  # a dof index
             jid = int(model.dof_jntid[min(index, model.nv - 1)])
         joint = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, jid) or "root"
-        self._divergence = (f"the physics diverged before t = {self.time:.3f} s (NaN or huge value at joint "
-                            f"'{joint}'); the run stops. {self._advice()}")
+        self._divergence = (
+            f"the physics diverged before t = {self.time:.3f} s (NaN or huge value at joint "
+            f"'{joint}'); the run stops. {self._advice()}"
+        )
         raise PhysicsError(self._divergence)

@@ -29,15 +29,15 @@ import logging
 import tempfile
 import warnings
 import xml.etree.ElementTree as ET
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from collections.abc import Callable, Sequence
 from typing import Protocol
 
 import mujoco
 import numpy as np
 
-from racecar_sim.bus import type_name
+from racecar_sim.bus import BusPort, type_name
 from racecar_sim.core.errors import RacecarSimError, WorldError
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.throttle import ThrottledWarning
@@ -59,14 +59,12 @@ from racecar_sim.msgs.gazebo_msgs import (
     SpawnModelResponse,
 )
 from racecar_sim.msgs.std_srvs import EmptyRequest, EmptyResponse
-from racecar_sim.bus import BusPort
 from racecar_sim.nodes import NodeBase, Timers
 from racecar_sim.runtime.car import Car
 from racecar_sim.worlds import Spawn, World
 from racecar_sim.worlds.sdf import load_sdf
 from racecar_sim.worlds.sdf_parts import SdfContext, pose, pose_or_identity, resolve_uri
 from racecar_sim.worlds.world import WorldBody
-
 
 log = logging.getLogger("racecar_sim")
 
@@ -160,18 +158,30 @@ class GazeboApi(NodeBase):
         self.task = sim.scheduler.every(STATES_RATE, self._tick, "gazebo_ros_api_plugin", unheard=self._unheard)
         self._warn = ThrottledWarning(log, lambda: sim.time_ns)
         self.bus.subscribe(SET_MODEL_STATE, self._on_set_model_state, ModelState)
-        for name, handler in (("get_model_state", self.get_model_state), ("set_model_state", self.set_model_state),
-                              ("spawn_urdf_model", self.spawn_urdf_model), ("spawn_sdf_model", self.spawn_sdf_model),
-                              ("delete_model", self.delete_model), ("get_world_properties", self.get_world_properties),
-                              ("pause_physics", self.pause_physics), ("unpause_physics", self.unpause_physics),
-                              ("reset_simulation", self.reset_simulation), ("reset_world", self.reset_world)):
+        for name, handler in (
+            ("get_model_state", self.get_model_state),
+            ("set_model_state", self.set_model_state),
+            ("spawn_urdf_model", self.spawn_urdf_model),
+            ("spawn_sdf_model", self.spawn_sdf_model),
+            ("delete_model", self.delete_model),
+            ("get_world_properties", self.get_world_properties),
+            ("pause_physics", self.pause_physics),
+            ("unpause_physics", self.unpause_physics),
+            ("reset_simulation", self.reset_simulation),
+            ("reset_world", self.reset_world),
+        ):
             self.bus.advertise_service(f"{NAMESPACE}/{name}", handler)
 
     def _on_set_model_state(self, msg: ModelState) -> None:
         """The /gazebo/set_model_state topic; a message of another type is dropped with a throttled warning."""
         if type(msg) is not ModelState:
-            self._warn(SET_MODEL_STATE, "%s: ignored a %s message (the topic takes %s)", SET_MODEL_STATE,
-                       type_name(msg), type_name(ModelState))
+            self._warn(
+                SET_MODEL_STATE,
+                "%s: ignored a %s message (the topic takes %s)",
+                SET_MODEL_STATE,
+                type_name(msg),
+                type_name(ModelState),
+            )
             return
         self.set_model_state(SetModelStateRequest(msg))
 
@@ -202,22 +212,32 @@ class GazeboApi(NodeBase):
             if name in cars:
                 car = cars[name]
                 root = car.state.body_id
-                links = [self._link(f"{name}::{car.names.local(model.body(b).name)}", b)
-                         for b in np.flatnonzero(model.body_rootid == root).tolist()]
+                links = [
+                    self._link(f"{name}::{car.names.local(model.body(b).name)}", b)
+                    for b in np.flatnonzero(model.body_rootid == root).tolist()
+                ]
                 self.models[name] = _Model(name, links, car)
             elif name in objects:
                 bodies = objects[name]
-                links = [self._link(_link_name(body.name), model.body(body.name).id if not body.static else -1,
-                                    (body.pos, body.quat)) for body in bodies]
+                links = [
+                    self._link(
+                        _link_name(body.name),
+                        model.body(body.name).id if not body.static else -1,
+                        (body.pos, body.quat),
+                    )
+                    for body in bodies
+                ]
                 canonical = (bodies[0].pos, bodies[0].quat)
                 frame = self._frames.get(name, canonical)
-                self.models[name] = _Model(name, links, offset=_between(canonical, frame), frame=frame,
-                                           bodies=bodies)
+                self.models[name] = _Model(name, links, offset=_between(canonical, frame), frame=frame, bodies=bodies)
         self._links = [link for m in self.models.values() for link in m.links]
         # Static models and links never move: their Pose and Twist objects are made once and shared by every message
         self._static_msgs = {link.name: (_pose_msg(*link.pose), Twist()) for link in self._links if link.body < 0}
-        self._static_models = {m.name: (_pose_msg(*self._model_state(m)[0]), Twist())
-                               for m in self.models.values() if m.car is None and m.links[0].body < 0}
+        self._static_models = {
+            m.name: (_pose_msg(*self._model_state(m)[0]), Twist())
+            for m in self.models.values()
+            if m.car is None and m.links[0].body < 0
+        }
 
     def _link(self, name: str, body: int, static_pose: PoseArrays = _IDENTITY) -> _Link:
         model = self.sim.model
@@ -244,7 +264,7 @@ class GazeboApi(NodeBase):
             return link.pose, _ZERO_TWIST
         data = self.sim.data
         if link.qpos >= 0:  # the raw free-joint coordinates, exactly what CarState.base_pose() hands the odometry
-            q = data.qpos[link.qpos:link.qpos + 7]
+            q = data.qpos[link.qpos : link.qpos + 7]
             pose_ = (q[:3].copy(), q[3:].copy())
         else:
             kin = kin if kin is not None else self._posed()
@@ -307,7 +327,7 @@ class GazeboApi(NodeBase):
                 pose_msg, twist_msg = self._static_msgs[link.name]
             else:
                 if link.qpos >= 0:
-                    px, py, pz, w, x, y, z = qpos[link.qpos:link.qpos + 7].tolist()
+                    px, py, pz, w, x, y, z = qpos[link.qpos : link.qpos + 7].tolist()
                 else:
                     (px, py, pz), (w, x, y, z) = next(xpos), next(xquat)
                 velocity(model, data, _XBODY, link.body, vel, 0)
@@ -335,8 +355,10 @@ class GazeboApi(NodeBase):
             pos, quat = back @ (pos - fpos), quat_mul(_conj(fquat), quat)
             lin, ang = back @ (lin - flin), back @ (ang - fang)
         elif req.relative_entity_name not in WORLD_FRAMES:
-            res.status_message = (f"GetModelState: reference relative_entity_name [{req.relative_entity_name}] not "
-                                  "found, did you forget to scope the body by model name?")
+            res.status_message = (
+                f"GetModelState: reference relative_entity_name [{req.relative_entity_name}] not "
+                "found, did you forget to scope the body by model name?"
+            )
             return res
         res.pose, res.twist = _pose_msg(pos, quat), _twist_msg(lin, ang)
         res.success, res.status_message = True, "GetModelState: got properties"
@@ -366,12 +388,14 @@ class GazeboApi(NodeBase):
             pos, quat = compose(fpos, fquat, pos, quat)
             lin, ang = quat_rotate(fquat, lin), quat_rotate(fquat, ang)
         elif state.reference_frame not in WORLD_FRAMES:
-            res.status_message = (f"SetModelState: specified reference frame entity [{state.reference_frame}] does "
-                                  "not exist")
+            res.status_message = (
+                f"SetModelState: specified reference frame entity [{state.reference_frame}] does not exist"
+            )
             return res
         if not m.movable:
-            res.status_message = (f"SetModelState: model [{m.name}] is static: its geometry is part of the world and "
-                                  "cannot be moved")
+            res.status_message = (
+                f"SetModelState: model [{m.name}] is static: its geometry is part of the world and cannot be moved"
+            )
             return res
         self._teleport(m, (pos, quat), lin, ang)
         res.success, res.status_message = True, "SetModelState: set model state done"
@@ -381,25 +405,29 @@ class GazeboApi(NodeBase):
         model, data = self.sim.model, self.sim.data
         now_inv = _inverse(self._model_state(m)[0])
         kin = self._posed()
-        moves = [(link, compose(*target, *compose(*now_inv, *self._link_state(link, kin)[0])))
-                 for link in m.links if link.qpos >= 0]
+        moves = [
+            (link, compose(*target, *compose(*now_inv, *self._link_state(link, kin)[0])))
+            for link in m.links
+            if link.qpos >= 0
+        ]
         if m.car is not None:  # the car's own joints stop turning relative to it
             root = m.car.state.body_id
             inside = model.body_rootid[model.dof_bodyid] == root
             data.qvel[inside] = 0.0
         for link, (pos, quat) in moves:
-            data.qpos[link.qpos:link.qpos + 3] = pos
-            data.qpos[link.qpos + 3:link.qpos + 7] = _normalized(quat)
-            data.qvel[link.dof:link.dof + 3] = lin
-            data.qvel[link.dof + 3:link.dof + 6] = quat_to_matrix(quat).T @ ang  # a free joint's spin is local
+            data.qpos[link.qpos : link.qpos + 3] = pos
+            data.qpos[link.qpos + 3 : link.qpos + 7] = _normalized(quat)
+            data.qvel[link.dof : link.dof + 3] = lin
+            data.qvel[link.dof + 3 : link.dof + 6] = quat_to_matrix(quat).T @ ang  # a free joint's spin is local
         mujoco.mj_forward(model, data)
         self.sim.poses_changed()
 
     def get_world_properties(self, req: GetWorldPropertiesRequest) -> GetWorldPropertiesResponse:
         """Sim time and the model names (gazebo_msgs/GetWorldProperties)."""
         rendering = any(car.camera is not None for car in self.sim.cars)
-        return GetWorldPropertiesResponse(self.sim.time, self.model_names, rendering, True,
-                                          "GetWorldProperties: got properties")
+        return GetWorldPropertiesResponse(
+            self.sim.time, self.model_names, rendering, True, "GetWorldProperties: got properties"
+        )
 
     # --- services: physics ------------------------------------------------------------------------------------
     def pause_physics(self, req: EmptyRequest | None = None) -> EmptyResponse:
@@ -442,8 +470,9 @@ class GazeboApi(NodeBase):
         apply to an expanded URDF). A spawn pose inside an obstacle or another car, or with no ground below, fails
         as it does at start-up."""
         if _root_tag(req.model_xml) != "robot":
-            return SpawnModelResponse(False, "SpawnModel: Failure - entity format is invalid (spawn_urdf_model takes "
-                                             "a URDF: <robot>).")
+            return SpawnModelResponse(
+                False, "SpawnModel: Failure - entity format is invalid (spawn_urdf_model takes a URDF: <robot>)."
+            )
         return self._spawn_car(req)
 
     def spawn_sdf_model(self, req: SpawnModelRequest) -> SpawnModelResponse:
@@ -484,8 +513,7 @@ class GazeboApi(NodeBase):
         if frame is not None:
             return compose(*frame[0], *pose_)
         if req.reference_frame not in WORLD_FRAMES:
-            return ("SpawnModel: reference reference_frame not found, did you forget to scope the link by model "
-                    "name?")
+            return "SpawnModel: reference reference_frame not found, did you forget to scope the link by model name?"
         return pose_
 
     def _spawn_car(self, req: SpawnModelRequest) -> SpawnModelResponse:
@@ -500,15 +528,23 @@ class GazeboApi(NodeBase):
             return SpawnModelResponse(False, f"SpawnModel: {exc}")
         name = req.model_name or names.model
         if name != names.model:
-            return SpawnModelResponse(False, f"SpawnModel: a car's model name is its namespace's: robot_namespace "
-                                             f"'{namespace}' gives model [{names.model}], not [{name}]")
+            return SpawnModelResponse(
+                False,
+                f"SpawnModel: a car's model name is its namespace's: robot_namespace "
+                f"'{namespace}' gives model [{names.model}], not [{name}]",
+            )
         if name in self.models or any(car.name == namespace for car in sim.cars):
             return SpawnModelResponse(False, f"SpawnModel: Failure - entity [{name}] already exists.")
         (pos, quat) = initial
         first = sim.cars[0]
-        car = Car(namespace, profile=first.profile_name, controllers=first.controllers_file,
-                  spawn=Spawn(*(float(v) for v in pos), yaw_of(quat)), sensors_off=first.off,
-                  odometry=first.odometry_mode)
+        car = Car(
+            namespace,
+            profile=first.profile_name,
+            controllers=first.controllers_file,
+            spawn=Spawn(*(float(v) for v in pos), yaw_of(quat)),
+            sensors_off=first.off,
+            odometry=first.odometry_mode,
+        )
         car.urdf = req.model_xml
         try:
             car.load()

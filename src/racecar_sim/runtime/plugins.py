@@ -181,28 +181,49 @@ def plan(robot: Robot, off: frozenset[str]) -> tuple[list[Planned], list[Planned
     for plugin in robot.plugins:
         kind = PLUGINS.get(plugin.filename)
         if kind is None:
-            log.warning("%s: <plugin name='%s' filename='%s'> is not simulated (racecar-sim knows %s); it is ignored",
-                        where, plugin.name, plugin.filename, ", ".join(sorted(PLUGINS)))
+            log.warning(
+                "%s: <plugin name='%s' filename='%s'> is not simulated (racecar-sim knows %s); it is ignored",
+                where,
+                plugin.name,
+                plugin.filename,
+                ", ".join(sorted(PLUGINS)),
+            )
         elif not _is_off(kind, plugin.name, "", off):
             plugins.append(Planned(plugin, kind))
-    if robot.transmissions and not any(p.block.filename == ROS_CONTROL for p in plugins
-                                       if isinstance(p.block, Plugin)):
-        log.warning("%s has no <plugin filename='%s'>: its controllers are started anyway, as racecar.gazebo's "
-                    "block would start them", where, ROS_CONTROL)
+    if robot.transmissions and not any(p.block.filename == ROS_CONTROL for p in plugins if isinstance(p.block, Plugin)):
+        log.warning(
+            "%s has no <plugin filename='%s'>: its controllers are started anyway, as racecar.gazebo's "
+            "block would start them",
+            where,
+            ROS_CONTROL,
+        )
         implied = Plugin("gazebo_ros_control", ROS_CONTROL, {}, ET.Element("plugin"))
         plugins.insert(0, Planned(implied, PLUGINS[ROS_CONTROL]))
     sensors: list[Planned] = []
     for sensor in robot.sensors:
         kind = SENSORS.get(sensor.type)
         if kind is None:
-            log.warning("%s: <sensor type='%s' name='%s'> on link %s is not simulated (racecar-sim knows %s); it is "
-                        "ignored", where, sensor.type, sensor.name, sensor.link, ", ".join(sorted(SENSORS)))
+            log.warning(
+                "%s: <sensor type='%s' name='%s'> on link %s is not simulated (racecar-sim knows %s); it is ignored",
+                where,
+                sensor.type,
+                sensor.name,
+                sensor.link,
+                ", ".join(sorted(SENSORS)),
+            )
             continue
         for inner in sensor.plugins:
             if inner.filename not in kind.plugins:
-                log.warning("%s: <sensor name='%s'> has <plugin filename='%s'>, which racecar-sim does not know for a "
-                            "%s sensor (it knows %s): the sensor publishes as %s would", where, sensor.name,
-                            inner.filename, sensor.type, ", ".join(kind.plugins), kind.plugins[0])
+                log.warning(
+                    "%s: <sensor name='%s'> has <plugin filename='%s'>, which racecar-sim does not know for a "
+                    "%s sensor (it knows %s): the sensor publishes as %s would",
+                    where,
+                    sensor.name,
+                    inner.filename,
+                    sensor.type,
+                    ", ".join(kind.plugins),
+                    kind.plugins[0],
+                )
         if not _is_off(kind, sensor.name, sensor.type, off):
             sensors.append(Planned(sensor, kind))
     return plugins, sensors
@@ -210,4 +231,3 @@ def plan(robot: Robot, off: frozenset[str]) -> tuple[list[Planned], list[Planned
 
 def _is_off(kind: NodeKind, name: str, sensor_type: str, off: frozenset[str]) -> bool:
     return bool(off) and ((kind.switch and kind.switch in off) or name in off or sensor_type in off)
-

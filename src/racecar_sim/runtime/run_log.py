@@ -29,8 +29,13 @@ class RunLog:
     odometry message. `min_clearance` is the shortest lidar range seen (m): how close the car came to a wall.
     """
 
-    def __init__(self, bus: Bus, scan_topic: str | None = "/scan",
-                 image_topic: str | None = "/camera/zed/rgb/image_rect_color", odom_topic: str = "/vesc/odom") -> None:
+    def __init__(
+        self,
+        bus: Bus,
+        scan_topic: str | None = "/scan",
+        image_topic: str | None = "/camera/zed/rgb/image_rect_color",
+        odom_topic: str = "/vesc/odom",
+    ) -> None:
         self._path = np.empty((TRAJECTORY_ROWS, 3))  # rows taken every `_stride`-th odometry message
         self._kept = 0  # rows of _path in use
         self._stride = 1
@@ -62,7 +67,7 @@ class RunLog:
         if self._count % self._stride == 0:
             if self._kept == TRAJECTORY_ROWS:  # full: keep every other row, and every other one from now on
                 half = self._path[::2].copy()
-                self._path[:len(half)] = half
+                self._path[: len(half)] = half
                 self._kept, self._stride = len(half), self._stride * 2
             if self._count % self._stride == 0:
                 self._path[self._kept] = row
@@ -86,7 +91,7 @@ class RunLog:
     @property
     def trajectory(self) -> np.ndarray:
         """(N, 3): x, y, ground speed; row i at i / trajectory_rate s, and the last odometry as the last row."""
-        path = self._path[:self._kept]
+        path = self._path[: self._kept]
         if self._last_row is not None and (self._count - 1) % self._stride:  # the last message was not kept
             return np.vstack([path, self._last_row])
         return path.copy()

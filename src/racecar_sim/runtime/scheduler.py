@@ -112,8 +112,14 @@ class Scheduler:
     def _push(self, time_ns: int, task: Task) -> None:
         heapq.heappush(self._heap, (ceil_to_step(time_ns, self.step_ns), next(self._seq), task))
 
-    def every(self, rate_hz: float, callback: Callable[[int], None], name: str, start_ns: int = 0,
-              unheard: Callable[[int], bool] | None = None) -> Task:
+    def every(
+        self,
+        rate_hz: float,
+        callback: Callable[[int], None],
+        name: str,
+        start_ns: int = 0,
+        unheard: Callable[[int], bool] | None = None,
+    ) -> Task:
         """Call `callback(now_ns)` at start + k/rate for k = 1, 2, ...
 
         `unheard(now_ns)`, for a task that only publishes: when nobody would receive what it publishes now, do what
@@ -123,8 +129,9 @@ class Scheduler:
         if not rate_hz > 0 or not math.isfinite(rate_hz):
             raise ConfigError(f"task {name}: rate must be a positive number, got {rate_hz}")
         if rate_hz * self.step_ns > NS_PER_S:  # it would fire several times per step, or forever at 1 ns
-            raise ConfigError(f"task {name}: rate {rate_hz:g} Hz is faster than the physics "
-                              f"({NS_PER_S / self.step_ns:g} steps/s)")
+            raise ConfigError(
+                f"task {name}: rate {rate_hz:g} Hz is faster than the physics ({NS_PER_S / self.step_ns:g} steps/s)"
+            )
         period = Fraction(NS_PER_S) / Fraction(rate_hz).limit_denominator(1_000_000)
         task = Task(name, callback, period, start_ns, index=1, unheard=unheard)
         self._push(start_ns + _ceil(period), task)
@@ -143,8 +150,11 @@ class Scheduler:
     def reset(self) -> None:
         """Sim time is back at 0: every periodic task starts over (next fire at its first period) and one-shot
         tasks are dropped (a node that wants a timer after a reset sets it again in its reset hook)."""
-        tasks = [task for _, _, task in sorted(self._heap)  # a periodic task has one entry: its next firing
-                 if not task.cancelled and task.period_ns is not None]
+        tasks = [
+            task
+            for _, _, task in sorted(self._heap)  # a periodic task has one entry: its next firing
+            if not task.cancelled and task.period_ns is not None
+        ]
         for _, _, task in self._heap:
             if type(task) is Timeout:
                 task._entry = task._due = None

@@ -64,38 +64,69 @@ class Simulator:
     at a fraction of the cost); off, every box is a geom.
     """
 
-    def __init__(self, world: str | World = "empty", profile: str = "seed", seed: int = 0, physics: str = "default",
-                 spawn: Spawn | None = None, odometry: str = "original", xacro: str | Path = DEFAULT_XACRO,
-                 xacro_args: Mapping[str, str] | None = None, controllers: str | Path | None = None,
-                 model_path: list[str | Path] | None = None, wall_height: float = DEFAULT_WALL_HEIGHT,
-                 lidar: bool = True, camera: bool = True, sensor_noise: bool = True,
-                 cars: Sequence[Car] | None = None, near_walls: bool = True, sensors_off: Sequence[str] = ()) -> None:
+    def __init__(
+        self,
+        world: str | World = "empty",
+        profile: str = "seed",
+        seed: int = 0,
+        physics: str = "default",
+        spawn: Spawn | None = None,
+        odometry: str = "original",
+        xacro: str | Path = DEFAULT_XACRO,
+        xacro_args: Mapping[str, str] | None = None,
+        controllers: str | Path | None = None,
+        model_path: list[str | Path] | None = None,
+        wall_height: float = DEFAULT_WALL_HEIGHT,
+        lidar: bool = True,
+        camera: bool = True,
+        sensor_noise: bool = True,
+        cars: Sequence[Car] | None = None,
+        near_walls: bool = True,
+        sensors_off: Sequence[str] = (),
+    ) -> None:
         self.seed = check_seed(seed)
         self.sensor_noise = sensor_noise
         if cars is None:
-            cars = [Car("", xacro, xacro_args, profile, controllers, spawn, lidar, camera, odometry,
-                        sensors_off=sensors_off)]
+            cars = [
+                Car(
+                    "", xacro, xacro_args, profile, controllers, spawn, lidar, camera, odometry, sensors_off=sensors_off
+                )
+            ]
         else:
-            given = [name for name, value, default in (
-                ("profile", profile, "seed"), ("spawn", spawn, None), ("odometry", odometry, "original"),
-                ("xacro", xacro, DEFAULT_XACRO), ("xacro_args", xacro_args, None), ("controllers", controllers, None),
-                ("lidar", lidar, True), ("camera", camera, True), ("sensors_off", tuple(sensors_off), ()))
-                if value != default]
+            given = [
+                name
+                for name, value, default in (
+                    ("profile", profile, "seed"),
+                    ("spawn", spawn, None),
+                    ("odometry", odometry, "original"),
+                    ("xacro", xacro, DEFAULT_XACRO),
+                    ("xacro_args", xacro_args, None),
+                    ("controllers", controllers, None),
+                    ("lidar", lidar, True),
+                    ("camera", camera, True),
+                    ("sensors_off", tuple(sensors_off), ()),
+                )
+                if value != default
+            ]
             if given:
                 raise ConfigError(f"with cars=[...], give {', '.join(given)} to each Car, not to the Simulator")
         self.cars = checked_fleet(cars)
         for index, car in enumerate(self.cars):
             car.load(self.cars[index - 1] if index else None)  # a fleet of identical cars expands the xacro once
         first = self.cars[0]
-        self.world = world if isinstance(world, World) else \
-            load_world(world, first.spawn, [Path(p) for p in model_path or []], wall_height)
+        self.world = (
+            world
+            if isinstance(world, World)
+            else load_world(world, first.spawn, [Path(p) for p in model_path or []], wall_height)
+        )
         if first.spawn is not None:
             self.world.spawn = first.spawn
         self.spawns = [car.spawn or self.world.spawn for car in self.cars]
         self.preset = load_preset(physics)
         route_mujoco_warnings()
-        self.scene = Scene(self.world, self.preset, near_walls,
-                           first.robot.name if len(self.cars) == 1 else self.world.name or "fleet")
+        self.scene = Scene(
+            self.world, self.preset, near_walls, first.robot.name if len(self.cars) == 1 else self.world.name or "fleet"
+        )
         for car, car_spawn in zip(self.cars, self.spawns):
             car.add_to(self.scene.spec, self.preset, car_spawn, rank_friction=False)
         self.scene.compile(blame=first.xacro)
@@ -125,8 +156,10 @@ class Simulator:
         """The first car (the only one unless `cars` was given)."""
         return self.cars[0]
 
-    model = property(lambda self: self.scene.model, doc="The compiled MuJoCo model (replaced when models are "
-                                                        "spawned or deleted at run time).")
+    model = property(
+        lambda self: self.scene.model,
+        doc="The compiled MuJoCo model (replaced when models are spawned or deleted at run time).",
+    )
     data = property(lambda self: self.scene.data, doc="The MuJoCo data: the state of the simulation.")
     spec = property(lambda self: self.scene.spec, doc="The scene's MjSpec (physics/scene.py).")
     near_walls = property(lambda self: self.scene.near_walls, doc="The map walls held near the cars, or None.")
@@ -213,7 +246,9 @@ class Simulator:
         """Advance sim time by `duration` seconds."""
         self.run_until(self.time + duration)
 
-    def reset(self, seed: int | None = None, spawn: Spawn | Mapping[str, Spawn] | Sequence[Spawn] | None = None) -> None:
+    def reset(
+        self, seed: int | None = None, spawn: Spawn | Mapping[str, Spawn] | Sequence[Spawn] | None = None
+    ) -> None:
         """Back to t = 0 with every car at its spawn pose (or at `spawn`: one pose for the first car, a pose per
         car in order, or a mapping of car names to poses), and a new noise `seed` if given.
 
@@ -322,8 +357,16 @@ class Simulator:
     # --- internals --------------------------------------------------------------------------------------------
     def _start_car(self, car: Car, model: mujoco.MjModel | None = None, data: mujoco.MjData | None = None) -> None:
         """The one place a car's nodes start: at start-up, and when a car is spawned at run time."""
-        car.start(model or self.model, data or self.data, self.bus, self.scheduler, lambda: self.loop.time_ns,
-                  self.static_tf, self.seed, self.sensor_noise)
+        car.start(
+            model or self.model,
+            data or self.data,
+            self.bus,
+            self.scheduler,
+            lambda: self.loop.time_ns,
+            self.static_tf,
+            self.seed,
+            self.sensor_noise,
+        )
 
     def _install(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         """Go on with a recompiled model: every node is rebound (none is rebuilt)."""
@@ -339,13 +382,20 @@ class Simulator:
             hook(model, data)
 
     def _watch_collisions(self, known: bool) -> None:
-        self.collisions.watch(self.model, self.data, [car.state.body_id for car in self.cars],
-                              [car.model_name for car in self.cars], known)
+        self.collisions.watch(
+            self.model,
+            self.data,
+            [car.state.body_id for car in self.cars],
+            [car.model_name for car in self.cars],
+            known,
+        )
         self.loop.after_physics = self.collisions.check if self.collisions.active else None
 
     def _divergence_advice(self) -> str:
-        return (f"Check the controller gains in {self.car.controllers_file}, the physics step "
-                f"({self.model.opt.timestep:g} s) and the world's <physics> block")
+        return (
+            f"Check the controller gains in {self.car.controllers_file}, the physics step "
+            f"({self.model.opt.timestep:g} s) and the world's <physics> block"
+        )
 
     def _backup(self) -> mujoco.MjData:
         """The physics state copied into an MjData kept for it (made on first use, and again for a new model)."""

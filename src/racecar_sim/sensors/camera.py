@@ -11,10 +11,9 @@ kept regardless, and the noise of a frame depends only on (seed, stamp), so skip
 from __future__ import annotations
 
 import dataclasses
-
 import math
-from concurrent.futures import Future
 import zlib
+from concurrent.futures import Future
 
 import mujoco
 import numpy as np
@@ -22,12 +21,12 @@ import numpy as np
 from racecar_sim.core.errors import DescriptionError, RenderingError
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.rng import NoiseTable
-from racecar_sim.nodes import NodeBase, NodeContext
 from racecar_sim.core.transforms import quat_from_rpy, quat_mul
 from racecar_sim.description.urdf import Robot, Sensor
 from racecar_sim.msgs import Header, Image
-from racecar_sim.sensors.camera_spec import CameraSpec
+from racecar_sim.nodes import NodeBase, NodeContext
 from racecar_sim.render.offscreen import OffscreenCamera
+from racecar_sim.sensors.camera_spec import CameraSpec
 
 __all__ = ["CameraPublisher", "CameraSpec", "RenderingError", "add_camera", "add_noise", "camera_spec", "set_clip"]
 
@@ -45,16 +44,21 @@ def camera_spec(robot: Robot, names: CarNames = CarNames()) -> CameraSpec:
     DescriptionError if it has none."""
     sensor = robot.sensor("camera")
     if sensor is None:
-        raise DescriptionError(f"robot {robot.name} has no <sensor type=\"camera\"> (is DISABLE_GAZEBO_CAMERA set?)")
+        raise DescriptionError(f'robot {robot.name} has no <sensor type="camera"> (is DISABLE_GAZEBO_CAMERA set?)')
     return named_camera_spec(sensor, names)
 
 
 def named_camera_spec(sensor: Sensor, names: CarNames = CarNames()) -> CameraSpec:
     """A camera sensor block, parsed, with the car's names."""
     spec = CameraSpec.from_sensor(sensor)
-    return dataclasses.replace(spec, name=names.mj(spec.name), link=names.mj(spec.link),
-                               image_topic=names.topic(spec.image_topic), info_topic=names.topic(spec.info_topic),
-                               frame_id=names.frame(spec.frame_id))
+    return dataclasses.replace(
+        spec,
+        name=names.mj(spec.name),
+        link=names.mj(spec.link),
+        image_topic=names.topic(spec.image_topic),
+        info_topic=names.topic(spec.info_topic),
+        frame_id=names.frame(spec.frame_id),
+    )
 
 
 def add_camera(spec: mujoco.MjSpec, sensor: Sensor, names: CarNames = CarNames()) -> None:
@@ -115,8 +119,9 @@ class CameraPublisher(NodeBase):
         own_topic = CameraSpec.from_sensor(sensor).image_topic
         self.noise_stream = ctx.noise_stream(NOISE_STREAM if own_topic == ORIGINAL_TOPIC else NOISE_STREAM + own_topic)
         if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, self.spec.name) < 0:
-            raise ValueError(f"the model has no camera '{self.spec.name}': call add_camera(spec, sensor) before "
-                             "compiling")
+            raise ValueError(
+                f"the model has no camera '{self.spec.name}': call add_camera(spec, sensor) before compiling"
+            )
         self.bus, self.seed = ctx.bus, ctx.seed
         self._stream_key = zlib.crc32(self.noise_stream.encode()) << 32  # mixed into the seed: cars differ
         self.noise = noise and (self.spec.noise_stddev > 0 or self.spec.noise_mean != 0)
@@ -135,8 +140,18 @@ class CameraPublisher(NodeBase):
 
         if self.noise:
             self._noise_table  # noqa: B018 - drawn here
-        finish_frame(np.zeros((1, 1, 4), dtype=np.uint8), _NO_SKY, False, _NO_NOISE, 0, 0, np.float32(0.0),
-                     np.float32(0.0), True, np.zeros((1, 1, 3), dtype=np.uint8))
+        finish_frame(
+            np.zeros((1, 1, 4), dtype=np.uint8),
+            _NO_SKY,
+            False,
+            _NO_NOISE,
+            0,
+            0,
+            np.float32(0.0),
+            np.float32(0.0),
+            True,
+            np.zeros((1, 1, 3), dtype=np.uint8),
+        )
 
     def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         """Render a recompiled model (a model was spawned or deleted): same node, schedule and noise."""
@@ -178,8 +193,18 @@ class CameraPublisher(NodeBase):
 
     def _publish(self, stamp_ns: int, pixels: np.ndarray) -> None:
         spec = self.spec
-        self.bus.publish(spec.image_topic, Image(Header.at(stamp_ns, spec.frame_id), spec.height, spec.width,
-                                                 spec.encoding, 0, spec.step, pixels.reshape(-1)))
+        self.bus.publish(
+            spec.image_topic,
+            Image(
+                Header.at(stamp_ns, spec.frame_id),
+                spec.height,
+                spec.width,
+                spec.encoding,
+                0,
+                spec.step,
+                pixels.reshape(-1),
+            ),
+        )
         self.bus.publish(spec.info_topic, spec.camera_info(stamp_ns))
 
     def capture(self, stamp_ns: int) -> np.ndarray:
@@ -204,9 +229,18 @@ class CameraPublisher(NodeBase):
         if self.noise:
             table = self._noise_table.values
             first, second = self._noise_table.offsets(self.seed ^ self._stream_key, stamp_ns)
-        finish_frame(gl_rgba, _NO_SKY if sky is None else sky, sky is not None, table, first, second,
-                     np.float32(255.0 * spec.noise_stddev if self.noise else 0.0),
-                     np.float32(255.0 * spec.noise_mean if self.noise else 0.0), spec.encoding == "bgr8", pixels)
+        finish_frame(
+            gl_rgba,
+            _NO_SKY if sky is None else sky,
+            sky is not None,
+            table,
+            first,
+            second,
+            np.float32(255.0 * spec.noise_stddev if self.noise else 0.0),
+            np.float32(255.0 * spec.noise_mean if self.noise else 0.0),
+            spec.encoding == "bgr8",
+            pixels,
+        )
         return pixels
 
     @property

@@ -13,9 +13,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from racecar_sim.core.errors import DescriptionError
-from racecar_sim.sensors.sensor_xml import sensor_number
 from racecar_sim.description.urdf import Origin, Sensor
 from racecar_sim.msgs import CameraInfo, Header
+from racecar_sim.sensors.sensor_xml import sensor_number
 
 ENCODINGS = {"B8G8R8": "bgr8", "R8G8B8": "rgb8"}  # SDF image format -> ROS encoding
 _DISTORTION = ("distortionK1", "distortionK2", "distortionT1", "distortionT2", "distortionK3")  # plumb_bob order
@@ -77,8 +77,11 @@ class CameraSpec:
         if not 0 < hfov < math.pi:
             raise DescriptionError(f"{where}: <horizontal_fov> {hfov} must be in (0, pi) rad")
         width, height = (_integer(camera, f"image/{k}", where) for k in ("width", "height"))
-        fmt = _text(camera, "image/format", where) if default_format is None or camera.find("image/format") is not None \
+        fmt = (
+            _text(camera, "image/format", where)
+            if default_format is None or camera.find("image/format") is not None
             else default_format
+        )
         if fmt not in ENCODINGS:
             raise DescriptionError(f"{where}: <image/format> '{fmt}' is not one of {', '.join(ENCODINGS)}")
         near, far = sensor_number(camera, "clip/near", where), sensor_number(camera, "clip/far", where)
@@ -90,13 +93,26 @@ class CameraSpec:
         focal = _float(plugin, "focalLength", where, 0.0) or width / (2.0 * math.tan(hfov / 2.0))
         cx = _float(plugin, "Cx", where, 0.0) or (width + 1) / 2.0
         return cls(
-            name=sensor.name, link=sensor.link, pose=sensor.pose, rate_hz=_rate(sensor, plugin, where), hfov=hfov,
-            width=width, height=height, encoding=ENCODINGS[fmt], near=near, far=far, noise_mean=mean,
-            noise_stddev=stddev, image_topic=_topic(namespace, plugin.get("imageTopicName", "image_raw")),
+            name=sensor.name,
+            link=sensor.link,
+            pose=sensor.pose,
+            rate_hz=_rate(sensor, plugin, where),
+            hfov=hfov,
+            width=width,
+            height=height,
+            encoding=ENCODINGS[fmt],
+            near=near,
+            far=far,
+            noise_mean=mean,
+            noise_stddev=stddev,
+            image_topic=_topic(namespace, plugin.get("imageTopicName", "image_raw")),
             info_topic=_topic(namespace, plugin.get("cameraInfoTopicName", "camera_info")),
-            frame_id=plugin.get("frameName", sensor.link).lstrip("/") or sensor.link, focal_length=focal, cx=cx,
+            frame_id=plugin.get("frameName", sensor.link).lstrip("/") or sensor.link,
+            focal_length=focal,
+            cx=cx,
             cy=_float(plugin, "Cy", where, 0.0) or (height + 1) / 2.0,
-            cx_prime=_float(plugin, "CxPrime", where, 0.0) or cx, baseline=_float(plugin, "hackBaseline", where, 0.0),
+            cx_prime=_float(plugin, "CxPrime", where, 0.0) or cx,
+            baseline=_float(plugin, "hackBaseline", where, 0.0),
             distortion=tuple(_float(plugin, k, where, 0.0) for k in _DISTORTION),  # type: ignore[arg-type]
         )
 
@@ -104,7 +120,10 @@ class CameraSpec:
         """The CameraInfo gazebo_ros_camera publishes beside each image."""
         f = self.focal_length
         return CameraInfo(
-            Header.at(stamp_ns, self.frame_id), self.height, self.width, "plumb_bob",
+            Header.at(stamp_ns, self.frame_id),
+            self.height,
+            self.width,
+            "plumb_bob",
             np.array(self.distortion, dtype=np.float64),
             np.array([f, 0.0, self.cx, 0.0, f, self.cy, 0.0, 0.0, 1.0]),
             np.eye(3).ravel(),

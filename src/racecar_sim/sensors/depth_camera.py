@@ -29,14 +29,17 @@ from racecar_sim.core.transforms import quat_from_rpy, quat_mul
 from racecar_sim.description.urdf import Sensor
 from racecar_sim.msgs import Header, Image, PointCloud2, PointField
 from racecar_sim.nodes import Mount, NodeBase, NodeContext
+from racecar_sim.render.offscreen import OffscreenCamera
 from racecar_sim.sensors.camera import LOOK_ALONG_X
 from racecar_sim.sensors.camera_spec import CameraSpec
-from racecar_sim.render.offscreen import OffscreenCamera
 from racecar_sim.sensors.sensor_xml import plugin_number
 
 KINECT_PLUGIN = "libgazebo_ros_openni_kinect.so"
-_XYZ = [PointField("x", 0, PointField.FLOAT32, 1), PointField("y", 4, PointField.FLOAT32, 1),
-        PointField("z", 8, PointField.FLOAT32, 1)]
+_XYZ = [
+    PointField("x", 0, PointField.FLOAT32, 1),
+    PointField("y", 4, PointField.FLOAT32, 1),
+    PointField("z", 8, PointField.FLOAT32, 1),
+]
 
 
 @dataclass(frozen=True)
@@ -66,21 +69,36 @@ class DepthSpec:
         cutoff = plugin_number(params, "pointCloudCutoff", where, 0.4)
         cutoff_max = plugin_number(params, "pointCloudCutoffMax", where, 5.0)
         if not 0 <= cutoff < cutoff_max:
-            raise DescriptionError(f"{where}: <pointCloudCutoff> {cutoff:g} must be >= 0 and below "
-                                   f"<pointCloudCutoffMax> {cutoff_max:g}")
-        return cls(camera, topic("depthImageTopicName", "depth/image_raw"),
-                   topic("depthImageCameraInfoTopicName", "depth/camera_info"), topic("pointCloudTopicName", "points"),
-                   cutoff, cutoff_max)
+            raise DescriptionError(
+                f"{where}: <pointCloudCutoff> {cutoff:g} must be >= 0 and below <pointCloudCutoffMax> {cutoff_max:g}"
+            )
+        return cls(
+            camera,
+            topic("depthImageTopicName", "depth/image_raw"),
+            topic("depthImageCameraInfoTopicName", "depth/camera_info"),
+            topic("pointCloudTopicName", "points"),
+            cutoff,
+            cutoff_max,
+        )
 
     def with_names(self, names: CarNames) -> DepthSpec:
         """The spec with the car's names (topics under its namespace, frame with its tf_prefix, MuJoCo names)."""
         cam = self.camera
-        camera = dataclasses.replace(cam, name=names.mj(cam.name), link=names.mj(cam.link),
-                                     image_topic=names.topic(cam.image_topic), info_topic=names.topic(cam.info_topic),
-                                     frame_id=names.frame(cam.frame_id))
-        return dataclasses.replace(self, camera=camera, depth_topic=names.topic(self.depth_topic),
-                                   depth_info_topic=names.topic(self.depth_info_topic),
-                                   points_topic=names.topic(self.points_topic))
+        camera = dataclasses.replace(
+            cam,
+            name=names.mj(cam.name),
+            link=names.mj(cam.link),
+            image_topic=names.topic(cam.image_topic),
+            info_topic=names.topic(cam.info_topic),
+            frame_id=names.frame(cam.frame_id),
+        )
+        return dataclasses.replace(
+            self,
+            camera=camera,
+            depth_topic=names.topic(self.depth_topic),
+            depth_info_topic=names.topic(self.depth_info_topic),
+            points_topic=names.topic(self.points_topic),
+        )
 
 
 def _join(namespace: str, topic: str) -> str:
@@ -108,7 +126,7 @@ class DepthCamera(NodeBase):
         cam = self.spec.camera
         self.renderer = OffscreenCamera(ctx.model, ctx.data, cam.name, cam.width, cam.height)
         self.frames_rendered = 0
-        rows, cols = np.mgrid[0:cam.height, 0:cam.width]
+        rows, cols = np.mgrid[0 : cam.height, 0 : cam.width]
         # per pixel, the tangents of the ray's angles off the optical axis (pinhole model of the rendered image)
         self._tan_x = ((cols + 0.5 - cam.width / 2.0) / cam.fx).astype(np.float32)
         self._tan_y = ((rows + 0.5 - cam.height / 2.0) / cam.fx).astype(np.float32)
@@ -154,8 +172,18 @@ class DepthCamera(NodeBase):
         bus.publish(cam.image_topic, Image(header, cam.height, cam.width, cam.encoding, 0, cam.step, rgb.reshape(-1)))
         bus.publish(cam.info_topic, info)
         image = np.where(depth < spec.cutoff, -np.inf, np.where(depth > spec.cutoff_max, np.inf, depth))
-        bus.publish(spec.depth_topic, Image(Header.at(stamp_ns, cam.frame_id), cam.height, cam.width, "32FC1", 0,
-                                            4 * cam.width, image.astype("<f4").tobytes()))
+        bus.publish(
+            spec.depth_topic,
+            Image(
+                Header.at(stamp_ns, cam.frame_id),
+                cam.height,
+                cam.width,
+                "32FC1",
+                0,
+                4 * cam.width,
+                image.astype("<f4").tobytes(),
+            ),
+        )
         bus.publish(spec.depth_info_topic, cam.camera_info(stamp_ns))
         if bus.has_listeners(spec.points_topic):
             bus.publish(spec.points_topic, self.cloud(stamp_ns, depth))
@@ -166,8 +194,17 @@ class DepthCamera(NodeBase):
         keep = (depth >= spec.cutoff) & (depth <= spec.cutoff_max)
         z = depth[keep]
         points = np.stack([self._tan_x[keep] * z, self._tan_y[keep] * z, z], axis=1).astype("<f4")
-        return PointCloud2(Header.at(stamp_ns, spec.camera.frame_id), 1, len(points), list(_XYZ), False, 12,
-                           12 * len(points), points.tobytes(), True)
+        return PointCloud2(
+            Header.at(stamp_ns, spec.camera.frame_id),
+            1,
+            len(points),
+            list(_XYZ),
+            False,
+            12,
+            12 * len(points),
+            points.tobytes(),
+            True,
+        )
 
     def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         self.renderer.rebind(model, data)

@@ -19,8 +19,17 @@ from racecar_sim.core.names import WORLD_FRAME
 from racecar_sim.core.rng import NoiseTable
 from racecar_sim.core.transforms import quat_from_rpy, quat_mul
 from racecar_sim.description.urdf import Plugin
-from racecar_sim.msgs import (Header, Odometry, Point, Pose, PoseWithCovariance, Quaternion, Twist,
-                              TwistWithCovariance, Vector3)
+from racecar_sim.msgs import (
+    Header,
+    Odometry,
+    Point,
+    Pose,
+    PoseWithCovariance,
+    Quaternion,
+    Twist,
+    TwistWithCovariance,
+    Vector3,
+)
 from racecar_sim.nodes import NodeBase, NodeContext
 from racecar_sim.sensors.sensor_xml import plugin_number
 
@@ -65,7 +74,7 @@ class GroundTruthOdometry(NodeBase):
             raise DescriptionError(f"{where}: <gaussianNoise> must not be negative")
         self._xyz_offset = _three(params, "xyzOffsets", where)
         self._rpy_offset = quat_from_rpy(_three(params, "rpyOffsets", where))
-        variance = self.noise_stddev ** 2
+        variance = self.noise_stddev**2
         self._covariance = np.diag([variance] * 6).reshape(-1)
         self._covariance.flags.writeable = False
         self.seed = ctx.seed
@@ -99,9 +108,12 @@ class GroundTruthOdometry(NodeBase):
             values[7:] += noise[6:]
         x, y, z, qx, qy, qz, qw, vx, vy, vz, wx, wy, wz = (float(v) for v in values)
         cov = self._covariance
-        return Odometry(Header.at(stamp_ns, self.frame_id), self.child_frame_id,
-                        PoseWithCovariance(Pose(Point(x, y, z), Quaternion(qx, qy, qz, qw)), cov),
-                        TwistWithCovariance(Twist(Vector3(vx, vy, vz), Vector3(wx, wy, wz)), cov))
+        return Odometry(
+            Header.at(stamp_ns, self.frame_id),
+            self.child_frame_id,
+            PoseWithCovariance(Pose(Point(x, y, z), Quaternion(qx, qy, qz, qw)), cov),
+            TwistWithCovariance(Twist(Vector3(vx, vy, vz), Vector3(wx, wy, wz)), cov),
+        )
 
     def reset(self, seed: int) -> None:
         self.seed = seed

@@ -72,8 +72,19 @@ class ImuSpec:
             raise DescriptionError(f"{where}: <update_rate> and <updateRateHZ> are 0: give the IMU a rate")
         gaussian = plugin_number(params, "gaussianNoise", where, 0.0)
         mean, stddev = _sensor_noise(sensor, where)
-        return cls._checked(sensor.name, sensor.link, sensor.pose, min(rates), topic, frame or sensor.link, mean,
-                            stddev, gaussian, _offset(params, where), where)
+        return cls._checked(
+            sensor.name,
+            sensor.link,
+            sensor.pose,
+            min(rates),
+            topic,
+            frame or sensor.link,
+            mean,
+            stddev,
+            gaussian,
+            _offset(params, where),
+            where,
+        )
 
     @classmethod
     def from_plugin(cls, plugin: Plugin, robot: Robot) -> ImuSpec:
@@ -87,13 +98,35 @@ class ImuSpec:
         gaussian = plugin_number(params, "gaussianNoise", where, 0.0)
         topic = _join(params.get("robotNamespace", ""), params.get("topicName") or body)
         zeros = (0.0,) * COMPONENTS
-        return cls._checked(plugin.name or body, body, Origin(), rate, topic, params.get("frameName") or body, zeros,
-                            zeros, gaussian, _offset(params, where), where)
+        return cls._checked(
+            plugin.name or body,
+            body,
+            Origin(),
+            rate,
+            topic,
+            params.get("frameName") or body,
+            zeros,
+            zeros,
+            gaussian,
+            _offset(params, where),
+            where,
+        )
 
     @classmethod
-    def _checked(cls, name: str, link: str, pose: Origin, rate: float, topic: str, frame: str,
-                 mean: tuple[float, ...], stddev: tuple[float, ...], gaussian: float,
-                 rpy_offset: tuple[float, float, float], where: str) -> ImuSpec:
+    def _checked(
+        cls,
+        name: str,
+        link: str,
+        pose: Origin,
+        rate: float,
+        topic: str,
+        frame: str,
+        mean: tuple[float, ...],
+        stddev: tuple[float, ...],
+        gaussian: float,
+        rpy_offset: tuple[float, float, float],
+        where: str,
+    ) -> ImuSpec:
         if rate < 0:
             raise DescriptionError(f"{where}: the update rate must not be negative, got {rate:g}")
         if gaussian < 0 or min(stddev) < 0:
@@ -103,9 +136,18 @@ class ImuSpec:
 
     def with_names(self, names: CarNames) -> ImuSpec:
         """The spec with the car's names (topic under its namespace, frame with its tf_prefix)."""
-        return ImuSpec(self.name, self.link, self.pose, self.rate_hz, names.topic(self.topic),
-                       names.frame(self.frame_id), self.noise_mean, self.noise_stddev, self.gaussian_noise,
-                       self.rpy_offset)
+        return ImuSpec(
+            self.name,
+            self.link,
+            self.pose,
+            self.rate_hz,
+            names.topic(self.topic),
+            names.frame(self.frame_id),
+            self.noise_mean,
+            self.noise_stddev,
+            self.gaussian_noise,
+            self.rpy_offset,
+        )
 
 
 def _join(namespace: str, topic: str) -> str:
@@ -146,10 +188,12 @@ def add_imu_site(spec: mujoco.MjSpec, imu: ImuSpec, names: CarNames) -> None:
     if body is None:
         raise DescriptionError(f"IMU '{imu.name}': link {imu.link} is not in the model")
     site = names.mj(imu.site)
-    body.add_site(name=site, pos=list(imu.pose.xyz), quat=list(quat_from_rpy(imu.pose.rpy)), size=[0.005] * 3,
-                  group=4)
-    for kind, suffix in ((mujoco.mjtSensor.mjSENS_FRAMEQUAT, "quat"), (mujoco.mjtSensor.mjSENS_GYRO, "gyro"),
-                         (mujoco.mjtSensor.mjSENS_ACCELEROMETER, "accel")):
+    body.add_site(name=site, pos=list(imu.pose.xyz), quat=list(quat_from_rpy(imu.pose.rpy)), size=[0.005] * 3, group=4)
+    for kind, suffix in (
+        (mujoco.mjtSensor.mjSENS_FRAMEQUAT, "quat"),
+        (mujoco.mjtSensor.mjSENS_GYRO, "gyro"),
+        (mujoco.mjtSensor.mjSENS_ACCELEROMETER, "accel"),
+    ):
         spec.add_sensor(name=f"{site}/{suffix}", type=kind, objtype=mujoco.mjtObj.mjOBJ_SITE, objname=site)
 
 
@@ -164,7 +208,7 @@ class ImuPublisher(NodeBase):
         self._stddev = np.array(self.spec.noise_stddev)
         self._mean = np.array(self.spec.noise_mean)
         self._offset = quat_from_rpy(self.spec.rpy_offset)
-        variance = self.spec.gaussian_noise ** 2
+        variance = self.spec.gaussian_noise**2
         self._covariance = np.diag([variance] * 3).reshape(-1)
         self._covariance.flags.writeable = False
         self._site = names_site = ctx.names.mj(imu.site)
@@ -184,13 +228,20 @@ class ImuPublisher(NodeBase):
         """The IMU's reading now, stamped `stamp_ns` (with that stamp's noise)."""
         data = self.ctx.data.sensordata
         q, g, a = self._adr
-        quat = quat_mul(self._offset, data[q:q + 4])  # (w, x, y, z)
-        values = np.array([quat[1], quat[2], quat[3], quat[0], *data[g:g + 3], *data[a:a + 3]])
+        quat = quat_mul(self._offset, data[q : q + 4])  # (w, x, y, z)
+        values = np.array([quat[1], quat[2], quat[3], quat[0], *data[g : g + 3], *data[a : a + 3]])
         if self.noise:
             values += self._mean + self._stddev * self.noise_table.sample(self.seed, stamp_ns)
         cov = self._covariance
-        return Imu(Header.at(stamp_ns, self.spec.frame_id), Quaternion(*(float(v) for v in values[:4])), cov,
-                   Vector3(*(float(v) for v in values[4:7])), cov, Vector3(*(float(v) for v in values[7:])), cov)
+        return Imu(
+            Header.at(stamp_ns, self.spec.frame_id),
+            Quaternion(*(float(v) for v in values[:4])),
+            cov,
+            Vector3(*(float(v) for v in values[4:7])),
+            cov,
+            Vector3(*(float(v) for v in values[7:])),
+            cov,
+        )
 
     def reset(self, seed: int) -> None:
         self.seed = seed
@@ -214,6 +265,9 @@ def imu_from_plugin(ctx: NodeContext, plugin: Plugin) -> ImuPublisher:
 
 def prepare_imu(spec: mujoco.MjSpec, block: Sensor | Plugin, mount: Mount) -> None:
     """Before compiling: the site and MuJoCo sensors of a `<sensor type="imu">` block or a gazebo_ros_imu plugin."""
-    imu = ImuSpec.from_sensor(block, mount.names.model) if isinstance(block, Sensor) else \
-        ImuSpec.from_plugin(block, mount.robot)
+    imu = (
+        ImuSpec.from_sensor(block, mount.names.model)
+        if isinstance(block, Sensor)
+        else ImuSpec.from_plugin(block, mount.robot)
+    )
     add_imu_site(spec, imu, mount.names)

@@ -20,7 +20,7 @@ from racecar_sim.sensors.raycast.kernels import cast_level
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def published_scan(ranges, values, first, second, stddev, mean, noisy, range_min, range_max, out):  # noqa: ANN001, ANN201
+def published_scan(ranges, values, first, second, stddev, mean, noisy, range_min, range_max, out):
     """out (float32) = the published scan of the true `ranges` (float64), with the noise of the table windows
     values[first:] + values[second:] when `noisy`."""
     for b in range(ranges.shape[0]):
@@ -34,45 +34,123 @@ def published_scan(ranges, values, first, second, stddev, mean, noisy, range_min
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def published_scans(ranges, values, first, second, stddev, mean, noisy, range_min, range_max, out):  # noqa: ANN001, ANN201
+def published_scans(ranges, values, first, second, stddev, mean, noisy, range_min, range_max, out):
     """published_scan for every row i of `ranges` (N, beams), with the windows first[i], second[i]."""
     for i in range(ranges.shape[0]):
         published_scan(ranges[i], values, first[i], second[i], stddev, mean, noisy, range_min, range_max, out[i])
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def level_scan(qpos, adr, local_origin, local_axes, size, x0, y0, ids, starts, table, floors, max_tilt_cos,
-               angle_min, inverse_step, count, turn, range_min, range_max, dirs, values, first, second, stddev, mean,
-               noisy, ranges, out):  # noqa: ANN001, ANN201
+def level_scan(
+    qpos,
+    adr,
+    local_origin,
+    local_axes,
+    size,
+    x0,
+    y0,
+    ids,
+    starts,
+    table,
+    floors,
+    max_tilt_cos,
+    angle_min,
+    inverse_step,
+    count,
+    turn,
+    range_min,
+    range_max,
+    dirs,
+    values,
+    first,
+    second,
+    stddev,
+    mean,
+    noisy,
+    ranges,
+    out,
+):
     """A whole published scan in one call, for a laser on a free body (LaserMount) in a world of walls: the ray
     origin and axes from the body's pose in qpos (LaserMount.pose's operations, in its order), the origin's grid
     cell (FlatWalls), kernels.cast_level into `ranges`, published_scan into `out`. Returns False, `out` untouched,
     where that path cannot answer (a cell with more than walls, or cast_level's refusals)."""
     k, origin, axes = _laser_cell(qpos, adr, local_origin, local_axes, size, x0, y0, ids)
     ranges[:] = np.inf
-    if k < 0 or not cast_level(table[:, starts[k]:starts[k + 1]], floors, origin, axes, max_tilt_cos, angle_min,
-                               inverse_step, count, turn, range_min, range_max, dirs, ranges):
+    if k < 0 or not cast_level(
+        table[:, starts[k] : starts[k + 1]],
+        floors,
+        origin,
+        axes,
+        max_tilt_cos,
+        angle_min,
+        inverse_step,
+        count,
+        turn,
+        range_min,
+        range_max,
+        dirs,
+        ranges,
+    ):
         return False
     published_scan(ranges, values, first, second, stddev, mean, noisy, range_min, range_max, out)
     return True
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def dense_level_scan(qpos, adr, local_origin, local_axes, size, x0, y0, ids, starts, table, floors, max_tilt_cos,
-                     angle_min, inverse_step, count, turn, range_min, range_max, dirs, values, first, second, stddev,
-                     mean, noisy, ranges, out):  # noqa: ANN001, ANN201
+def dense_level_scan(
+    qpos,
+    adr,
+    local_origin,
+    local_axes,
+    size,
+    x0,
+    y0,
+    ids,
+    starts,
+    table,
+    floors,
+    max_tilt_cos,
+    angle_min,
+    inverse_step,
+    count,
+    turn,
+    range_min,
+    range_max,
+    dirs,
+    values,
+    first,
+    second,
+    stddev,
+    mean,
+    noisy,
+    ranges,
+    out,
+):
     """level_scan in a world of dense cells (a map; FlatWalls.dense): raycast.dense's cast on its tables."""
     k, origin, axes = _laser_cell(qpos, adr, local_origin, local_axes, size, x0, y0, ids)
     ranges[:] = np.inf
-    if k < 0 or not dense.cast_level(table[:, starts[k]:starts[k + 1]], floors, origin, axes, max_tilt_cos,
-                                     angle_min, inverse_step, count, turn, range_min, range_max, dirs, ranges):
+    if k < 0 or not dense.cast_level(
+        table[:, starts[k] : starts[k + 1]],
+        floors,
+        origin,
+        axes,
+        max_tilt_cos,
+        angle_min,
+        inverse_step,
+        count,
+        turn,
+        range_min,
+        range_max,
+        dirs,
+        ranges,
+    ):
         return False
     published_scan(ranges, values, first, second, stddev, mean, noisy, range_min, range_max, out)
     return True
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _laser_cell(qpos, adr, local_origin, local_axes, size, x0, y0, ids):  # noqa: ANN001, ANN202
+def _laser_cell(qpos, adr, local_origin, local_axes, size, x0, y0, ids):
     """(cell number, ray origin, sensor axes) of the laser on the free body at qpos[adr:]; cell -1 where FlatWalls
     has no walls-only cell."""
     px, py, pz = qpos[adr], qpos[adr + 1], qpos[adr + 2]

@@ -43,7 +43,7 @@ class LaserMount:
     def pose(self, qpos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Ray origin (3,) and sensor axes (3, 3; world from sensor) at `qpos`."""
         a = self.qpos_adr
-        px, py, pz, w, x, y, z = qpos[a:a + 7].tolist()
+        px, py, pz, w, x, y, z = qpos[a : a + 7].tolist()
         r = _rotation(w, x, y, z)
         lo = self._origin
         origin = [r[i][0] * lo[0] + r[i][1] * lo[1] + r[i][2] * lo[2] for i in range(3)]
@@ -53,17 +53,24 @@ class LaserMount:
     def poses(self, qpos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """pose() for every row of `qpos` (N, nq): origins (N, 3) and axes (N, 3, 3)."""
         a = self.qpos_adr
-        root = qpos[:, a:a + 7]
+        root = qpos[:, a : a + 7]
         r = _rotation(*root[:, 3:].T)
         lo, la = self.local_origin, self.local_axes
         origin = np.stack([root[:, i] + (r[i][0] * lo[0] + r[i][1] * lo[1] + r[i][2] * lo[2]) for i in range(3)], -1)
-        axes = np.stack([np.stack([r[i][0] * la[0, j] + r[i][1] * la[1, j] + r[i][2] * la[2, j] for j in range(3)], -1)
-                         for i in range(3)], 1)
+        axes = np.stack(
+            [
+                np.stack([r[i][0] * la[0, j] + r[i][1] * la[1, j] + r[i][2] * la[2, j] for j in range(3)], -1)
+                for i in range(3)
+            ],
+            1,
+        )
         return origin, axes
 
 
 def _rotation(w, x, y, z):  # type: ignore[no-untyped-def]
     """The rotation matrix (rows of entries) of a unit quaternion: floats, or arrays for many."""
-    return [[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]]
+    return [
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+    ]

@@ -12,8 +12,8 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 
 from racecar_sim.core.errors import DescriptionError
-from racecar_sim.sensors.sensor_xml import sensor_number
 from racecar_sim.description.urdf import Origin, Sensor
+from racecar_sim.sensors.sensor_xml import sensor_number
 
 NOISE_TYPES = ("gaussian", "none")
 
@@ -66,10 +66,20 @@ class LaserSpec:
         if vertical is not None and sensor_number(vertical, "samples", where, default=1.0, integer=True) != 1:
             raise DescriptionError(f"{where}: <vertical><samples> must be 1, this is a planar laser")
         span = _child(ray, "range", where)
-        spec = cls(sensor.name, sensor.link, sensor.pose, _update_rate(el, where), int(samples),
-                   sensor_number(horizontal, "min_angle", where), sensor_number(horizontal, "max_angle", where),
-                   sensor_number(span, "min", where), sensor_number(span, "max", where),
-                   sensor_number(span, "resolution", where, default=0.0), *_noise(ray, where), *_plugin(el, sensor))
+        spec = cls(
+            sensor.name,
+            sensor.link,
+            sensor.pose,
+            _update_rate(el, where),
+            int(samples),
+            sensor_number(horizontal, "min_angle", where),
+            sensor_number(horizontal, "max_angle", where),
+            sensor_number(span, "min", where),
+            sensor_number(span, "max", where),
+            sensor_number(span, "resolution", where, default=0.0),
+            *_noise(ray, where),
+            *_plugin(el, sensor),
+        )
         spec._check(where)
         return spec
 
@@ -81,8 +91,9 @@ class LaserSpec:
         if self.max_angle - self.min_angle > 2 * math.pi + 1e-9:
             raise DescriptionError(f"{where}: <min_angle>..<max_angle> spans more than a full turn")
         if not 0 <= self.range_min < self.range_max:
-            raise DescriptionError(f"{where}: <range> needs 0 <= <min> < <max>, got <min> {self.range_min:g}, "
-                                   f"<max> {self.range_max:g}")
+            raise DescriptionError(
+                f"{where}: <range> needs 0 <= <min> < <max>, got <min> {self.range_min:g}, <max> {self.range_max:g}"
+            )
         if self.noise_stddev < 0:
             raise DescriptionError(f"{where}: <noise><stddev> must not be negative, got {self.noise_stddev:g}")
         if not self.update_rate > 0:

@@ -18,8 +18,8 @@ from racecar_sim.core.names import CarNames
 from racecar_sim.core.rng import NoiseTable
 from racecar_sim.core.transforms import quat_from_rpy, quat_to_matrix
 from racecar_sim.description.urdf import Robot, Sensor
-from racecar_sim.nodes import NodeBase, NodeContext
 from racecar_sim.msgs import Header, LaserScan
+from racecar_sim.nodes import NodeBase, NodeContext
 from racecar_sim.physics import COLLISION_GROUP
 from racecar_sim.sensors.laser_mount import LaserMount
 from racecar_sim.sensors.laser_spec import LaserSpec
@@ -34,15 +34,16 @@ def laser_spec(robot: Robot, names: CarNames = CarNames()) -> LaserSpec:
     has none."""
     sensor = robot.sensor("ray") or robot.sensor("gpu_ray")
     if sensor is None:
-        raise DescriptionError(f"robot {robot.name} has no <sensor type=\"ray\"> (is DISABLE_GAZEBO_LASER set?)")
+        raise DescriptionError(f'robot {robot.name} has no <sensor type="ray"> (is DISABLE_GAZEBO_LASER set?)')
     return named_laser_spec(sensor, names)
 
 
 def named_laser_spec(sensor: Sensor, names: CarNames = CarNames()) -> LaserSpec:
     """A ray sensor block, parsed, with the car's names (link, topic, frame)."""
     spec = LaserSpec.from_sensor(sensor)
-    return dataclasses.replace(spec, link=names.mj(spec.link), topic=names.topic(spec.topic),
-                               frame_id=names.frame(spec.frame_id))
+    return dataclasses.replace(
+        spec, link=names.mj(spec.link), topic=names.topic(spec.topic), frame_id=names.frame(spec.frame_id)
+    )
 
 
 class LidarPublisher(NodeBase):
@@ -76,8 +77,9 @@ class LidarPublisher(NodeBase):
         self._pose = mujoco.MjData(model)
         self.mount = LaserMount.of(model, self._site, self._offset, self._turn)
         self.fan = Fan(spec.min_angle, spec.angle_increment, spec.samples, spec.range_min, spec.range_max)
-        self.caster = RayCaster(model, self._pose, self.fan, model.body(self._root).id, COLLISION_GROUP,
-                                pose_bodies=self._pose_bodies)
+        self.caster = RayCaster(
+            model, self._pose, self.fan, model.body(self._root).id, COLLISION_GROUP, pose_bodies=self._pose_bodies
+        )
         self.scans_cast = 0
         self._task = ctx.timers.every(spec.update_rate, self._tick, "hokuyo")
 
@@ -100,9 +102,21 @@ class LidarPublisher(NodeBase):
         if not self.bus.has_listeners(self.topic):
             return
         spec = self.spec
-        self.bus.publish(self.topic, LaserScan(Header.at(now_ns, spec.frame_id), spec.min_angle, spec.max_angle,
-                                               spec.angle_increment, 0.0, 0.0, spec.range_min, spec.range_max,
-                                               self.scan(now_ns), self._no_intensities))
+        self.bus.publish(
+            self.topic,
+            LaserScan(
+                Header.at(now_ns, spec.frame_id),
+                spec.min_angle,
+                spec.max_angle,
+                spec.angle_increment,
+                0.0,
+                0.0,
+                spec.range_min,
+                spec.range_max,
+                self.scan(now_ns),
+                self._no_intensities,
+            ),
+        )
 
     def ray_origin(self) -> tuple[np.ndarray, np.ndarray]:
         """World position of the ray origin and the sensor's axes (world from sensor, 3x3) at the current
@@ -139,11 +153,35 @@ class LidarPublisher(NodeBase):
             first, second = self.noise_table.offsets(self.seed, stamp_ns)
             out = np.empty(fan.count, np.float32)
             scan = dense_level_scan if walls.dense else level_scan  # a map's dense cells: hidden walls dropped
-            if scan(self.data.qpos, mount.qpos_adr, mount.local_origin, mount.local_axes, walls.size, walls.x0,
-                    walls.y0, walls.ids, walls.starts, walls.table, walls.floors, MAX_TILT_COS, fan.angle_min,
-                    fan.inverse_step, fan.count, fan.turn, fan.range_min, fan.range_max, fan.directions,
-                    self.noise_table.values, first, second, spec.noise_stddev, spec.noise_mean, self.noise,
-                    self._ranges, out):
+            if scan(
+                self.data.qpos,
+                mount.qpos_adr,
+                mount.local_origin,
+                mount.local_axes,
+                walls.size,
+                walls.x0,
+                walls.y0,
+                walls.ids,
+                walls.starts,
+                walls.table,
+                walls.floors,
+                MAX_TILT_COS,
+                fan.angle_min,
+                fan.inverse_step,
+                fan.count,
+                fan.turn,
+                fan.range_min,
+                fan.range_max,
+                fan.directions,
+                self.noise_table.values,
+                first,
+                second,
+                spec.noise_stddev,
+                spec.noise_mean,
+                self.noise,
+                self._ranges,
+                out,
+            ):
                 self.scans_cast += 1
                 self.caster.last_3d_beams = 0
                 return out
@@ -153,8 +191,18 @@ class LidarPublisher(NodeBase):
 
             first, second = self.noise_table.offsets(self.seed, stamp_ns)
             out = np.empty(len(ranges), np.float32)
-            published_scan(ranges, self.noise_table.values, first, second, spec.noise_stddev, spec.noise_mean,
-                           self.noise, spec.range_min, spec.range_max, out)
+            published_scan(
+                ranges,
+                self.noise_table.values,
+                first,
+                second,
+                spec.noise_stddev,
+                spec.noise_mean,
+                self.noise,
+                spec.range_min,
+                spec.range_max,
+                out,
+            )
             return out
         hit = np.isfinite(ranges)
         if self.noise:
@@ -170,8 +218,18 @@ class LidarPublisher(NodeBase):
         first, second = self.noise_table.offsets(seeds.astype(np.uint64), stamps_ns.astype(np.uint64))
         out = np.empty(ranges.shape, np.float32)
         spec = self.spec
-        published_scans(ranges, self.noise_table.values, first.astype(np.intp), second.astype(np.intp),
-                        spec.noise_stddev, spec.noise_mean, self.noise, spec.range_min, spec.range_max, out)
+        published_scans(
+            ranges,
+            self.noise_table.values,
+            first.astype(np.intp),
+            second.astype(np.intp),
+            spec.noise_stddev,
+            spec.noise_mean,
+            self.noise,
+            spec.range_min,
+            spec.range_max,
+            out,
+        )
         return out
 
     def scan_noise(self, unit: np.ndarray) -> np.ndarray:

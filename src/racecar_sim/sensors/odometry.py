@@ -16,10 +16,22 @@ import numpy as np
 from racecar_sim.bus import Bus
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import ODOM, ODOM_RELAY, TF, CarNames
-from racecar_sim.msgs import (Header, Odometry, Point, Pose, PoseWithCovariance, Quaternion, TFMessage, Transform,
-                              TransformStamped, Twist, TwistWithCovariance, Vector3)
-from racecar_sim.physics.state import CarState
+from racecar_sim.msgs import (
+    Header,
+    Odometry,
+    Point,
+    Pose,
+    PoseWithCovariance,
+    Quaternion,
+    TFMessage,
+    Transform,
+    TransformStamped,
+    Twist,
+    TwistWithCovariance,
+    Vector3,
+)
 from racecar_sim.nodes import NodeBase, Timers
+from racecar_sim.physics.state import CarState
 
 FRAMES = {"original": ("map", "odom"), "ros": ("odom", "base_link")}
 
@@ -27,8 +39,17 @@ FRAMES = {"original": ("map", "odom"), "ros": ("odom", "base_link")}
 class OdometryPublisher(NodeBase):
     """The odometry node; `rate` 20 Hz as the original timer."""
 
-    def __init__(self, bus: Bus, scheduler: Timers, state: CarState, mode: str = "original", rate: float = 20.0,
-                 topic: str = ODOM, relay_topic: str | None = ODOM_RELAY, names: CarNames = CarNames()) -> None:
+    def __init__(
+        self,
+        bus: Bus,
+        scheduler: Timers,
+        state: CarState,
+        mode: str = "original",
+        rate: float = 20.0,
+        topic: str = ODOM,
+        relay_topic: str | None = ODOM_RELAY,
+        names: CarNames = CarNames(),
+    ) -> None:
         if mode not in FRAMES:
             raise ConfigError(f"odometry mode {mode!r} is not one of {', '.join(FRAMES)}")
         self.bus, self.state, self.mode, self.topic = bus, state, mode, names.topic(topic)
@@ -43,7 +64,8 @@ class OdometryPublisher(NodeBase):
         # Python floats, as the messages hold them
         px, py, pz, w, x, y, z, vx, vy, vz, wx, wy, wz = self.state.base_odometry(local=self._local)
         msg = Odometry(
-            Header.at(now_ns, self.frame), self.child,
+            Header.at(now_ns, self.frame),
+            self.child,
             PoseWithCovariance(Pose(Point(px, py, pz), Quaternion(x, y, z, w)), np.zeros(36)),
             TwistWithCovariance(Twist(Vector3(vx, vy, vz), Vector3(wx, wy, wz)), np.zeros(36)),
         )
@@ -52,5 +74,15 @@ class OdometryPublisher(NodeBase):
         if not bus.has_listeners(TF):  # nobody would receive it: counted, not built
             bus.tally(TF, TFMessage)
             return
-        bus.publish(TF, TFMessage([TransformStamped(Header.at(now_ns, self.frame), self.child,
-                                                    Transform(Vector3(px, py, pz), Quaternion(x, y, z, w)))]))
+        bus.publish(
+            TF,
+            TFMessage(
+                [
+                    TransformStamped(
+                        Header.at(now_ns, self.frame),
+                        self.child,
+                        Transform(Vector3(px, py, pz), Quaternion(x, y, z, w)),
+                    )
+                ]
+            ),
+        )

@@ -19,8 +19,9 @@ from racecar_sim.nodes import NodeBase
 def transform_msg(stamp_ns: int, parent: str, child: str, pos: np.ndarray, quat_wxyz: np.ndarray) -> TransformStamped:
     """A TransformStamped (ROS quaternion order x, y, z, w)."""
     w, x, y, z = (float(v) for v in quat_wxyz)
-    return TransformStamped(Header.at(stamp_ns, parent), child,
-                            Transform(Vector3(*(float(v) for v in pos)), Quaternion(x, y, z, w)))
+    return TransformStamped(
+        Header.at(stamp_ns, parent), child, Transform(Vector3(*(float(v) for v in pos)), Quaternion(x, y, z, w))
+    )
 
 
 class StaticTransforms:
@@ -40,21 +41,40 @@ class StaticTransforms:
 class RobotStatePublisher(NodeBase):
     """Publishes the URDF tree as TF (frames with the car's tf_prefix), from the joint states on `joint_states_topic`."""
 
-    def __init__(self, bus: Bus, robot: Robot, joint_states_topic: str = "/racecar/joint_states",
-                 names: CarNames = CarNames(), static: StaticTransforms | None = None) -> None:
+    def __init__(
+        self,
+        bus: Bus,
+        robot: Robot,
+        joint_states_topic: str = "/racecar/joint_states",
+        names: CarNames = CarNames(),
+        static: StaticTransforms | None = None,
+    ) -> None:
         self.bus = bus
         frame = names.frame
         # Revolute/continuous joints turn about the child origin: the translation is the joint origin's,
         # the rotation is origin * axis-angle. Precomputed here, because /tf goes out at 50 Hz.
-        self.moving = {j.name: (frame(j.parent), frame(j.child), np.array(j.origin.xyz), quat_from_rpy(j.origin.rpy),
-                                np.array(j.axis) / np.linalg.norm(j.axis))
-                       for j in robot.joints.values() if j.type in ("revolute", "continuous")}
+        self.moving = {
+            j.name: (
+                frame(j.parent),
+                frame(j.child),
+                np.array(j.origin.xyz),
+                quat_from_rpy(j.origin.rpy),
+                np.array(j.axis) / np.linalg.norm(j.axis),
+            )
+            for j in robot.joints.values()
+            if j.type in ("revolute", "continuous")
+        }
         self.sliding = {j.name: j for j in robot.joints.values() if j.type == "prismatic"}
-        self._moving = {name: (parent, child, tuple(pos.tolist()), tuple(quat.tolist()), tuple(axis.tolist()))
-                        for name, (parent, child, pos, quat, axis) in self.moving.items()}
+        self._moving = {
+            name: (parent, child, tuple(pos.tolist()), tuple(quat.tolist()), tuple(axis.tolist()))
+            for name, (parent, child, pos, quat, axis) in self.moving.items()
+        }
         self.frame = frame
-        fixed = [transform_msg(0, frame(j.parent), frame(j.child), *joint_transform(j))
-                 for j in robot.joints.values() if not j.moves]
+        fixed = [
+            transform_msg(0, frame(j.parent), frame(j.child), *joint_transform(j))
+            for j in robot.joints.values()
+            if not j.moves
+        ]
         (static or StaticTransforms(bus)).add(fixed)
         bus.subscribe(joint_states_topic, self._on_joint_states, feeds={TF: TFMessage})
 
@@ -74,14 +94,31 @@ class RobotStatePublisher(NodeBase):
                 half = 0.5 * position
                 s = math.sin(half)
                 bw, bx, by, bz = math.cos(half), ux * s, uy * s, uz * s
-                transforms.append(TransformStamped(Header(Time(sec, nanosec), parent), child, Transform(
-                    Vector3(px, py, pz),
-                    Quaternion(aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
-                               aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz))))
+                transforms.append(
+                    TransformStamped(
+                        Header(Time(sec, nanosec), parent),
+                        child,
+                        Transform(
+                            Vector3(px, py, pz),
+                            Quaternion(
+                                aw * bx + ax * bw + ay * bz - az * by,
+                                aw * by - ax * bz + ay * bw + az * bx,
+                                aw * bz + ax * by - ay * bx + az * bw,
+                                aw * bw - ax * bx - ay * by - az * bz,
+                            ),
+                        ),
+                    )
+                )
             elif name in self.sliding:
                 joint = self.sliding[name]
-                transforms.append(transform_msg(msg.header.stamp.to_ns(), self.frame(joint.parent),
-                                                self.frame(joint.child), *joint_transform(joint, float(position))))
+                transforms.append(
+                    transform_msg(
+                        msg.header.stamp.to_ns(),
+                        self.frame(joint.parent),
+                        self.frame(joint.child),
+                        *joint_transform(joint, float(position)),
+                    )
+                )
         self.bus.publish(TF, TFMessage(transforms))
 
 

@@ -8,8 +8,7 @@ import xml.etree.ElementTree as ET
 from racecar_sim.core.errors import DescriptionError
 
 
-def sensor_number(el: ET.Element, path: str, where: str, default: float | None = None,
-                  integer: bool = False) -> float:
+def sensor_number(el: ET.Element, path: str, where: str, default: float | None = None, integer: bool = False) -> float:
     """The finite number at `path` under `el` (a whole one if `integer`); `default` when absent, else an error."""
     text = el.findtext(path)
     if text is None or not text.strip():

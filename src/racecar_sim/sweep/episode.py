@@ -32,19 +32,36 @@ def run_episode(episode: Episode, folder: str | Path) -> dict[str, Any]:
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     settings = episode.settings
-    row: dict[str, Any] = {"index": episode.index, "world": episode.world_label, "driver": episode.driver,
-                           "seed": episode.seed, "params": dict(episode.params), "duration": settings.duration}
+    row: dict[str, Any] = {
+        "index": episode.index,
+        "world": episode.world_label,
+        "driver": episode.driver,
+        "seed": episode.seed,
+        "params": dict(episode.params),
+        "duration": settings.duration,
+    }
     start = time.perf_counter()
     sim = runlog = contacts = None
     error = ""
     try:
-        sim = Simulator(world=episode.world, profile=settings.profile, seed=episode.seed, physics=settings.physics,
-                        lidar=settings.lidar, camera=settings.camera, sensor_noise=settings.noise)
+        sim = Simulator(
+            world=episode.world,
+            profile=settings.profile,
+            seed=episode.seed,
+            physics=settings.physics,
+            lidar=settings.lidar,
+            camera=settings.camera,
+            sensor_noise=settings.noise,
+        )
         attach_driver(sim, sim.car, episode.driver, episode.params)
         if settings.record:
             sim.record(folder / MCAP)
-        runlog = RunLog(sim.bus, sim.car.lidar.topic if sim.car.lidar else None,
-                        sim.car.camera.spec.image_topic if sim.car.camera and settings.summary_png else None, odom_topic=ODOM)
+        runlog = RunLog(
+            sim.bus,
+            sim.car.lidar.topic if sim.car.lidar else None,
+            sim.car.camera.spec.image_topic if sim.car.camera and settings.summary_png else None,
+            odom_topic=ODOM,
+        )
         contacts = CrashCounter(sim.model, sim.car)
         sim.scheduler.every(CHECK_RATE, lambda now: contacts.update(sim.data, now), "sweep crash count")
         start = time.perf_counter()  # the episode's own time: building the world is not the sim's speed
@@ -52,7 +69,7 @@ def run_episode(episode: Episode, folder: str | Path) -> dict[str, Any]:
     except RacecarSimError as exc:
         error = f"{type(exc).__name__}: {' '.join(str(exc).split())}"
     # a bug in one episode must not lose the sweep's other results
-    except Exception as exc:  # noqa: BLE001
+    except Exception as exc:
         where = traceback.extract_tb(exc.__traceback__)[-1]
         error = f"{type(exc).__name__}: {' '.join(str(exc).split())} ({where.filename}:{where.lineno})"
     finally:
@@ -67,8 +84,9 @@ def run_episode(episode: Episode, folder: str | Path) -> dict[str, Any]:
     return row
 
 
-def _measures(sim: Simulator | None, runlog: RunLog | None, contacts: CrashCounter | None,
-              wall: float) -> dict[str, Any]:
+def _measures(
+    sim: Simulator | None, runlog: RunLog | None, contacts: CrashCounter | None, wall: float
+) -> dict[str, Any]:
     sim_time = sim.time if sim is not None else 0.0
     x = y = yaw = math.nan
     if runlog is not None and runlog.last_pose is not None:
@@ -83,7 +101,9 @@ def _measures(sim: Simulator | None, runlog: RunLog | None, contacts: CrashCount
         "min_clearance": clearance,
         "collisions": contacts.count if contacts is not None else 0,
         "first_collision_time": contacts.first_ns / 1e9 if contacts is not None and contacts.first_ns else math.nan,
-        "final_x": x, "final_y": y, "final_yaw": yaw,
+        "final_x": x,
+        "final_y": y,
+        "final_yaw": yaw,
     }
 
 
@@ -94,14 +114,25 @@ def _summary_png(episode: Episode, sim: Simulator, runlog: RunLog, row: dict[str
     if sim.car.lidar is not None and runlog.last_scan is not None:
         origin, ends = sim.car.lidar.beam_ends(runlog.last_scan.ranges)
     params = ", ".join(f"{k} {v}" for k, v in episode.params.items())
-    lines = [f"distance         {row['distance']:.1f} m", f"mean speed       {row['mean_speed']:.2f} m/s",
-             f"collisions       {row['collisions']}", f"real-time factor {row['real_time_factor']:.1f}x"]
+    lines = [
+        f"distance         {row['distance']:.1f} m",
+        f"mean speed       {row['mean_speed']:.2f} m/s",
+        f"collisions       {row['collisions']}",
+        f"real-time factor {row['real_time_factor']:.1f}x",
+    ]
     if not math.isnan(row["min_clearance"]):
         lines.append(f"min clearance    {row['min_clearance']:.2f} m (lidar)")
-    save_summary(path, sim.world, runlog.trajectory, scan_origin=None if origin is None else origin[:2],
-                 scan_points=None if ends is None else ends[:, :2], camera_bgr=runlog.last_frame(),
-                 title=f"{sim.world.name}: {episode.driver} ({params or 'defaults'}), {sim.time:.0f} s sim, "
-                       f"seed {episode.seed}", lines=lines, rate=runlog.trajectory_rate)
+    save_summary(
+        path,
+        sim.world,
+        runlog.trajectory,
+        scan_origin=None if origin is None else origin[:2],
+        scan_points=None if ends is None else ends[:, :2],
+        camera_bgr=runlog.last_frame(),
+        title=f"{sim.world.name}: {episode.driver} ({params or 'defaults'}), {sim.time:.0f} s sim, seed {episode.seed}",
+        lines=lines,
+        rate=runlog.trajectory_rate,
+    )
 
 
 def _json_safe(value: Any) -> Any:

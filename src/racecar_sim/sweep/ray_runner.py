@@ -36,8 +36,9 @@ def episode_with_files(episode: Episode) -> tuple[dict[str, Any], dict[str, byte
     return row, files
 
 
-def run_on_ray(episodes: Iterable[Episode], runs: Path, address: str | None = None,
-               num_cpus: int | None = None) -> Iterator[dict[str, Any]]:
+def run_on_ray(
+    episodes: Iterable[Episode], runs: Path, address: str | None = None, num_cpus: int | None = None
+) -> Iterator[dict[str, Any]]:
     """Run the episodes as Ray tasks (one CPU each) and yield their rows as they complete, each episode's files
     written to `runs`/<episode.folder_name>/ first.
 
@@ -53,8 +54,9 @@ def run_on_ray(episodes: Iterable[Episode], runs: Path, address: str | None = No
     if started:
         if address is not None and address != "local" and num_cpus is not None:
             raise ConfigError("--num-cpus sizes a local Ray: a cluster joined with --address has its own CPUs")
-        ray.init(address=address, num_cpus=num_cpus, include_dashboard=False, log_to_driver=False,
-                 configure_logging=False)
+        ray.init(
+            address=address, num_cpus=num_cpus, include_dashboard=False, log_to_driver=False, configure_logging=False
+        )
     try:
         task = ray.remote(num_cpus=1, max_retries=0)(episode_with_files)
         # a window of tasks in flight, the next episode made as one completes (the grid is never made whole)

@@ -30,8 +30,15 @@ class SweepResult:
         return [row for row in self.rows if row.get("error")]
 
 
-def run_sweep(spec: SweepSpec, out: str | Path, *, local: bool = False, address: str | None = None,
-              num_cpus: int | None = None, on_row: Callable[[dict[str, Any]], None] | None = None) -> SweepResult:
+def run_sweep(
+    spec: SweepSpec,
+    out: str | Path,
+    *,
+    local: bool = False,
+    address: str | None = None,
+    num_cpus: int | None = None,
+    on_row: Callable[[dict[str, Any]], None] | None = None,
+) -> SweepResult:
     """Run every episode of `spec` into `out`: on Ray (ray_runner.run_on_ray: `address`, `num_cpus`), or with
     `local` sequentially in this process. `on_row(row)` is called as each episode completes (in completion order);
     the table is written once all have."""

@@ -44,8 +44,19 @@ from racecar_sim.physics import preset_names
 from racecar_sim.runtime.driving import CONSTANT_DEFAULTS, driver_parameters, track_file
 from racecar_sim.worlds.catalog import world_names
 
-FIELDS = {"duration", "worlds", "seeds", "drivers", "camera", "lidar", "noise", "physics", "profile", "record",
-          "summary_png"}
+FIELDS = {
+    "duration",
+    "worlds",
+    "seeds",
+    "drivers",
+    "camera",
+    "lidar",
+    "noise",
+    "physics",
+    "profile",
+    "record",
+    "summary_png",
+}
 DEFAULT_DURATION = 30.0  # s of sim time per episode
 # The most episodes one sweep runs: each leaves a folder of files (a run.mcap of ~8 MB a minute without the camera)
 # and a row the table holds until the end, and is a Ray task; the grid's size is counted before anything is built.
@@ -126,10 +137,17 @@ class SweepSpec:
 
     def iter_episodes(self) -> Iterator[Episode]:
         """Every world x driver x parameter combination x seed, numbered from 0, made one at a time."""
-        cells = ((world, grid.driver, params, seed) for world in self.worlds for grid in self.drivers
-                 for params in grid.combinations() for seed in self.seeds)
-        return (Episode(i, world, driver, params, seed, self.settings)
-                for i, (world, driver, params, seed) in enumerate(cells))
+        cells = (
+            (world, grid.driver, params, seed)
+            for world in self.worlds
+            for grid in self.drivers
+            for params in grid.combinations()
+            for seed in self.seeds
+        )
+        return (
+            Episode(i, world, driver, params, seed, self.settings)
+            for i, (world, driver, params, seed) in enumerate(cells)
+        )
 
     def episodes(self) -> list[Episode]:
         """Every episode, as a list (iter_episodes makes them one at a time)."""
@@ -165,8 +183,16 @@ def load_sweep(path: str | Path) -> SweepSpec:
     duration = finite_number(data.get("duration", DEFAULT_DURATION), where("duration"))
     if duration <= 0:
         raise ConfigError(f"{where('duration')}: must be positive seconds of sim time, got {duration:g}")
-    flags = {name: _flag(data, name, default, where(name)) for name, default in (
-        ("camera", False), ("lidar", True), ("noise", True), ("record", True), ("summary_png", False))}
+    flags = {
+        name: _flag(data, name, default, where(name))
+        for name, default in (
+            ("camera", False),
+            ("lidar", True),
+            ("noise", True),
+            ("record", True),
+            ("summary_png", False),
+        )
+    }
     physics = _choice(data.get("physics", "default"), preset_names(), where("physics"))
     profile = _choice(data.get("profile", "seed"), profile_names(), where("profile"))
     worlds = _worlds(data["worlds"], path)
@@ -177,10 +203,13 @@ def load_sweep(path: str | Path) -> SweepSpec:
     pathless = [w for w in worlds if track_file(w) is None]
     for k, grid in enumerate(drivers):
         if grid.driver == "pure-pursuit" and "path" not in grid.params and pathless:
-            raise ConfigError(f"{path}: drivers[{k}].params.path: pure-pursuit needs a path (a waypoint CSV) on "
-                              f"{pathless[0]!r}, which is not a track .csv")
-    return SweepSpec(str(path), worlds, seeds, drivers,
-                     RunSettings(duration, physics=physics, profile=profile, **flags))
+            raise ConfigError(
+                f"{path}: drivers[{k}].params.path: pure-pursuit needs a path (a waypoint CSV) on "
+                f"{pathless[0]!r}, which is not a track .csv"
+            )
+    return SweepSpec(
+        str(path), worlds, seeds, drivers, RunSettings(duration, physics=physics, profile=profile, **flags)
+    )
 
 
 def _flag(data: dict, name: str, default: bool, where: str) -> bool:
@@ -211,8 +240,10 @@ def _worlds(value: object, path: Path) -> list[str]:
         if world not in world_names():
             file = path.parent / world
             if not file.is_file():
-                raise ConfigError(f"{path}: worlds: {world!r} is neither a built-in world ({', '.join(world_names())}) "
-                                  f"nor a file in {path.parent}")
+                raise ConfigError(
+                    f"{path}: worlds: {world!r} is neither a built-in world ({', '.join(world_names())}) "
+                    f"nor a file in {path.parent}"
+                )
             world = str(file)
         worlds.append(world)
     return worlds
@@ -265,9 +296,11 @@ def _drivers(value: object, path: Path, per_cell: int) -> list[DriverGrid]:
         total += checked.size
         if total * per_cell > MAX_EPISODES:
             sizes = " + ".join(f"{g.size}" for g in [*grids, checked])
-            raise ConfigError(f"{where}.params: the grid is {total * per_cell} episodes (worlds x seeds "
-                              f"{per_cell} x driver combinations {sizes}{' + ...' if k + 1 < len(entries) else ''}), "
-                              f"more than the {MAX_EPISODES} a sweep runs: sweep fewer values")
+            raise ConfigError(
+                f"{where}.params: the grid is {total * per_cell} episodes (worlds x seeds "
+                f"{per_cell} x driver combinations {sizes}{' + ...' if k + 1 < len(entries) else ''}), "
+                f"more than the {MAX_EPISODES} a sweep runs: sweep fewer values"
+            )
         for combination in checked.combinations():
             _check_values(driver, combination, where)
         grids.append(checked)

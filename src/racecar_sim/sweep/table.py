@@ -14,8 +14,22 @@ CSV = "results.csv"
 PARQUET = "results.parquet"
 PARAM_PREFIX = "param_"  # one column per driver parameter: param_distance, param_speed, ...
 LEADING = ["index", "world", "driver", "seed"]
-MEASURES = ["duration", "sim_time", "wall_time", "real_time_factor", "distance", "mean_speed", "min_clearance",
-            "collisions", "first_collision_time", "final_x", "final_y", "final_yaw", "folder", "error"]
+MEASURES = [
+    "duration",
+    "sim_time",
+    "wall_time",
+    "real_time_factor",
+    "distance",
+    "mean_speed",
+    "min_clearance",
+    "collisions",
+    "first_collision_time",
+    "final_x",
+    "final_y",
+    "final_yaw",
+    "folder",
+    "error",
+]
 
 
 def table_columns(rows: Sequence[dict[str, Any]], param_names: Sequence[str]) -> dict[str, list[Any]]:

@@ -97,8 +97,9 @@ class CarViewer:
             self._aim(self.handle.cam)
             scene = self.handle.user_scn
             for i in range(min(MAX_BEAMS, scene.maxgeom)):
-                mujoco.mjv_initGeom(scene.geoms[i], mujoco.mjtGeom.mjGEOM_LINE, np.zeros(3), np.zeros(3),
-                                    np.eye(3).ravel(), BEAM_RGBA)
+                mujoco.mjv_initGeom(
+                    scene.geoms[i], mujoco.mjtGeom.mjGEOM_LINE, np.zeros(3), np.zeros(3), np.eye(3).ravel(), BEAM_RGBA
+                )
             scene.ngeom = 0
 
     def _aim(self, cam: Any) -> None:
@@ -161,7 +162,7 @@ class CarViewer:
             return
         origin = np.asarray(beams[0], np.float64)
         ends = np.asarray(beams[1], np.float64)
-        ends = ends[::max(1, math.ceil(len(ends) / MAX_BEAMS))]
+        ends = ends[:: max(1, math.ceil(len(ends) / MAX_BEAMS))]
         n = min(len(ends), MAX_BEAMS, scene.maxgeom)
         for i in range(n):
             mujoco.mjv_connector(scene.geoms[i], mujoco.mjtGeom.mjGEOM_LINE, BEAM_WIDTH, origin, ends[i])
@@ -200,7 +201,7 @@ class CarViewer:
                 return False
             try:
                 return glfw.get_key(self._window, code) == glfw.PRESS
-            except Exception:  # noqa: BLE001 - a GLFW error only ends the repeat
+            except Exception:
                 return False
 
     def is_running(self) -> bool:
@@ -221,13 +222,13 @@ class CarViewer:
 def _display_problem() -> str | None:
     """Why there is surely no display to open a window on, or None."""
     if sys.platform.startswith(("linux", "freebsd", "openbsd", "netbsd")) and not (
-            os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
+    ):
         return "no display (DISPLAY is not set)"
     return None
 
 
-def _launch(model: mujoco.MjModel, data: mujoco.MjData,
-            on_key: Any) -> tuple[Any, threading.Thread | None, str | None]:
+def _launch(model: mujoco.MjModel, data: mujoco.MjData, on_key: Any) -> tuple[Any, threading.Thread | None, str | None]:
     """(mujoco.viewer.Handle, the viewer's thread, None), or (None, None, why not).
 
     The known failures (no X server, no GLX) are found first by _glfw_problem(): in MuJoCo's viewer thread
@@ -238,7 +239,7 @@ def _launch(model: mujoco.MjModel, data: mujoco.MjData,
     try:
         import glfw
         import mujoco.viewer
-    except Exception as exc:  # noqa: BLE001 - ImportError, or RuntimeError when libglfw is missing
+    except Exception as exc:
         return None, None, f"the MuJoCo viewer cannot load ({_one_line(exc)})"
     # on a thread of its own: probed on the main thread, where the camera's EGL context is current, the probe
     # window made the viewer's glXMakeCurrent fail later (X error BadAccess, which ends the process)
@@ -256,9 +257,10 @@ def _launch(model: mujoco.MjModel, data: mujoco.MjData,
 
     def opener() -> None:
         try:
-            handle = mujoco.viewer.launch_passive(model, data, key_callback=on_key, show_left_ui=False,
-                                                  show_right_ui=False)
-        except Exception as exc:  # noqa: BLE001 - reported as the reason
+            handle = mujoco.viewer.launch_passive(
+                model, data, key_callback=on_key, show_left_ui=False, show_right_ui=False
+            )
+        except Exception as exc:
             outcome.put(exc)
             return
         with guard:
@@ -317,7 +319,7 @@ def _glfw_problem(glfw: Any) -> str | None:
                     glfw.destroy_window(window)
                 else:
                     problem = "no OpenGL window on this display"
-        except Exception as exc:  # noqa: BLE001 - glfw.ERROR_REPORTING = 'raise'
+        except Exception as exc:
             caught.append(warnings.WarningMessage(exc, type(exc), "", 0))
             problem = problem or "no display"
     if problem is None:

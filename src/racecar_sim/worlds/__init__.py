@@ -11,6 +11,23 @@ from racecar_sim.worlds.catalog import (
 from racecar_sim.worlds.row import CAR_SPACING, row_centerline, starting_row
 from racecar_sim.worlds.world import Centerline, Light, Mesh, Physics, Scene, Spawn, World, WorldBody, WorldGeom
 
-__all__ = ["BUILTIN_WORLDS", "CAR_SPACING", "DEFAULT_WALL_HEIGHT", "Centerline", "Light", "Mesh", "Physics", "Scene",
-           "Spawn", "World", "WorldBody", "WorldGeom", "load_world", "row_centerline", "starting_row", "track_file",
-           "world_names", "world_summary"]
+__all__ = [
+    "BUILTIN_WORLDS",
+    "CAR_SPACING",
+    "DEFAULT_WALL_HEIGHT",
+    "Centerline",
+    "Light",
+    "Mesh",
+    "Physics",
+    "Scene",
+    "Spawn",
+    "World",
+    "WorldBody",
+    "WorldGeom",
+    "load_world",
+    "row_centerline",
+    "starting_row",
+    "track_file",
+    "world_names",
+    "world_summary",
+]

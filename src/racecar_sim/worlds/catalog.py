@@ -48,8 +48,12 @@ def track_file(name_or_path: str | Path) -> Path | None:
     return path if _reader(path) == "track" and path.is_file() else None
 
 
-def load_world(name_or_path: str | Path, spawn: Spawn | None = None, model_path: list[Path] | None = None,
-               wall_height: float = DEFAULT_WALL_HEIGHT) -> World:
+def load_world(
+    name_or_path: str | Path,
+    spawn: Spawn | None = None,
+    model_path: list[Path] | None = None,
+    wall_height: float = DEFAULT_WALL_HEIGHT,
+) -> World:
     """A built-in world by name, or a world file by path; `spawn` overrides the world's own spawn pose.
 
     model_path: folders searched for model:// URIs before GAZEBO_MODEL_PATH / GZ_SIM_RESOURCE_PATH and the
@@ -72,8 +76,10 @@ def load_world(name_or_path: str | Path, spawn: Spawn | None = None, model_path:
         if not path.exists():
             raise WorldError(f"{key}: no such world file, and not a built-in world ({', '.join(BUILTIN_WORLDS)})")
         if not (wall_height > 0 and wall_height <= MAX_COORDINATE):
-            raise WorldError(f"{key}: wall height (--wall-height) must be a positive number of metres up to "
-                             f"{MAX_COORDINATE:g} (the largest world coordinate), got {wall_height:g}")
+            raise WorldError(
+                f"{key}: wall height (--wall-height) must be a positive number of metres up to "
+                f"{MAX_COORDINATE:g} (the largest world coordinate), got {wall_height:g}"
+            )
         reader = _reader(path)
         if reader == "map":
             from racecar_sim.worlds.occupancy_map import load_map

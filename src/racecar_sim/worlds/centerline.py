@@ -72,8 +72,11 @@ def _warn_if_folded(path: Path, points: np.ndarray, border: np.ndarray, side: st
     forward = np.einsum("ij,ij->i", np.roll(points, -1, axis=0) - points, np.roll(border, -1, axis=0) - border)
     if np.any(forward <= 0):
         line = line_numbers[int(np.flatnonzero(forward <= 0)[0])]
-        warnings.warn(f"{path}: line {line}: the {side} border folds over itself (w_{side} exceeds the turn "
-                      "radius), so its walls cross the track", stacklevel=2)
+        warnings.warn(
+            f"{path}: line {line}: the {side} border folds over itself (w_{side} exceeds the turn "
+            "radius), so its walls cross the track",
+            stacklevel=2,
+        )
 
 
 def read_centerline(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[int]]:
@@ -89,14 +92,18 @@ def read_centerline(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, lis
     if x is not None and y is not None:
         right, left = table.find(W_RIGHT_NAMES), table.find(W_LEFT_NAMES)
         if right is None or left is None:
-            raise table.fail(table.header_line, f"no track-width columns (w_tr_right_m, w_tr_left_m) in the header "
-                                                f"({', '.join(table.header or ())}): {PATH_HINT}")
+            raise table.fail(
+                table.header_line,
+                f"no track-width columns (w_tr_right_m, w_tr_left_m) in the header "
+                f"({', '.join(table.header or ())}): {PATH_HINT}",
+            )
         indices = [x, y, right, left]
     elif table.rows and table.width != len(COLUMNS):
         kind = DELIMITER_NAMES.get(table.delimiter, repr(table.delimiter))
         hint = f": {PATH_HINT}" if table.width < len(COLUMNS) else ""
-        raise table.fail(first, f"expected {len(COLUMNS)} {kind}-separated columns ({', '.join(COLUMNS)}), "
-                                f"got {table.width}{hint}")
+        raise table.fail(
+            first, f"expected {len(COLUMNS)} {kind}-separated columns ({', '.join(COLUMNS)}), got {table.width}{hint}"
+        )
     else:
         indices = list(range(len(COLUMNS)))
     values = table.numbers(list(zip(indices, COLUMNS))).reshape(-1, 4)
@@ -104,8 +111,9 @@ def read_centerline(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, lis
     for row, line in zip(values, rows):
         for name, value in zip(COLUMNS, row):
             if abs(value) > MAX_COORDINATE:
-                raise table.fail(line, f"{name}: {value:g} m is beyond the largest world coordinate "
-                                       f"({MAX_COORDINATE:g} m)")
+                raise table.fail(
+                    line, f"{name}: {value:g} m is beyond the largest world coordinate ({MAX_COORDINATE:g} m)"
+                )
         for name, value in zip(COLUMNS[2:], row[2:]):
             if value <= 0:
                 raise table.fail(line, f"{name}: track width must be positive, got {value:g}")
@@ -131,8 +139,10 @@ W_LEFT_NAMES = ("w_left", "w_left_m", "w_tr_left", "w_tr_left_m", "wl")
 SPEED_NAMES = ("speed", "speed_mps", "v", "v_mps", "vx", "vx_mps", "velocity")
 DELIMITER_NAMES = {",": "comma", ";": "semicolon"}
 # A raceline (or waypoint list) has no widths to wall: it is a path. Said when one is given as a world.
-PATH_HINT = ("a path without track widths is not a world: use it as --path FILE with --driver pure-pursuit, on a "
-             "world with walls (for an F1TENTH raceline, its <Track>_map.yaml)")
+PATH_HINT = (
+    "a path without track widths is not a world: use it as --path FILE with --driver pure-pursuit, on a "
+    "world with walls (for an F1TENTH raceline, its <Track>_map.yaml)"
+)
 
 
 @dataclass(frozen=True)

@@ -31,8 +31,15 @@ def open_image(file: Path, fail: Callable[[str], WorldError], kind: str = "image
             image = Image.open(file)
         except Image.DecompressionBombError:
             size = header_size(file)
-            raise fail(_too_large(file, f"{size[0]} x {size[1]} pixels" if size else
-                                  f"more than {2 * (Image.MAX_IMAGE_PIXELS or 0)} pixels", kind)) from None
+            raise fail(
+                _too_large(
+                    file,
+                    f"{size[0]} x {size[1]} pixels"
+                    if size
+                    else f"more than {2 * (Image.MAX_IMAGE_PIXELS or 0)} pixels",
+                    kind,
+                )
+            ) from None
     width, height = image.size
     if width * height > MAX_IMAGE_PIXELS:
         image.close()
@@ -41,8 +48,10 @@ def open_image(file: Path, fail: Callable[[str], WorldError], kind: str = "image
 
 
 def _too_large(file: Path, size: str, kind: str) -> str:
-    return (f"{file} is {size}, larger than the largest {kind} taken ({MAX_IMAGE_PIXELS} pixels, e.g. "
-            f"{MAX_IMAGE_SIDE} x {MAX_IMAGE_SIDE})")
+    return (
+        f"{file} is {size}, larger than the largest {kind} taken ({MAX_IMAGE_PIXELS} pixels, e.g. "
+        f"{MAX_IMAGE_SIDE} x {MAX_IMAGE_SIDE})"
+    )
 
 
 def header_size(file: Path) -> tuple[int, int] | None:

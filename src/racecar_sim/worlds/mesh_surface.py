@@ -211,8 +211,9 @@ def _straightened(points: np.ndarray) -> np.ndarray:
     return points[cross > _TURN_TOL * scale]
 
 
-def _slab(polygon: np.ndarray, origin: np.ndarray, u: np.ndarray, v: np.ndarray,
-          normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _slab(
+    polygon: np.ndarray, origin: np.ndarray, u: np.ndarray, v: np.ndarray, normal: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """A convex counter-clockwise polygon in the plane (origin, u, v) as a closed prism reaching SLAB_THICKNESS
     behind it (against `normal`): vertices and outward-wound faces."""
     n = len(polygon)

@@ -42,8 +42,13 @@ def load_map(path: str | Path, wall_height: float, spawn: Spawn | None = None) -
     ox, oy, yaw = meta["origin"]
     world = load_world("empty")
     world.name, world.source = path.stem, str(path)
-    map_body = WorldBody("map", np.array([ox, oy, 0.0]), quat_from_axis_angle((0.0, 0.0, 1.0), yaw),
-                         static=True, geoms=map_walls(occupied, meta["resolution"], wall_height))
+    map_body = WorldBody(
+        "map",
+        np.array([ox, oy, 0.0]),
+        quat_from_axis_angle((0.0, 0.0, 1.0), yaw),
+        static=True,
+        geoms=map_walls(occupied, meta["resolution"], wall_height),
+    )
     world.bodies.append(map_body)
     height, width = occupied.shape
     corners = np.array([(0, 0, 0), (width, 0, 0), (0, height, 0), (width, height, 0)]) * meta["resolution"]
@@ -159,9 +164,13 @@ def _check_extent(path: Path, meta: dict[str, Any], width: int, height: int) -> 
     ox, oy, _ = meta["origin"]
     reach = math.hypot(ox, oy) + meta["resolution"] * math.hypot(width, height)
     if not reach <= MAX_COORDINATE:
-        raise _fail(path, "resolution", f"{width} x {height} cells of {meta['resolution']:g} m from origin "
-                                        f"[{ox:g}, {oy:g}] reach {reach:.3g} m from the world's origin, beyond the "
-                                        f"largest world coordinate ({MAX_COORDINATE:g} m)")
+        raise _fail(
+            path,
+            "resolution",
+            f"{width} x {height} cells of {meta['resolution']:g} m from origin "
+            f"[{ox:g}, {oy:g}] reach {reach:.3g} m from the world's origin, beyond the "
+            f"largest world coordinate ({MAX_COORDINATE:g} m)",
+        )
 
 
 def _grey_levels(img: Image.Image) -> tuple[np.ndarray, np.ndarray | None]:
@@ -178,4 +187,3 @@ def _grey_levels(img: Image.Image) -> tuple[np.ndarray, np.ndarray | None]:
     has_alpha = img.mode in ("LA", "RGBA")
     colour = pixels[..., :-1] if has_alpha else pixels
     return colour.mean(axis=2), pixels[..., -1] if has_alpha else None
-

@@ -26,8 +26,9 @@ def row_centerline(world: World) -> np.ndarray | None:
     return line.points if (world.spawn.x, world.spawn.y) == (x0, y0) else None
 
 
-def starting_row(world: World, count: int, spacing: float = CAR_SPACING,
-                 centerline: np.ndarray | None = None) -> list[Spawn]:
+def starting_row(
+    world: World, count: int, spacing: float = CAR_SPACING, centerline: np.ndarray | None = None
+) -> list[Spawn]:
     """Poses for `count` cars in a row: the first at the world's spawn pose, each next one `spacing` m behind the one
     before, back along a closed `centerline` (N, 2) from its first point, each car facing the way the line runs there
     (default: the world's own where the row follows it, row_centerline), or straight back along the spawn heading."""
@@ -35,8 +36,10 @@ def starting_row(world: World, count: int, spacing: float = CAR_SPACING,
     points = row_centerline(world) if centerline is None else np.asarray(centerline, dtype=float)
     if points is None:
         back_x, back_y = math.cos(first.yaw), math.sin(first.yaw)
-        return [Spawn(first.x - k * spacing * back_x, first.y - k * spacing * back_y, first.z, first.yaw)
-                for k in range(count)]
+        return [
+            Spawn(first.x - k * spacing * back_x, first.y - k * spacing * back_y, first.z, first.yaw)
+            for k in range(count)
+        ]
     # walk the loop backwards, P0 -> P(N-1) -> ... -> P1 -> P0: segment j goes from tail[j] back to head[j]
     tail = np.roll(points[::-1], 1, axis=0)  # P0, P(N-1), ..., P1
     head = np.roll(tail, -1, axis=0)  # P(N-1), ..., P1, P0

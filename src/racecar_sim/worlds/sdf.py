@@ -41,14 +41,30 @@ _INCLUDE_KNOWN = {"uri", "name", "pose", "static"}
 _LIGHT_KNOWN = {"pose", "diffuse", "specular", "attenuation", "direction", "cast_shadows", "spot", "intensity"}
 _SCENE_KNOWN = {"ambient", "background", "shadows", "grid", "origin_visual"}
 # ODE tuning with no MuJoCo counterpart, and Gazebo's defaults for them: a world that changes one is told so.
-_ODE_DEFAULTS = {"solver/type": "quick", "solver/sor": 1.3, "solver/min_step_size": 0.0001,
-                 "solver/precon_iters": 0, "solver/use_dynamic_moi_rescaling": "false",
-                 "solver/friction_model": "pyramid_model", "solver/island_threads": 0,
-                 "solver/thread_position_correction": 0, "constraints/cfm": 0.0, "constraints/erp": 0.2,
-                 "constraints/contact_max_correcting_vel": 100.0, "constraints/contact_surface_layer": 0.001}
+_ODE_DEFAULTS = {
+    "solver/type": "quick",
+    "solver/sor": 1.3,
+    "solver/min_step_size": 0.0001,
+    "solver/precon_iters": 0,
+    "solver/use_dynamic_moi_rescaling": "false",
+    "solver/friction_model": "pyramid_model",
+    "solver/island_threads": 0,
+    "solver/thread_position_correction": 0,
+    "constraints/cfm": 0.0,
+    "constraints/erp": 0.2,
+    "constraints/contact_max_correcting_vel": 100.0,
+    "constraints/contact_surface_layer": 0.001,
+}
 MAX_NESTING = 64  # models within models (nested <model>s and <include>s)
-_PHYSICS_KNOWN = {"max_step_size", "real_time_factor", "real_time_update_rate", "gravity", "ode", "max_contacts",
-                  "magnetic_field"}
+_PHYSICS_KNOWN = {
+    "max_step_size",
+    "real_time_factor",
+    "real_time_update_rate",
+    "gravity",
+    "ode",
+    "max_contacts",
+    "magnetic_field",
+}
 
 
 def _parse(path: Path) -> ET.Element:
@@ -68,32 +84,42 @@ def _inertial(el: ET.Element, body: WorldBody, ctx: SdfContext, where: str) -> N
     body.mass = number(el, "mass", 1.0, ctx, f"{where} <inertial>")
     if not body.mass > 0:
         raise ctx.error(f"{where} <inertial><mass> must be positive, got {body.mass:g}")
-    values = {k: 0.0 for k in ("ixy", "ixz", "iyz")} | {k: 1.0 for k in ("ixx", "iyy", "izz")}
+    values = dict.fromkeys(("ixy", "ixz", "iyz"), 0.0) | dict.fromkeys(("ixx", "iyy", "izz"), 1.0)
     inertia = el.find("inertia")
     if inertia is not None:
         values = {k: number(inertia, k, v, ctx, f"{where} <inertia>") for k, v in values.items()}
-    tensor = np.array([[values["ixx"], values["ixy"], values["ixz"]],
-                       [values["ixy"], values["iyy"], values["iyz"]],
-                       [values["ixz"], values["iyz"], values["izz"]]])
+    tensor = np.array(
+        [
+            [values["ixx"], values["ixy"], values["ixz"]],
+            [values["ixy"], values["iyy"], values["iyz"]],
+            [values["ixz"], values["iyz"], values["izz"]],
+        ]
+    )
     com, frame = pose_or_identity(el, ctx, f"{where} <inertial>")
     rot = quat_to_matrix(frame)
     tensor = rot @ tensor @ rot.T  # into the link frame, where MuJoCo's fullinertia is given
     a, b, c = np.linalg.eigvalsh(tensor)  # the principal moments, ascending
     given = ", ".join(f"{k} {values[k]:g}" for k in ("ixx", "iyy", "izz", "ixy", "ixz", "iyz"))
     if not a > 0:
-        raise ctx.error(f"{where} <inertial><inertia>: a body's inertia must be positive definite, but its principal "
-                        f"moments are {a:g}, {b:g}, {c:g} ({given})")
+        raise ctx.error(
+            f"{where} <inertial><inertia>: a body's inertia must be positive definite, but its principal "
+            f"moments are {a:g}, {b:g}, {c:g} ({given})"
+        )
     if a + b < c * (1.0 - 1e-9):
-        raise ctx.error(f"{where} <inertial><inertia>: principal moments {a:g}, {b:g}, {c:g} break the triangle "
-                        f"inequality (the two smaller must add up to the largest, as for any rigid body) ({given})")
+        raise ctx.error(
+            f"{where} <inertial><inertia>: principal moments {a:g}, {b:g}, {c:g} break the triangle "
+            f"inequality (the two smaller must add up to the largest, as for any rigid body) ({given})"
+        )
     body.com = com
     body.inertia = (tensor[0, 0], tensor[1, 1], tensor[2, 2], tensor[0, 1], tensor[0, 2], tensor[1, 2])
 
 
 def _link(el: ET.Element, model: str, static: bool, model_pose: Pose, ctx: SdfContext) -> WorldBody:
     name = f"{model}::{el.get('name', 'link')}"
-    ctx.claim(("link", name), f"model '{model}' has two links named '{el.get('name', 'link')}' (MuJoCo and Gazebo "
-                              "take each name once)")
+    ctx.claim(
+        ("link", name),
+        f"model '{model}' has two links named '{el.get('name', 'link')}' (MuJoCo and Gazebo take each name once)",
+    )
     ctx.warn_unknown(el, _LINK_KNOWN, f"link {name}")
     if not flag(el, "gravity", True):
         ctx.warn("gravity>false</gravity", f"link {name}", "is not supported: gravity acts on every body")
@@ -130,17 +156,22 @@ def _link(el: ET.Element, model: str, static: bool, model_pose: Pose, ctx: SdfCo
 
 def _claim_shape(ctx: SdfContext, link: str, where: str) -> None:
     """Take the name of a <collision> or <visual>: both become MuJoCo geoms, which take each name once."""
-    ctx.claim(("shape", where), f"link '{link}' has two <collision>/<visual> elements named "
-                                f"'{where.rpartition('/')[2]}' (each needs a name of its own)")
+    ctx.claim(
+        ("shape", where),
+        f"link '{link}' has two <collision>/<visual> elements named "
+        f"'{where.rpartition('/')[2]}' (each needs a name of its own)",
+    )
 
 
-def _model(el: ET.Element, world: World, ctx: SdfContext, placed: Pose, name: str,
-           static: bool | None = None) -> None:
+def _model(el: ET.Element, world: World, ctx: SdfContext, placed: Pose, name: str, static: bool | None = None) -> None:
     """Add a <model> whose frame is at `placed` in the world."""
     if name.count("::") >= MAX_NESTING:
         raise ctx.error(f"model {name.split('::')[0]}: models nested more than {MAX_NESTING} deep")
-    ctx.claim(("model", name), f"two models named '{name}': Gazebo refuses a repeated model name too (give each "
-                               "its own name, an <include> its own <name>)")
+    ctx.claim(
+        ("model", name),
+        f"two models named '{name}': Gazebo refuses a repeated model name too (give each "
+        "its own name, an <include> its own <name>)",
+    )
     ctx.warn_unknown(el, _MODEL_KNOWN, f"model {name}")
     static = flag(el, "static", False) if static is None else static
     for child in el:
@@ -162,17 +193,21 @@ def _light(el: ET.Element, ctx: SdfContext, placed: Pose | None = None) -> Light
     kind = el.get("type", "point")
     if kind not in ("point", "directional", "spot"):
         raise ctx.error(f"{where}: type '{kind}' is not point, directional or spot")
-    direction = quat_to_matrix(quat) @ np.array(numbers(el.findtext("direction") or "0 0 -1", 3, ctx,
-                                                        f"{where} <direction>"))
+    direction = quat_to_matrix(quat) @ np.array(
+        numbers(el.findtext("direction") or "0 0 -1", 3, ctx, f"{where} <direction>")
+    )
     diffuse = numbers(el.findtext("diffuse") or "1 1 1 1", 4, ctx, f"{where} <diffuse>")
     specular = numbers(el.findtext("specular") or "0.1 0.1 0.1 1", 4, ctx, f"{where} <specular>")
-    light = Light(name, kind == "directional", pos, direction, diffuse[:3], flag(el, "cast_shadows", False),
-                  specular[:3])
+    light = Light(
+        name, kind == "directional", pos, direction, diffuse[:3], flag(el, "cast_shadows", False), specular[:3]
+    )
     attenuation = el.find("attenuation")
     if attenuation is not None:
         ctx.warn_unknown(attenuation, {"constant", "linear", "quadratic", "range"}, f"{where} <attenuation>")
-        light.attenuation = tuple(number(attenuation, k, d, ctx, f"{where} <attenuation>")  # type: ignore[assignment]
-                                  for k, d in (("constant", 1.0), ("linear", 0.0), ("quadratic", 0.0)))
+        light.attenuation = tuple(
+            number(attenuation, k, d, ctx, f"{where} <attenuation>")  # type: ignore[assignment]
+            for k, d in (("constant", 1.0), ("linear", 0.0), ("quadratic", 0.0))
+        )
     if kind == "spot":
         light.spot_cutoff = number(el, "spot/outer_angle", 1.0, ctx, f"{where} <spot>")
     return light
@@ -226,8 +261,11 @@ def _physics(el: ET.Element, physics: Physics, ctx: SdfContext) -> None:
             continue
         same = text.strip() == default if isinstance(default, str) else abs(float(text) - default) < 1e-12
         if not same:
-            ctx.warn(f"ode/{key}>{text.strip()}</{key.split('/')[-1]}", "<physics>",
-                     "is an ODE setting with no MuJoCo counterpart and was ignored")
+            ctx.warn(
+                f"ode/{key}>{text.strip()}</{key.split('/')[-1]}",
+                "<physics>",
+                "is an ODE setting with no MuJoCo counterpart and was ignored",
+            )
     gravity = el.findtext("gravity")
     if gravity is not None and gravity.strip():
         physics.gravity = numbers(gravity, 3, ctx, "<physics><gravity>")  # type: ignore[assignment]

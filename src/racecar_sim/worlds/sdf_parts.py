@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from racecar_sim.core.errors import WorldError
-from racecar_sim.description.ros_packages import gazebo_model_dirs
 from racecar_sim.core.transforms import quat_from_rpy, quat_mul
+from racecar_sim.description.ros_packages import gazebo_model_dirs
 from racecar_sim.worlds.images import open_image
 from racecar_sim.worlds.materials import gazebo_material_rgba
 from racecar_sim.worlds.mesh_surface import surface_pieces
@@ -38,9 +38,15 @@ class SdfContext:
     MuJoCo and Gazebo take no name twice.
     """
 
-    def __init__(self, source: Path, model_path: list[Path], warned: set | None = None,
-                 includes: tuple[tuple[str, Path], ...] = (), names: set | None = None,
-                 root: Path | None = None) -> None:
+    def __init__(
+        self,
+        source: Path,
+        model_path: list[Path],
+        warned: set | None = None,
+        includes: tuple[tuple[str, Path], ...] = (),
+        names: set | None = None,
+        root: Path | None = None,
+    ) -> None:
         self.source = source
         self.model_path = model_path
         self.warned: set = set() if warned is None else warned
@@ -54,8 +60,10 @@ class SdfContext:
         is a WorldError naming the world file and the URIs."""
         chain = (*self.includes, (uri, source))
         if source.resolve() in {self.root.resolve(), *(file.resolve() for _, file in self.includes)}:
-            raise WorldError(f"{self.root}: <include> loop: {' -> '.join(u for u, _ in chain)} ({source} is included "
-                             "again inside itself)")
+            raise WorldError(
+                f"{self.root}: <include> loop: {' -> '.join(u for u, _ in chain)} ({source} is included "
+                "again inside itself)"
+            )
         return SdfContext(source, self.model_path, self.warned, chain, self.names, self.root)
 
     def claim(self, key: tuple[str, str], message: str) -> None:
@@ -118,8 +126,11 @@ def pose(el: ET.Element, ctx: SdfContext, where: str) -> tuple[np.ndarray, np.nd
     if pose_el is None or not (pose_el.text or "").strip():
         return None
     if pose_el.get("relative_to"):
-        ctx.warn(f"pose relative_to='{pose_el.get('relative_to')}'", where, "is not supported; the pose is taken "
-                 "relative to the parent frame")
+        ctx.warn(
+            f"pose relative_to='{pose_el.get('relative_to')}'",
+            where,
+            "is not supported; the pose is taken relative to the parent frame",
+        )
     if pose_el.get("rotation_format", "euler_rpy") == "quat_xyzw":
         v = numbers(pose_el.text, 7, ctx, f"{where} <pose>")
         quat = np.array([v[6], v[3], v[4], v[5]])
@@ -140,15 +151,17 @@ def resolve_uri(uri: str, ctx: SdfContext, where: str) -> Path:
     """model://name/rest through the model path, file:// and plain paths relative to the current file."""
     uri = uri.strip()
     if uri.startswith("model://"):
-        name, _, rest = uri[len("model://"):].partition("/")
+        name, _, rest = uri[len("model://") :].partition("/")
         for folder in ctx.search_path():
             if (folder / name).is_dir():
                 return folder / name / rest
-        raise ctx.error(f"{where}: {uri}: model '{name}' not found in "
-                        f"{os.pathsep.join(str(p) for p in ctx.search_path())} (add its folder with --model-path, or "
-                        "the folder of the package that holds it with --package-path)")
+        raise ctx.error(
+            f"{where}: {uri}: model '{name}' not found in "
+            f"{os.pathsep.join(str(p) for p in ctx.search_path())} (add its folder with --model-path, or "
+            "the folder of the package that holds it with --package-path)"
+        )
     if uri.startswith("file://"):
-        uri = uri[len("file://"):]
+        uri = uri[len("file://") :]
     elif "://" in uri:
         raise ctx.error(f"{where}: {uri}: only model://, file:// and plain paths are supported")
     path = Path(uri)
@@ -204,8 +217,16 @@ def shapes(el: ET.Element, collides: bool, ctx: SdfContext, where: str, static: 
     return [geom]
 
 
-def _mesh_shapes(g: ET.Element, el: ET.Element, collides: bool, static: bool, pos: np.ndarray, quat: np.ndarray,
-                 ctx: SdfContext, where: str) -> list[WorldGeom]:
+def _mesh_shapes(
+    g: ET.Element,
+    el: ET.Element,
+    collides: bool,
+    static: bool,
+    pos: np.ndarray,
+    quat: np.ndarray,
+    ctx: SdfContext,
+    where: str,
+) -> list[WorldGeom]:
     uri = g.findtext("uri")
     if not uri or not uri.strip():
         raise ctx.error(f"{where} <mesh>: <uri> is missing")
@@ -220,16 +241,19 @@ def _mesh_shapes(g: ET.Element, el: ET.Element, collides: bool, static: bool, po
         raise ctx.error(f"{where} <mesh>: {exc}") from None
     geoms = []
     if collides:
-        geoms = [WorldGeom(where, "mesh", (), pos, quat, collides=True, mesh=m)
-                 for m in _collision_pieces(parts, static, uri.strip(), ctx, where)]
+        geoms = [
+            WorldGeom(where, "mesh", (), pos, quat, collides=True, mesh=m)
+            for m in _collision_pieces(parts, static, uri.strip(), ctx, where)
+        ]
     else:
         material = el.find("material")
         texture = albedo_map(material, ctx, where)
         for part in parts:
             rgba = rgba_of(material, ctx, where) if material is not None or part.rgba is None else part.rgba
             part_texture = texture if texture is not None and part.mesh.texcoord is not None else part.texture
-            geoms.append(WorldGeom(where, "mesh", (), pos, quat, collides=False, rgba=rgba, mesh=part.mesh,
-                                   texture=part_texture))
+            geoms.append(
+                WorldGeom(where, "mesh", (), pos, quat, collides=False, rgba=rgba, mesh=part.mesh, texture=part_texture)
+            )
     for i, geom in enumerate(geoms[1:], start=1):
         geom.name = f"{where}#{i}"
     return geoms
@@ -251,17 +275,26 @@ def _collision_pieces(parts: list[MeshPart], static: bool, uri: str, ctx: SdfCon
             convex = convex and part_convex
             for piece in part_pieces:
                 if is_flat(piece.vertices):
-                    raise ctx.error(f"{where} <mesh><uri>{uri}</uri>: a free model's collision mesh collides as the "
-                                    f"convex hull of each connected piece, and one piece is flat (triangles: "
-                                    f"{len(piece.faces)}, vertices: {len(piece.vertices)}): make the model <static> "
-                                    "(it then collides as its faces) or give the mesh thickness")
+                    raise ctx.error(
+                        f"{where} <mesh><uri>{uri}</uri>: a free model's collision mesh collides as the "
+                        f"convex hull of each connected piece, and one piece is flat (triangles: "
+                        f"{len(piece.faces)}, vertices: {len(piece.vertices)}): make the model <static> "
+                        "(it then collides as its faces) or give the mesh thickness"
+                    )
         pieces += part_pieces
     if flat:
-        ctx.warn(f"mesh><uri>{uri}</uri", where, f"is not convex: as in Gazebo, it collides as its faces where it is "
-                 f"not ({flat} flat pieces: coplanar faces merged while convex)")
+        ctx.warn(
+            f"mesh><uri>{uri}</uri",
+            where,
+            f"is not convex: as in Gazebo, it collides as its faces where it is "
+            f"not ({flat} flat pieces: coplanar faces merged while convex)",
+        )
     elif not convex:
-        ctx.warn(f"mesh><uri>{uri}</uri", where, "is not convex: it collides as the convex hull of each of its "
-                 "connected pieces")
+        ctx.warn(
+            f"mesh><uri>{uri}</uri",
+            where,
+            "is not convex: it collides as the convex hull of each of its connected pieces",
+        )
     return pieces
 
 

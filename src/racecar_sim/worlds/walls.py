@@ -38,11 +38,11 @@ def cell_rectangles(occupied: np.ndarray) -> list[tuple[int, int, int, int]]:
         while row.any():
             c = int(row.argmax())
             width = _run(row[c:])
-            wide = (width, _run(todo[r:, c:c + width].all(axis=1)))
+            wide = (width, _run(todo[r:, c : c + width].all(axis=1)))
             height = _run(todo[r:, c])
-            tall = (_run(todo[r:r + height, c:].all(axis=0)), height)
+            tall = (_run(todo[r : r + height, c:].all(axis=0)), height)
             w, h = wide if wide[0] * wide[1] >= tall[0] * tall[1] else tall
-            todo[r:r + h, c:c + w] = False
+            todo[r : r + h, c : c + w] = False
             rects.append((r, c, r + h, c + w))
     return rects
 
@@ -53,8 +53,14 @@ def _run(cells: np.ndarray) -> int:
     return len(cells) if cells[first_false] else first_false
 
 
-def box_geoms(name: str, centers: np.ndarray, sizes: np.ndarray, yaws: np.ndarray,
-              rgba: tuple[float, float, float, float] = WALL_RGBA, mu: float = 1.0) -> list[WorldGeom]:
+def box_geoms(
+    name: str,
+    centers: np.ndarray,
+    sizes: np.ndarray,
+    yaws: np.ndarray,
+    rgba: tuple[float, float, float, float] = WALL_RGBA,
+    mu: float = 1.0,
+) -> list[WorldGeom]:
     """A collision box and its visual copy (collision geoms are hidden in rendering) per row of centers/sizes/yaws.
 
     centers (N, 3) and sizes (N, 3, full extents) in metres, yaws (N,) in radians about z.
@@ -64,8 +70,9 @@ def box_geoms(name: str, centers: np.ndarray, sizes: np.ndarray, yaws: np.ndarra
         quat = quat_from_axis_angle(Z_AXIS, float(yaw))
         extents = tuple(float(s) for s in size)
         geoms.append(WorldGeom(f"{name}_{i}", "box", extents, center.copy(), quat, collides=True, mu=mu, mu2=mu))
-        geoms.append(WorldGeom(f"{name}_{i}_visual", "box", extents, center.copy(), quat.copy(), collides=False,
-                               rgba=rgba))
+        geoms.append(
+            WorldGeom(f"{name}_{i}_visual", "box", extents, center.copy(), quat.copy(), collides=False, rgba=rgba)
+        )
     return geoms
 
 
@@ -75,9 +82,17 @@ def _segments(points: np.ndarray, closed: bool) -> tuple[np.ndarray, np.ndarray]
     return (points if closed else points[:-1]), end
 
 
-def border_walls(border: np.ndarray, closed: bool, outward: Literal["left", "right"], thickness: float,
-                 height: float, z0: float = 0.0, name: str = "wall",
-                 rgba: tuple[float, float, float, float] = WALL_RGBA, mu: float = 1.0) -> list[WorldGeom]:
+def border_walls(
+    border: np.ndarray,
+    closed: bool,
+    outward: Literal["left", "right"],
+    thickness: float,
+    height: float,
+    z0: float = 0.0,
+    name: str = "wall",
+    rgba: tuple[float, float, float, float] = WALL_RGBA,
+    mu: float = 1.0,
+) -> list[WorldGeom]:
     """Box walls along a polyline (N, 2): inner face on the line, body on the `outward` side of its direction.
 
     At a corner that turns away from the wall both boxes run on to the miter line (plus OVERLAP), so the
@@ -108,8 +123,17 @@ def border_walls(border: np.ndarray, closed: bool, outward: Literal["left", "rig
     return geoms
 
 
-def _face_boxes(name: str, a: np.ndarray, b: np.ndarray, normal: np.ndarray, depth: float, z0: float, height: float,
-                rgba: tuple[float, float, float, float], mu: float) -> list[WorldGeom]:
+def _face_boxes(
+    name: str,
+    a: np.ndarray,
+    b: np.ndarray,
+    normal: np.ndarray,
+    depth: float,
+    z0: float,
+    height: float,
+    rgba: tuple[float, float, float, float],
+    mu: float,
+) -> list[WorldGeom]:
     """Boxes whose inner face runs from a to b (each (N, 2)), `depth` metres deep along `normal`."""
     delta = b - a
     centers = np.c_[0.5 * (a + b) + 0.5 * depth * normal, np.full(len(a), z0 + 0.5 * height)]
@@ -117,8 +141,9 @@ def _face_boxes(name: str, a: np.ndarray, b: np.ndarray, normal: np.ndarray, dep
     return box_geoms(name, centers, sizes, np.arctan2(delta[:, 1], delta[:, 0]), rgba, mu)
 
 
-def _corner_extensions(direction: np.ndarray, length: np.ndarray, closed: bool, side: float,
-                       thickness: float) -> tuple[np.ndarray, np.ndarray]:
+def _corner_extensions(
+    direction: np.ndarray, length: np.ndarray, closed: bool, side: float, thickness: float
+) -> tuple[np.ndarray, np.ndarray]:
     """How far each segment's box runs on past its start and its end vertex (metres; negative: stops short)."""
     if closed:
         incoming, outgoing = np.roll(direction, 1, axis=0), direction
@@ -153,8 +178,9 @@ def simplify(polyline: np.ndarray, tolerance: float, closed: bool = False) -> np
         if far == 0:
             return points[:1].copy()
         ring = np.r_[points, points[:1]]
-        keep = np.r_[_douglas_peucker(ring[: far + 1], tolerance)[:-1],
-                     far + _douglas_peucker(ring[far:], tolerance)[:-1]]
+        keep = np.r_[
+            _douglas_peucker(ring[: far + 1], tolerance)[:-1], far + _douglas_peucker(ring[far:], tolerance)[:-1]
+        ]
         return points[keep]
     return points[_douglas_peucker(points, tolerance)]
 
@@ -202,8 +228,9 @@ def left_normals(points: np.ndarray, closed: bool) -> np.ndarray:
     return summed / norm[:, None]
 
 
-def offset_polyline(points: np.ndarray, distances: np.ndarray | float, side: Literal["left", "right"],
-                    closed: bool) -> np.ndarray:
+def offset_polyline(
+    points: np.ndarray, distances: np.ndarray | float, side: Literal["left", "right"], closed: bool
+) -> np.ndarray:
     """Each vertex moved to `side` so that the offset segments lie `distances` metres (scalar or per point) from
     the polyline's own: along the averaged normal, lengthened by 1 / cos(half the turn), as a miter joint.
 

@@ -122,7 +122,7 @@ class Centerline:
         self.points, self.closed, self.source = points, closed, source
         self.widths = None if widths is None else np.asarray(widths, np.float64)
         ends = np.roll(points, -1, axis=0) if closed else points[1:]
-        self._start = points[:len(ends)]
+        self._start = points[: len(ends)]
         self._delta = ends - self._start
         self._seg_len = np.hypot(self._delta[:, 0], self._delta[:, 1])
         if np.any(self._seg_len == 0):
@@ -190,13 +190,17 @@ class World:
             for geom in body.geoms:
                 reach = base + math.hypot(*geom.pos) + geom_radius(geom)
                 if not reach <= MAX_COORDINATE:
-                    raise WorldError(f"{self.label}: {geom.name} reaches {reach:.3g} m from the origin, beyond the "
-                                     f"largest world coordinate ({MAX_COORDINATE:g} m)")
+                    raise WorldError(
+                        f"{self.label}: {geom.name} reaches {reach:.3g} m from the origin, beyond the "
+                        f"largest world coordinate ({MAX_COORDINATE:g} m)"
+                    )
         for light in self.lights:
             reach = math.hypot(*light.pos)
             if not reach <= MAX_COORDINATE:
-                raise WorldError(f"{self.label}: light {light.name} is {reach:.3g} m from the origin, beyond the "
-                                 f"largest world coordinate ({MAX_COORDINATE:g} m)")
+                raise WorldError(
+                    f"{self.label}: light {light.name} is {reach:.3g} m from the origin, beyond the "
+                    f"largest world coordinate ({MAX_COORDINATE:g} m)"
+                )
 
     def cover_ground(self, points: np.ndarray, margin: float = 5.0) -> None:
         """Grow the ground planes to reach `margin` beyond every xy point given (a plane collides everywhere in

@@ -28,9 +28,11 @@ SERVER_NAME = "racecar_sim"
 SUBPROTOCOL = "foxglove.sdk.v1"
 SDK_SERVER_LOGGER = "foxglove.websocket.server"  # the Rust server's log target, through Python's logging
 HANDSHAKE_FAILED = "handshake failed"
-HANDSHAKE_HINT = (f"this server speaks the {SUBPROTOCOL} WebSocket subprotocol only: a client that offers only "
-                  "foxglove.websocket.v1 (Lichtblick 1.21 or older) cannot connect; use Foxglove, or Lichtblick "
-                  "1.22 or newer")
+HANDSHAKE_HINT = (
+    f"this server speaks the {SUBPROTOCOL} WebSocket subprotocol only: a client that offers only "
+    "foxglove.websocket.v1 (Lichtblick 1.21 or older) cannot connect; use Foxglove, or Lichtblick "
+    "1.22 or newer"
+)
 
 
 class FoxgloveBridge:
@@ -158,11 +160,12 @@ def _explain_failed_handshakes() -> None:
 def _start_server(host: str, port: int, context: Context, listener: _SubscribeListener) -> WebSocketServer:
     """A fresh server on host:port serving `context`; a bind failure becomes a one-line ConfigError."""
     try:
-        return foxglove.start_server(name=SERVER_NAME, host=host, port=port, context=context,
-                                     server_listener=listener)
+        return foxglove.start_server(name=SERVER_NAME, host=host, port=port, context=context, server_listener=listener)
     except RuntimeError as exc:
         reason = " ".join(str(exc).removeprefix("FoxgloveError: ").split())
         if "in use" in reason:
-            raise ConfigError(f"Foxglove port {port} on {host} is already in use (another bridge running?); "
-                              f"choose another with --foxglove PORT, or 0 for any free port") from None
+            raise ConfigError(
+                f"Foxglove port {port} on {host} is already in use (another bridge running?); "
+                f"choose another with --foxglove PORT, or 0 for any free port"
+            ) from None
         raise ConfigError(f"cannot serve Foxglove on {host}:{port}: {reason}") from None

@@ -11,11 +11,27 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
-_HOMES = {"DRAIN_RATE": "bridge", "RosBridge": "bridge", "INSTALL": "environment", "RosUnavailable": "environment",
-          "message_path": "environment", "ros_available": "environment", "ros_python": "environment",
-          "RosNodes": "nodes"}
+_HOMES = {
+    "DRAIN_RATE": "bridge",
+    "RosBridge": "bridge",
+    "INSTALL": "environment",
+    "RosUnavailable": "environment",
+    "message_path": "environment",
+    "ros_available": "environment",
+    "ros_python": "environment",
+    "RosNodes": "nodes",
+}
 
-__all__ = ["DRAIN_RATE", "INSTALL", "RosBridge", "RosNodes", "RosUnavailable", "message_path", "ros_available", "ros_python"]
+__all__ = [
+    "DRAIN_RATE",
+    "INSTALL",
+    "RosBridge",
+    "RosNodes",
+    "RosUnavailable",
+    "message_path",
+    "ros_available",
+    "ros_python",
+]
 
 if TYPE_CHECKING:
     from racecar_sim.bridges.ros1.bridge import DRAIN_RATE, RosBridge

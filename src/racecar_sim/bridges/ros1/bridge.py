@@ -93,8 +93,10 @@ class RosBridge:
             if self._link.closed.is_set() or time.monotonic() > deadline:
                 code = self._link.process.poll()
                 self.close()
-                raise ConfigError(f"--ros: the ROS side ({ROS_SIDE.name} under {self.python}) did not start"
-                                  f"{f' (exit code {code})' if code is not None else ''}; see its messages above")
+                raise ConfigError(
+                    f"--ros: the ROS side ({ROS_SIDE.name} under {self.python}) did not start"
+                    f"{f' (exit code {code})' if code is not None else ''}; see its messages above"
+                )
         self._remove_tap = self.sim.bus.tap(self._on_bus, wants=self._wants)
         for topic, msg in self.sim.bus.latched_messages().items():
             self._on_bus(topic, msg)
@@ -109,8 +111,16 @@ class RosBridge:
         """A parameter from the ROS parameter server; KeyError if unset."""
         return self._ros.get_param(name)
 
-    def start_node(self, package: str, node_type: str, name: str, namespace: str = "/", args: Sequence[str] = (),
-                   remaps: Sequence[tuple[str, str]] = (), env: Mapping[str, str] | None = None) -> subprocess.Popen:
+    def start_node(
+        self,
+        package: str,
+        node_type: str,
+        name: str,
+        namespace: str = "/",
+        args: Sequence[str] = (),
+        remaps: Sequence[tuple[str, str]] = (),
+        env: Mapping[str, str] | None = None,
+    ) -> subprocess.Popen:
         """Start a real ROS node as rosrun would (Python nodes under the ROS interpreter), with the generated
         messages on its PYTHONPATH and this bridge's master; close() stops it."""
         return self._ros.start_node(package, node_type, name, namespace, args, remaps, env)
@@ -167,8 +177,9 @@ class RosBridge:
             out.ok = False
             log.warning("not bridging %s to ROS: %s", topic, exc)
             return out
-        self._link.send_control(op="advertise", id=out.id, topic=topic, type=ros_type, latch=out.latched,
-                                queue_size=QUEUE_SIZE)
+        self._link.send_control(
+            op="advertise", id=out.id, topic=topic, type=ros_type, latch=out.latched, queue_size=QUEUE_SIZE
+        )
         return out
 
     # --- ROS -> sim ----------------------------------------------------------------------------------------------
@@ -176,7 +187,7 @@ class RosBridge:
         """Reader thread: keep what the sim must handle for its own thread; note connection counts at once."""
         if kind == DATA:
             (sub_id,) = ID.unpack_from(payload)
-            self._inbox.put(("msg", sub_id, payload[ID.size:]))
+            self._inbox.put(("msg", sub_id, payload[ID.size :]))
             return
         op = pickle.loads(payload)
         if op["op"] == "connections":
@@ -262,4 +273,3 @@ class RosBridge:
             if srv_type is not None and name not in self._services:
                 self._services[name] = srv_type
                 self._link.send_control(op="service", name=name, type=wire.ros1_name(srv_type))
-

@@ -24,7 +24,7 @@ SERVICE_TYPES: dict[str, str] = {
     "switch_controller": "controller_manager_msgs/srv/SwitchController",
 }
 
+
 def service_type(name: str) -> str | None:
     """The `pkg/srv/Name` type of a service the sim offers, or None if it has no ROS 1 counterpart."""
     return SERVICE_TYPES.get(name.rsplit("/", 1)[-1])
-

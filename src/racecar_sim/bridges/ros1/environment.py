@@ -22,8 +22,10 @@ from racecar_sim.core.errors import ConfigError
 
 PYTHON_VARIABLE = "RACECAR_SIM_ROS_PYTHON"
 SYSTEM_PYTHON = "/usr/bin/python3"
-INSTALL = ("sudo apt-get install ros-core python3-rospy python3-rosgraph python3-genpy python3-sensor-msgs "
-           "python3-nav-msgs python3-geometry-msgs python3-tf2-msgs python3-rosbag")
+INSTALL = (
+    "sudo apt-get install ros-core python3-rospy python3-rosgraph python3-genpy python3-sensor-msgs "
+    "python3-nav-msgs python3-geometry-msgs python3-tf2-msgs python3-rosbag"
+)
 ROS_SIDE = Path(__file__).with_name("ros_side.py")
 DEFINITIONS = Path(__file__).with_name("definitions")
 LOOPBACK = "127.0.0.1"
@@ -35,8 +37,15 @@ class RosUnavailable(ConfigError):
 
 def _imports_rospy(python: str) -> bool:
     try:
-        return subprocess.run([python, "-c", "import rospy, genpy, rosgraph"], stdout=subprocess.DEVNULL,
-                              stderr=subprocess.DEVNULL, timeout=30).returncode == 0
+        return (
+            subprocess.run(
+                [python, "-c", "import rospy, genpy, rosgraph"],
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+                timeout=30,
+            ).returncode
+            == 0
+        )
     except (OSError, subprocess.TimeoutExpired):
         return False
 
@@ -91,8 +100,9 @@ def message_path(python: str | None = None) -> Path:
         return target
     target.parent.mkdir(parents=True, exist_ok=True)
     scratch = Path(tempfile.mkdtemp(prefix=".gen-", dir=target.parent))
-    done = subprocess.run([python, str(ROS_SIDE), "--generate", str(DEFINITIONS), str(scratch)],
-                          capture_output=True, text=True)
+    done = subprocess.run(
+        [python, str(ROS_SIDE), "--generate", str(DEFINITIONS), str(scratch)], capture_output=True, text=True
+    )
     if done.returncode != 0:
         shutil.rmtree(scratch, ignore_errors=True)
         detail = " ".join((done.stderr or done.stdout).split())[-300:]
@@ -104,8 +114,9 @@ def message_path(python: str | None = None) -> Path:
     return target
 
 
-def ros_environment(master_uri: str | None, messages: Path | None,
-                    extra: dict[str, str] | None = None) -> dict[str, str]:
+def ros_environment(
+    master_uri: str | None, messages: Path | None, extra: dict[str, str] | None = None
+) -> dict[str, str]:
     """The environment of a ROS process the bridge starts: the master, loopback unless ROS_IP/ROS_HOSTNAME say
     otherwise, the generated messages on PYTHONPATH, a PATH without this virtual environment's scripts (PyPI's
     rospkg installs a `rosversion` there that roscore would run instead of Debian's), and `extra` on top."""
@@ -114,8 +125,9 @@ def ros_environment(master_uri: str | None, messages: Path | None,
         env["ROS_MASTER_URI"] = master_uri
     if sys.prefix != sys.base_prefix:
         venv_bin = os.path.join(sys.prefix, "bin")
-        env["PATH"] = os.pathsep.join(p for p in env.get("PATH", "").split(os.pathsep)
-                                      if p and os.path.realpath(p) != os.path.realpath(venv_bin))
+        env["PATH"] = os.pathsep.join(
+            p for p in env.get("PATH", "").split(os.pathsep) if p and os.path.realpath(p) != os.path.realpath(venv_bin)
+        )
         env.pop("VIRTUAL_ENV", None)
     if not env.get("ROS_IP") and not env.get("ROS_HOSTNAME"):
         env["ROS_IP"] = LOOPBACK

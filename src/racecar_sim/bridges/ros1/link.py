@@ -22,8 +22,9 @@ class RosSideLink:
     """The ROS side process and its pipe. `on_frame(kind, payload)` runs on the reader thread."""
 
     def __init__(self, command: Sequence[str], env: Mapping[str, str], on_frame: Callable[[int, bytes], None]) -> None:
-        self.process = subprocess.Popen(list(command), stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=dict(env),
-                                        start_new_session=True)
+        self.process = subprocess.Popen(
+            list(command), stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=dict(env), start_new_session=True
+        )
         self._on_frame = on_frame
         self._lock = threading.Lock()
         self.closed = threading.Event()

@@ -65,8 +65,10 @@ class Master:
         if uri is None:
             uri = self._start(free_port(port), dict(env or os.environ))
         elif not master_up(uri):
-            raise ConfigError(f"--ros: no ROS master answers at {uri} (ROS_MASTER_URI / --ros-master): start "
-                              "roscore there, or leave both unset to have racecar-sim start one")
+            raise ConfigError(
+                f"--ros: no ROS master answers at {uri} (ROS_MASTER_URI / --ros-master): start "
+                "roscore there, or leave both unset to have racecar-sim start one"
+            )
         self.uri = uri
         self._proxy = xmlrpc.client.ServerProxy(uri, allow_none=True)
 
@@ -80,23 +82,33 @@ class Master:
             raise RosUnavailable(f"--ros: no roscore on PATH (and no ROS_MASTER_URI); install ROS 1: {INSTALL}")
         rosmaster = shutil.which("rosmaster", path=path) or "rosmaster"
         python = ros_python()
-        quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "stdin": subprocess.DEVNULL,
-                 "start_new_session": True}  # each in its own session: close() stops it and what it started
+        quiet = {
+            "stdout": subprocess.DEVNULL,
+            "stderr": subprocess.DEVNULL,
+            "stdin": subprocess.DEVNULL,
+            "start_new_session": True,
+        }  # each in its own session: close() stops it and what it started
         try:  # roscore's own command line for the master
             self._process = subprocess.Popen([rosmaster, "--core", "-p", str(port), "-w", "3"], env=env, **quiet)
         except FileNotFoundError:
-            raise RosUnavailable(f"--ros: no rosmaster on PATH (and no ROS_MASTER_URI); install ROS 1: "
-                                 f"{INSTALL}") from None
+            raise RosUnavailable(
+                f"--ros: no rosmaster on PATH (and no ROS_MASTER_URI); install ROS 1: {INSTALL}"
+            ) from None
         deadline = time.monotonic() + START_TIMEOUT
         while not master_up(uri):
             if self._process.poll() is not None or time.monotonic() > deadline:
                 self.close()
-                raise ConfigError(f"--ros: roscore -p {port} did not start (see ~/.ros/log); give a running master "
-                                  "with ROS_MASTER_URI")
+                raise ConfigError(
+                    f"--ros: roscore -p {port} did not start (see ~/.ros/log); give a running master "
+                    "with ROS_MASTER_URI"
+                )
             time.sleep(0.1)
         proxy = xmlrpc.client.ServerProxy(uri)
-        for name, value in (("/run_id", str(uuid.uuid1())), ("/rosversion", _command(["rosversion", "roslaunch"], env)),
-                            ("/rosdistro", _command(["rosversion", "-d"], env))):
+        for name, value in (
+            ("/run_id", str(uuid.uuid1())),
+            ("/rosversion", _command(["rosversion", "roslaunch"], env)),
+            ("/rosdistro", _command(["rosversion", "-d"], env)),
+        ):
             if value is not None:  # as roscore.xml sets them (rosversion's output, newline and all)
                 proxy.setParam(CALLER_ID, name, value)
         self._rosout = subprocess.Popen([python, str(ROSOUT), "__name:=rosout"], env=env, **quiet)

@@ -35,8 +35,9 @@ class RosNodes:
     def __init__(self, master_uri: str | None = None) -> None:
         self.python = ros_python()
         self.messages = message_path(self.python)
-        self.master = Master(master_uri or os.environ.get("ROS_MASTER_URI") or None,
-                             ros_environment(None, self.messages))
+        self.master = Master(
+            master_uri or os.environ.get("ROS_MASTER_URI") or None, ros_environment(None, self.messages)
+        )
         self.master_uri = self.master.uri
         self.env = ros_environment(self.master_uri, self.messages)
         self.processes: list[subprocess.Popen] = []
@@ -49,8 +50,16 @@ class RosNodes:
         """A parameter from the ROS parameter server; KeyError if unset."""
         return self.master.get_param(name)
 
-    def start_node(self, package: str, node_type: str, name: str, namespace: str = "/", args: Sequence[str] = (),
-                   remaps: Sequence[tuple[str, str]] = (), env: Mapping[str, str] | None = None) -> subprocess.Popen:
+    def start_node(
+        self,
+        package: str,
+        node_type: str,
+        name: str,
+        namespace: str = "/",
+        args: Sequence[str] = (),
+        remaps: Sequence[tuple[str, str]] = (),
+        env: Mapping[str, str] | None = None,
+    ) -> subprocess.Popen:
         """Start a real ROS node as rosrun would (Python nodes under the ROS interpreter), with the generated
         messages on its PYTHONPATH and this master; close() stops it."""
         executable = find_executable(package, node_type)
@@ -83,12 +92,15 @@ def find_executable(package: str, node_type: str) -> Path:
     for path in candidates:
         if path.is_file() and (os.access(path, os.X_OK) or path.suffix == ".py"):
             return path
-    raise ConfigError(f"node type '{node_type}' not found in package '{package}' ({root}): check <node type=...>, "
-                      "or make the file executable")
+    raise ConfigError(
+        f"node type '{node_type}' not found in package '{package}' ({root}): check <node type=...>, "
+        "or make the file executable"
+    )
 
 
-def node_command(executable: Path, python: str, name: str, args: Sequence[str] = (),
-                 remaps: Sequence[tuple[str, str]] = ()) -> list[str]:
+def node_command(
+    executable: Path, python: str, name: str, args: Sequence[str] = (), remaps: Sequence[tuple[str, str]] = ()
+) -> list[str]:
     """The command line of a node: Python nodes run under the ROS interpreter (their shebang may name another)."""
     head = [python, str(executable)] if _is_python(executable) else [str(executable)]
     return [*head, *args, *[f"{a}:={b}" for a, b in remaps], f"__name:={name.rsplit('/', 1)[-1]}"]

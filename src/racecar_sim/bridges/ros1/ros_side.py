@@ -147,7 +147,7 @@ class RosSide:
         (topic_id,) = _ID.unpack_from(payload)
         entry = self.publishers.get(topic_id)
         if entry is not None:  # None: its advertise failed, and the sim was told
-            entry[0].publish(entry[1](payload[_ID.size:]))
+            entry[0].publish(entry[1](payload[_ID.size :]))
 
     def _on_message(self, msg, topic_id):
         header = getattr(msg, "_connection_header", None) or {}
@@ -208,8 +208,12 @@ def serve(name):
         try:
             node.handle(op)
         except Exception as exc:  # a type ROS does not know: report it, keep the rest going
-            link.send_control(op="error", id=op.get("id"), kind=op["op"], text="%s %s: %s: %s" % (op["op"], op.get("topic") or op.get("name"),
-                                                                  type(exc).__name__, exc))
+            link.send_control(
+                op="error",
+                id=op.get("id"),
+                kind=op["op"],
+                text="%s %s: %s: %s" % (op["op"], op.get("topic") or op.get("name"), type(exc).__name__, exc),
+            )
     rospy.signal_shutdown("racecar-sim closed the bridge")
 
 

@@ -29,8 +29,9 @@ def _log_file():
         folder = os.path.join(folder, run_id)
     try:
         os.makedirs(folder, exist_ok=True)
-        handler = logging.handlers.RotatingFileHandler(os.path.join(folder, "rosout.log"), maxBytes=MAX_FILE_SIZE,
-                                                       backupCount=MAX_BACKUP_INDEX)
+        handler = logging.handlers.RotatingFileHandler(
+            os.path.join(folder, "rosout.log"), maxBytes=MAX_FILE_SIZE, backupCount=MAX_BACKUP_INDEX
+        )
     except OSError:
         return None
     log = logging.getLogger("racecar_sim.rosout")
@@ -50,9 +51,18 @@ def main():
     def on_log(msg):
         aggregate.publish(msg)
         if log is not None:
-            log.info("%d.%09d %s %s [%s:%d(%s)] [topics: %s] %s", msg.header.stamp.secs, msg.header.stamp.nsecs,
-                     LEVELS.get(msg.level, str(msg.level)), msg.name, msg.file, msg.line, msg.function,
-                     ", ".join(msg.topics), msg.msg)
+            log.info(
+                "%d.%09d %s %s [%s:%d(%s)] [topics: %s] %s",
+                msg.header.stamp.secs,
+                msg.header.stamp.nsecs,
+                LEVELS.get(msg.level, str(msg.level)),
+                msg.name,
+                msg.file,
+                msg.line,
+                msg.function,
+                ", ".join(msg.topics),
+                msg.msg,
+            )
 
     rospy.Subscriber("/rosout", Log, on_log, queue_size=100)
     rospy.spin()

@@ -113,10 +113,11 @@ def _service_part(msgtype: str) -> tuple[FieldSpec, ...]:
         raise KeyError(f"no ROS 1 definition for service {pkg}/{service}")
     lines = path.read_text(encoding="utf-8").splitlines()
     cut = next(i for i, line in enumerate(lines) if line.strip() == "---")
-    text = "\n".join(lines[:cut] if part == "Request" else lines[cut + 1:])
+    text = "\n".join(lines[:cut] if part == "Request" else lines[cut + 1 :])
     # ROS 1's builtin time and duration are builtin_interfaces' Time and Duration in the sim's classes
-    text = _TIME_TOKEN.sub(lambda m: m[1] + ("builtin_interfaces/Time" if m[2] == "time" else
-                                             "builtin_interfaces/Duration"), text)
+    text = _TIME_TOKEN.sub(
+        lambda m: m[1] + ("builtin_interfaces/Time" if m[2] == "time" else "builtin_interfaces/Duration"), text
+    )
     attrs = {f.name.lower(): f.name for f in dataclasses.fields(sim_class(msgtype))}
     specs = parse_msg(text, f"{pkg}/{name}").fields
     return tuple(dataclasses.replace(s, attr=attrs.get(s.name.lower())) for s in specs)
@@ -183,8 +184,14 @@ def _scalar_run(run: list[tuple[str | None, str, bool]]) -> Op:
         if len(run) == 1:
             return lambda msg, seq, out: out.append(packer.pack(getter(msg)))
         return lambda msg, seq, out: out.append(packer.pack(*getter(msg)))
-    getters = [(lambda msg, seq: seq) if is_seq else (lambda msg, seq: 0) if path is None
-               else (lambda msg, seq, g=attrgetter(path): g(msg)) for path, _, is_seq in run]
+    getters = [
+        (lambda msg, seq: seq)
+        if is_seq
+        else (lambda msg, seq: 0)
+        if path is None
+        else (lambda msg, seq, g=attrgetter(path): g(msg))
+        for path, _, is_seq in run
+    ]
     return lambda msg, seq, out: out.append(packer.pack(*[g(msg, seq) for g in getters]))
 
 
@@ -194,11 +201,13 @@ def _field_op(msgtype: str, path: str, f: FieldSpec) -> Op:
         return lambda msg, seq, out: _put_str(get(msg), out)
     prefix: Callable[[int], bytes] = _U32.pack if f.size is None else _no_count
     if f.type in _BYTE_ARRAYS:
+
         def put_bytes(msg: Any, seq: int, out: list[Any]) -> None:
             data = _as_bytes(get(msg))
             _check(msgtype, path, len(data), f.size)
             out.append(prefix(len(data)))
             out.append(data)
+
         return put_bytes
     if f.type in _SCALARS:
         dtype = _DTYPES[f.type]
@@ -208,14 +217,17 @@ def _field_op(msgtype: str, path: str, f: FieldSpec) -> Op:
             _check(msgtype, path, array.size, f.size)
             out.append(prefix(array.size))
             out.append(array)
+
         return put_array
     if f.type == "string":
+
         def put_strings(msg: Any, seq: int, out: list[Any]) -> None:
             items = get(msg)
             _check(msgtype, path, len(items), f.size)
             out.append(prefix(len(items)))
             for item in items:
                 _put_str(item, out)
+
         return put_strings
 
     def put_messages(msg: Any, seq: int, out: list[Any]) -> None:
@@ -224,6 +236,7 @@ def _field_op(msgtype: str, path: str, f: FieldSpec) -> Op:
         out.append(prefix(len(items)))
         for item in items:
             encoder(type(item))(item, 0, out)
+
     return put_messages
 
 
@@ -283,7 +296,7 @@ def _decode_one(type_name: str, buf: memoryview, pos: int) -> tuple[Any, int]:
         end = pos + 4 + length
         if end > len(buf):
             raise ValueError(f"string of {length} bytes past the end")
-        return bytes(buf[pos + 4:end]).decode(), end
+        return bytes(buf[pos + 4 : end]).decode(), end
     if type_name in _SCALARS:
         code = _SCALARS[type_name]
         return struct.unpack_from("<" + code, buf, pos)[0], pos + struct.calcsize(code)
@@ -300,7 +313,7 @@ def _decode_field(f: FieldSpec, buf: memoryview, pos: int) -> tuple[Any, int]:
     if f.type in _BYTE_ARRAYS:
         if pos + count > len(buf):
             raise ValueError(f"{count} bytes past the end")
-        return bytes(buf[pos:pos + count]), pos + count
+        return bytes(buf[pos : pos + count]), pos + count
     if f.type in _SCALARS:
         dtype = _DTYPES[f.type]
         array = np.frombuffer(buf, dtype=dtype, count=count, offset=pos)

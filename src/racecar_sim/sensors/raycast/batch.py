@@ -43,8 +43,9 @@ class BatchFrames:
         steep = det < MAX_TILT_COS
         safe = np.where(steep, 1.0, det)
         to_plane = np.stack([np.stack([e2y / safe, -e2x / safe], -1), np.stack([-e1y / safe, e1x / safe], -1)], 1)
-        return cls(np.ascontiguousarray(origin, dtype=float), to_plane, np.stack([z - half, z + half], -1), steep,
-                   rotation)
+        return cls(
+            np.ascontiguousarray(origin, dtype=float), to_plane, np.stack([z - half, z + half], -1), steep, rotation
+        )
 
 
 class BatchWallCaster:
@@ -80,8 +81,26 @@ class BatchWallCaster:
         if self.always_3d or self.has_moving:
             return ranges, np.arange(n)
         fallback = np.zeros(n, bool)
-        cast_batch(self.table, self.polygon, self.poly_start, self.poly_edges, self.floors, self.others,
-                   frames.origin, frames.to_plane, frames.rotation, frames.band, frames.steep, fan.angle_min,
-                   fan.inverse_step, fan.count, fan.turn, fan.range_min, fan.range_max, fan.directions, ranges,
-                   fallback)
+        cast_batch(
+            self.table,
+            self.polygon,
+            self.poly_start,
+            self.poly_edges,
+            self.floors,
+            self.others,
+            frames.origin,
+            frames.to_plane,
+            frames.rotation,
+            frames.band,
+            frames.steep,
+            fan.angle_min,
+            fan.inverse_step,
+            fan.count,
+            fan.turn,
+            fan.range_min,
+            fan.range_max,
+            fan.directions,
+            ranges,
+            fallback,
+        )
         return ranges, np.flatnonzero(fallback)

@@ -50,8 +50,16 @@ class RayCaster:
     casts), so that a scan that needs none leaves `data` unposed.
     """
 
-    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, fan: Fan, own_body: int, group: int,
-                 cell_size: float | None = None, pose_bodies: Callable[[], None] | None = None) -> None:
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
+        fan: Fan,
+        own_body: int,
+        group: int,
+        cell_size: float | None = None,
+        pose_bodies: Callable[[], None] | None = None,
+    ) -> None:
         self.fan, self.group, self.cell_size = fan, group, cell_size
         self._pose_bodies = pose_bodies or (lambda: None)
         self.rebind(model, data, own_body)
@@ -91,9 +99,21 @@ class RayCaster:
 
                 fan = self.fan
                 ranges = np.full(fan.count, np.inf)
-                if kernels.cast_level(table, self.static.floors, origin, rotation, MAX_TILT_COS, fan.angle_min,
-                              fan.inverse_step, fan.count, fan.turn, fan.range_min, fan.range_max, fan.directions,
-                              ranges):
+                if kernels.cast_level(
+                    table,
+                    self.static.floors,
+                    origin,
+                    rotation,
+                    MAX_TILT_COS,
+                    fan.angle_min,
+                    fan.inverse_step,
+                    fan.count,
+                    fan.turn,
+                    fan.range_min,
+                    fan.range_max,
+                    fan.directions,
+                    ranges,
+                ):
                     self.last_3d_beams = 0
                     return ranges
         frame = ScanFrame(origin, rotation, self.fan)
@@ -150,8 +170,10 @@ class RayCaster:
             lo, hi = frame.band
             reach = np.hypot(pos[:, 0] - frame.origin[0], pos[:, 1] - frame.origin[1]) <= radius + self.fan.range_max
             maybe = (reach & (pos[:, 2] - radius <= hi) & (pos[:, 2] + radius >= lo)) | (radius == 0)
-            parts += [geom_footprint(m, g, d.geom_xpos[g], d.geom_xmat[g].reshape(3, 3), allow_mesh=False)
-                      for g in ids[maybe].tolist()]
+            parts += [
+                geom_footprint(m, g, d.geom_xpos[g], d.geom_xmat[g].reshape(3, 3), allow_mesh=False)
+                for g in ids[maybe].tolist()
+            ]
         return parts[0] if len(parts) == 1 else Footprints.join(parts)
 
 
@@ -162,8 +184,14 @@ def _needs_3d(frame: ScanFrame, footprints: Footprints) -> bool:
     return frame.steep or bool(footprints.not_prism_like) or any(lo <= z <= hi for z in footprints.floors.tolist())
 
 
-def _cast_prisms(frame: ScanFrame, walls: Walls, circles: np.ndarray, partly: np.ndarray, ranges: np.ndarray,
-                 unsure: list[tuple[int, int]]) -> None:
+def _cast_prisms(
+    frame: ScanFrame,
+    walls: Walls,
+    circles: np.ndarray,
+    partly: np.ndarray,
+    ranges: np.ndarray,
+    unsure: list[tuple[int, int]],
+) -> None:
     walls.cast(frame, ranges)
     if circles.shape[1]:
         cast_circles(frame, circles[:, near_items(circles, frame, 0, 1, 2)], ranges)
@@ -182,5 +210,5 @@ def mark_bounds(frame: ScanFrame, bounds: np.ndarray, unsure: list[tuple[int, in
 def _mask(spans: list[tuple[int, int]], count: int) -> np.ndarray:
     mask = np.zeros(count, bool)
     for first, last in spans:
-        mask[first:last + 1] = True
+        mask[first : last + 1] = True
     return mask

@@ -56,20 +56,30 @@ def dense_order(segments: np.ndarray, centre: tuple[float, float]) -> np.ndarray
     """The column order of a cell's walls for a dense table: by TILE squares, near to far from `centre`, and near
     to far within each."""
     tile = (np.floor(segments[6:8] / TILE) + 0.5) * TILE
-    return np.lexsort((np.hypot(segments[6] - centre[0], segments[7] - centre[1]), tile_keys(segments),
-                       np.hypot(tile[0] - centre[0], tile[1] - centre[1])))
+    return np.lexsort(
+        (
+            np.hypot(segments[6] - centre[0], segments[7] - centre[1]),
+            tile_keys(segments),
+            np.hypot(tile[0] - centre[0], tile[1] - centre[1]),
+        )
+    )
 
 
 def dense_table(segments: np.ndarray, range_min: float, range_max: float) -> np.ndarray:
     """kernels.wall_table of `segments` (in dense_order) with the rows above."""
-    extra = np.array([np.maximum.accumulate(segments[4][::-1])[::-1], np.minimum.accumulate(segments[5][::-1])[::-1],
-                      *_runs(segments)]).reshape(6, -1)
+    extra = np.array(
+        [
+            np.maximum.accumulate(segments[4][::-1])[::-1],
+            np.minimum.accumulate(segments[5][::-1])[::-1],
+            *_runs(segments),
+        ]
+    ).reshape(6, -1)
     return np.ascontiguousarray(np.vstack([wall_table(segments, range_min, range_max), extra]))
 
 
 def tile_keys(segments: np.ndarray) -> np.ndarray:
     """The TILE square of each wall's middle, as one integer per wall (equal keys: the same square)."""
-    ix, iy = (np.floor(segments[6:8] / TILE).astype(np.int64) + (1 << 20))
+    ix, iy = np.floor(segments[6:8] / TILE).astype(np.int64) + (1 << 20)
     return ix * (1 << 21) + iy
 
 
@@ -88,14 +98,17 @@ def _runs(segments: np.ndarray) -> np.ndarray:
     hi_y = np.maximum.reduceat(ends_y.reshape(2, n).max(axis=0), starts) if n else np.zeros(0)
     centre_x, centre_y = 0.5 * (lo_x + hi_x), 0.5 * (lo_y + hi_y)
     # every end point lies within the circle (a margin for rounding); the walls between them too
-    reach = np.hypot(ends_x.reshape(2, n) - centre_x[run], ends_y.reshape(2, n) - centre_y[run]).max(axis=0) if n \
+    reach = (
+        np.hypot(ends_x.reshape(2, n) - centre_x[run], ends_y.reshape(2, n) - centre_y[run]).max(axis=0)
+        if n
         else np.zeros(0)
+    )
     radius = np.maximum.reduceat(reach, starts) * (1.0 + 1e-9) + 1e-9 if n else np.zeros(0)
     return np.array([centre_x[run], centre_y[run], radius[run], ends[run].astype(float)]).reshape(4, n)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _fast_angle(x, y):  # noqa: ANN001, ANN202
+def _fast_angle(x, y):
     """atan2(y, x) to within 2e-5 rad (Abramowitz & Stegun 4.4.49 on the octant), without a library call."""
     ax, ay = abs(x), abs(y)
     big = max(ax, ay)
@@ -112,7 +125,7 @@ def _fast_angle(x, y):  # noqa: ANN001, ANN202
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _arc(q0x, q0y, q1x, q1y, cross, angle_min, inverse_step, turn):  # noqa: ANN001, ANN202
+def _arc(q0x, q0y, q1x, q1y, cross, angle_min, inverse_step, turn):
     """Fan positions (lo, hi), in beam steps from the first beam with 0 <= lo < turn + margin, holding every beam
     the segment q0-q1 (beam plane, origin at 0) spans, the exact cast's edge slack included; (0, inf) when its
     short way round is in doubt (an arc near nothing or a half turn: the cheap arctangent cannot tell)."""
@@ -135,7 +148,7 @@ def _arc(q0x, q0y, q1x, q1y, cross, angle_min, inverse_step, turn):  # noqa: ANN
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _sector_maxima(ranges, sectors, first, last):  # noqa: ANN001, ANN202
+def _sector_maxima(ranges, sectors, first, last):
     """sectors[k] for the sectors holding beams first..last: the largest of their ranges."""
     for k in range(first // SECTOR_BEAMS, last // SECTOR_BEAMS + 1):
         top = -np.inf
@@ -145,7 +158,7 @@ def _sector_maxima(ranges, sectors, first, last):  # noqa: ANN001, ANN202
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _run_hidden(tx, ty, radius, p00, p01, p10, p11, stretch, angle_min, inverse_step, count, turn, sectors):  # noqa: ANN001, ANN202
+def _run_hidden(tx, ty, radius, p00, p01, p10, p11, stretch, angle_min, inverse_step, count, turn, sectors):
     """Whether every sector the circle (offset tx, ty from the origin, `radius`) may span holds no range above
     the circle's nearest distance (beam plane): then no wall inside it can lower a beam."""
     qx, qy = p00 * tx + p01 * ty, p10 * tx + p11 * ty
@@ -174,8 +187,7 @@ def _run_hidden(tx, ty, radius, p00, p01, p10, p11, stretch, angle_min, inverse_
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _cast(table, ox, oy, oz, p00, p01, p10, p11, lo, hi, angle_min, inverse_step, count, turn, range_min, dirs,
-          ranges):  # noqa: ANN001, ANN202
+def _cast(table, ox, oy, oz, p00, p01, p10, p11, lo, hi, angle_min, inverse_step, count, turn, range_min, dirs, ranges):
     """kernels.cast_walls' loop for a level scan of walls that cover its band, dropping hidden runs and walls (the
     module doc); a wall not hidden is cast by kernels.hit_wall, and the maxima of the sectors it may span are
     taken again."""
@@ -188,8 +200,21 @@ def _cast(table, ox, oy, oz, p00, p01, p10, p11, lo, hi, angle_min, inverse_step
     run_end = 0
     while run_end < table.shape[1]:
         run, run_end = run_end, int(table[RUN_END, run_end])
-        if _run_hidden(table[RUN_X, run] - ox, table[RUN_Y, run] - oy, table[RUN_R, run], p00, p01, p10, p11,
-                       stretch, angle_min, inverse_step, count, turn, sectors):
+        if _run_hidden(
+            table[RUN_X, run] - ox,
+            table[RUN_Y, run] - oy,
+            table[RUN_R, run],
+            p00,
+            p01,
+            p10,
+            p11,
+            stretch,
+            angle_min,
+            inverse_step,
+            count,
+            turn,
+            sectors,
+        ):
             continue
         # the walls seen (kernels._wall_is_seen for walls covering the band), listed first without a branch per
         # wall: whether a wall is seen is hard to predict
@@ -198,9 +223,16 @@ def _cast(table, ox, oy, oz, p00, p01, p10, p11, lo, hi, angle_min, inverse_step
             dx, dy = table[MIDX, w] - ox, table[MIDY, w] - oy
             cx, cy = table[CX, w] - ox, table[CY, w] - oy
             seen[n] = w
-            n += ((dx * dx + dy * dy <= table[REACH2, w]) & (table[ZLO, w] <= lo) & (table[ZHI, w] >= hi)
-                  & ((table[CROSS, w] - ox * table[EY, w] + oy * table[EX, w] < 0.0)
-                     | (cx * cx + cy * cy <= table[CREACH2, w]) | (table[TWO_SIDED, w] > 0.0)))
+            n += (
+                (dx * dx + dy * dy <= table[REACH2, w])
+                & (table[ZLO, w] <= lo)
+                & (table[ZHI, w] >= hi)
+                & (
+                    (table[CROSS, w] - ox * table[EY, w] + oy * table[EX, w] < 0.0)
+                    | (cx * cx + cy * cy <= table[CREACH2, w])
+                    | (table[TWO_SIDED, w] > 0.0)
+                )
+            )
         for i in range(n):
             w = seen[i]
             rx0, ry0 = table[X0, w] - ox, table[Y0, w] - oy
@@ -216,8 +248,27 @@ def _cast(table, ox, oy, oz, p00, p01, p10, p11, lo, hi, angle_min, inverse_step
             start, end = _arc(q0x, q0y, q1x, q1y, q0x * q1y - q0y * q1x, angle_min, inverse_step, turn)
             if _hidden(sectors, ranges, near2, start, end, count, turn):
                 continue
-            hit_wall(table, w, False, ox, oy, oz, p00, p01, p10, p11, 0.0, 0.0, angle_min, inverse_step, count, turn,
-                      range_min, dirs, ranges)
+            hit_wall(
+                table,
+                w,
+                False,
+                ox,
+                oy,
+                oz,
+                p00,
+                p01,
+                p10,
+                p11,
+                0.0,
+                0.0,
+                angle_min,
+                inverse_step,
+                count,
+                turn,
+                range_min,
+                dirs,
+                ranges,
+            )
             shift = -turn  # the maxima of the sectors the arc spans, once round each way
             while start + shift <= count - 1:
                 a, b = max(start + shift, 0.0), min(end + shift, count - 1.0)
@@ -227,7 +278,7 @@ def _cast(table, ox, oy, oz, p00, p01, p10, p11, lo, hi, angle_min, inverse_step
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _hidden(sectors, ranges, near2, start, end, count, turn):  # noqa: ANN001, ANN202
+def _hidden(sectors, ranges, near2, start, end, count, turn):
     """Whether every beam of the arc start..end (fan positions) holds a range no greater than the square root of
     near2: by sectors, then, for a short arc, beam by beam."""
     hidden = True
@@ -255,8 +306,21 @@ def _hidden(sectors, ranges, near2, start, end, count, turn):  # noqa: ANN001, A
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def cast_level(table, floors, origin, rotation, max_tilt_cos, angle_min, inverse_step, count, turn, range_min,
-               range_max, dirs, ranges):  # noqa: ANN001, ANN201
+def cast_level(
+    table,
+    floors,
+    origin,
+    rotation,
+    max_tilt_cos,
+    angle_min,
+    inverse_step,
+    count,
+    turn,
+    range_min,
+    range_max,
+    dirs,
+    ranges,
+):
     """kernels.cast_level on a dense_table: the same ranges and refusals, hidden walls dropped."""
     level, lo, hi = level_band(floors, origin, rotation, max_tilt_cos, range_max)
     if not level:
@@ -267,8 +331,25 @@ def cast_level(table, floors, origin, rotation, max_tilt_cos, angle_min, inverse
             return False
     e1x, e2x, e1y, e2y = rotation[0, 0], rotation[0, 1], rotation[1, 0], rotation[1, 1]
     det = e1x * e2y - e2x * e1y
-    _cast(table, origin[0], origin[1], origin[2], e2y / det, -e2x / det, -e1y / det, e1x / det, lo, hi, angle_min,
-          inverse_step, count, turn, range_min, dirs, ranges)
+    _cast(
+        table,
+        origin[0],
+        origin[1],
+        origin[2],
+        e2y / det,
+        -e2x / det,
+        -e1y / det,
+        e1x / det,
+        lo,
+        hi,
+        angle_min,
+        inverse_step,
+        count,
+        turn,
+        range_min,
+        dirs,
+        ranges,
+    )
     for b in range(count):
         if ranges[b] > range_max:
             ranges[b] = np.inf

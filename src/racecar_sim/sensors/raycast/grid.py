@@ -20,8 +20,9 @@ from racecar_sim.sensors.raycast.planar import Walls
 from racecar_sim.sensors.raycast.scene import Footprints
 
 
-def split_by_band(segments: np.ndarray, circles: np.ndarray, lo: float,
-                  hi: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def split_by_band(
+    segments: np.ndarray, circles: np.ndarray, lo: float, hi: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The segments and circles whose z-range covers the band [lo, hi], and the footprint circles
     (rows cx, cy, r) of those that cover only part of it (a beam may pass over, under or onto them)."""
     seg_lo, seg_hi, circ_lo, circ_hi = segments[4], segments[5], circles[3], circles[4]
@@ -36,8 +37,14 @@ def split_by_band(segments: np.ndarray, circles: np.ndarray, lo: float,
 class Cell:
     """The static items near one grid cell, and which of them cover a height band (cached per band)."""
 
-    def __init__(self, segments: np.ndarray, circles: np.ndarray, bounds: np.ndarray, fan: Fan,
-                 centre: tuple[float, float] = (0.0, 0.0)) -> None:
+    def __init__(
+        self,
+        segments: np.ndarray,
+        circles: np.ndarray,
+        bounds: np.ndarray,
+        fan: Fan,
+        centre: tuple[float, float] = (0.0, 0.0),
+    ) -> None:
         # walls nearest the cell first: a scan from the cell then meets near walls before those they hide, which
         # the compiled cast skips beam by beam (any order gives the same ranges)
         order = np.argsort(np.hypot(segments[6] - centre[0], segments[7] - centre[1]), kind="stable")
@@ -50,7 +57,12 @@ class Cell:
     def walls_only(self) -> np.ndarray | None:
         """The kernels' table of this cell's walls if walls are all it holds (no circles, no bounding cylinders),
         for kernels.cast_level; else None."""
-        if self._walls_only is None and self.segments.shape[1] and not self.circles.shape[1] and not self.bounds.shape[1]:
+        if (
+            self._walls_only is None
+            and self.segments.shape[1]
+            and not self.circles.shape[1]
+            and not self.bounds.shape[1]
+        ):
             from racecar_sim.sensors.raycast.kernels import wall_table
 
             self._walls_only = wall_table(self.segments, self.fan.range_min, self.fan.range_max)
@@ -114,8 +126,11 @@ class Grid:
         self.floors = np.ascontiguousarray(footprints.floors, dtype=float)
         self._flat: FlatWalls | bool | None = None  # False: none (too sparse)
         tables = (footprints.segments, footprints.circles, footprints.bounds)
-        boxes = (_segment_boxes(footprints.segments), _circle_boxes(footprints.circles),
-                 _circle_boxes(footprints.bounds))
+        boxes = (
+            _segment_boxes(footprints.segments),
+            _circle_boxes(footprints.circles),
+            _circle_boxes(footprints.bounds),
+        )
         per_table, long = zip(*(self._register(box, reach) for box in boxes))
         segments, circles, bounds = (table[:, items] for table, items in zip(tables, long))
         self.empty = Cell(segments, circles, bounds, fan)
@@ -123,16 +138,20 @@ class Grid:
         near_long = self._near_long(keys, tables, long, reach)
         self.cells: dict[tuple[int, int], Cell] = {}
         for key in keys:
-            segments, circles, bounds = (table[:, _merged(cells.get(key), near.get(key))]
-                                         for table, cells, near in zip(tables, per_table, near_long))
-            self.cells[key] = Cell(segments, circles, bounds, fan, ((key[0] + 0.5) * self.size,
-                                                                     (key[1] + 0.5) * self.size))
+            segments, circles, bounds = (
+                table[:, _merged(cells.get(key), near.get(key))]
+                for table, cells, near in zip(tables, per_table, near_long)
+            )
+            self.cells[key] = Cell(
+                segments, circles, bounds, fan, ((key[0] + 0.5) * self.size, (key[1] + 0.5) * self.size)
+            )
 
     @property
     def has_items(self) -> bool:
         """Whether the grid holds anything: a cell of its own, or long items."""
-        return bool(self.cells) or any(table.shape[1] for table in (self.empty.segments, self.empty.circles,
-                                                                    self.empty.bounds))
+        return bool(self.cells) or any(
+            table.shape[1] for table in (self.empty.segments, self.empty.circles, self.empty.bounds)
+        )
 
     def _register(self, boxes: np.ndarray, reach: float) -> tuple[dict[tuple[int, int], np.ndarray], np.ndarray]:
         """The items (columns of `boxes`) of each cell, and the long items (registered in no cell)."""
@@ -155,8 +174,9 @@ class Grid:
         ends = np.r_[starts[1:], len(ix)]
         return {(int(ix[s]), int(iy[s])): item[s:e] for s, e in zip(starts, ends)}, long
 
-    def _near_long(self, keys: set[tuple[int, int]], tables: tuple[np.ndarray, ...], long: tuple[np.ndarray, ...],
-                   reach: float) -> list[dict[tuple[int, int], np.ndarray]]:
+    def _near_long(
+        self, keys: set[tuple[int, int]], tables: tuple[np.ndarray, ...], long: tuple[np.ndarray, ...], reach: float
+    ) -> list[dict[tuple[int, int], np.ndarray]]:
         """Per table, the long items within reach of each cell in `keys` (of any point of it)."""
         found: list[dict[tuple[int, int], np.ndarray]] = [{}, {}, {}]
         if not keys or not any(len(items) for items in long):
@@ -167,13 +187,13 @@ class Grid:
         for k, (table, items) in enumerate(zip(tables, long)):
             step = max(1, (1 << 20) // max(len(items), 1))  # cells per block: the distance table stays small
             for first in range(0, len(ordered) if len(items) else 0, step):
-                block = centres[first:first + step]
+                block = centres[first : first + step]
                 if k == 0:
                     distance = _segment_distances(block, table[:4, items])
                 else:
                     gap = np.hypot(block[:, :1] - table[0, items], block[:, 1:] - table[1, items])
                     distance = gap - table[2, items]
-                for key, near in zip(ordered[first:first + step], distance <= room):
+                for key, near in zip(ordered[first : first + step], distance <= room):
                     if near.any():
                         found[k][key] = items[near]
         return found
@@ -214,7 +234,15 @@ class FlatWalls:
 
         keys = [key for key, cell in grid.cells.items() if cell.walls_only() is not None]
         if not keys:
-            return cls(grid.floors, grid.size, 0, 0, np.full((1, 1), -1, np.int64), np.zeros(1, np.int64), np.zeros((WALL_ROWS, 0)))
+            return cls(
+                grid.floors,
+                grid.size,
+                0,
+                0,
+                np.full((1, 1), -1, np.int64),
+                np.zeros(1, np.int64),
+                np.zeros((WALL_ROWS, 0)),
+            )
         x0, y0 = min(k[0] for k in keys), min(k[1] for k in keys)
         shape = (max(k[0] for k in keys) - x0 + 1, max(k[1] for k in keys) - y0 + 1)
         if shape[0] * shape[1] > FLAT_CELLS:
@@ -231,5 +259,6 @@ class FlatWalls:
             else:
                 tables.append(cell.walls_only())
         starts = np.concatenate([[0], np.cumsum([t.shape[1] for t in tables])]).astype(np.int64)
-        return cls(grid.floors, grid.size, x0, y0, ids, starts, np.ascontiguousarray(np.concatenate(tables, axis=1)),
-                   dense)
+        return cls(
+            grid.floors, grid.size, x0, y0, ids, starts, np.ascontiguousarray(np.concatenate(tables, axis=1)), dense
+        )

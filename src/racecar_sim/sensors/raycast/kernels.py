@@ -28,15 +28,33 @@ _CULL_SLACK = 1.0 + 1e-9  # the reach tests only cull: a wall kept too many chan
 def wall_table(segments: np.ndarray, range_min: float, range_max: float) -> np.ndarray:
     """The kernels' table (WALL_ROWS, n) of a scene.py segment table (13, n)."""
     x0, y0, x1, y1 = segments[:4]
-    return np.ascontiguousarray(np.array([
-        x0, y0, x1, y1, segments[4], segments[5], segments[6], segments[7],
-        ((segments[8] + range_max) * _CULL_SLACK) ** 2,  # a wall's points lie within half its length of its middle
-        segments[9], segments[10], ((segments[11] + range_min) * _CULL_SLACK) ** 2,
-        x0 * y1 - y0 * x1, x1 - x0, y1 - y0, (segments[12] == 0).astype(float)]).reshape(WALL_ROWS, -1))
+    return np.ascontiguousarray(
+        np.array(
+            [
+                x0,
+                y0,
+                x1,
+                y1,
+                segments[4],
+                segments[5],
+                segments[6],
+                segments[7],
+                ((segments[8] + range_max) * _CULL_SLACK)
+                ** 2,  # a wall's points lie within half its length of its middle
+                segments[9],
+                segments[10],
+                ((segments[11] + range_min) * _CULL_SLACK) ** 2,
+                x0 * y1 - y0 * x1,
+                x1 - x0,
+                y1 - y0,
+                (segments[12] == 0).astype(float),
+            ]
+        ).reshape(WALL_ROWS, -1)
+    )
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _wall_is_seen(table, w, ox, oy, lo, hi, tilted):  # noqa: ANN001, ANN202
+def _wall_is_seen(table, w, ox, oy, lo, hi, tilted):
     """0: culled; 1: cast, the wall covers the band; 2: cast, a hit counts only at the heights it spans."""
     dx, dy = table[MIDX, w] - ox, table[MIDY, w] - oy
     if dx * dx + dy * dy > table[REACH2, w]:
@@ -48,16 +66,38 @@ def _wall_is_seen(table, w, ox, oy, lo, hi, tilted):  # noqa: ANN001, ANN202
     # a ray from outside a convex solid enters through an edge facing it (the origin on its outer side);
     # one starting inside (within range_min of it) leaves through the far side
     cx, cy = table[CX, w] - ox, table[CY, w] - oy
-    facing = (table[CROSS, w] - ox * table[EY, w] + oy * table[EX, w] < 0.0
-              or cx * cx + cy * cy <= table[CREACH2, w] or table[TWO_SIDED, w] > 0.0)
+    facing = (
+        table[CROSS, w] - ox * table[EY, w] + oy * table[EX, w] < 0.0
+        or cx * cx + cy * cy <= table[CREACH2, w]
+        or table[TWO_SIDED, w] > 0.0
+    )
     if not facing:
         return 0
     return 1 if covers else 2
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def hit_wall(table, w, spans, ox, oy, oz, p00, p01, p10, p11, rz0, rz1, angle_min, inverse_step, count, turn,
-              range_min, dirs, ranges):  # noqa: ANN001, ANN202
+def hit_wall(
+    table,
+    w,
+    spans,
+    ox,
+    oy,
+    oz,
+    p00,
+    p01,
+    p10,
+    p11,
+    rz0,
+    rz1,
+    angle_min,
+    inverse_step,
+    count,
+    turn,
+    range_min,
+    dirs,
+    ranges,
+):
     """Lower `ranges` to the beams' hits on wall w (spans: only where the hit lies within its heights)."""
     rx0, ry0 = table[X0, w] - ox, table[Y0, w] - oy
     rx1, ry1 = table[X1, w] - ox, table[Y1, w] - oy
@@ -96,8 +136,9 @@ def hit_wall(table, w, spans, ox, oy, oz, p00, p01, p10, p11, rz0, rz1, angle_mi
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def cast_walls(table, origin, to_plane, rotation, lo, hi, tilted, angle_min, inverse_step, count, turn, range_min,
-               dirs, ranges):  # noqa: ANN001, ANN201
+def cast_walls(
+    table, origin, to_plane, rotation, lo, hi, tilted, angle_min, inverse_step, count, turn, range_min, dirs, ranges
+):
     """Lower `ranges` (count,) to one scan's first hits on the walls of `table` seen from `origin` (3,), in the
     band [lo, hi]. Walls covering only part of the band are cast (with their heights) only if `tilted`."""
     ox, oy, oz = origin[0], origin[1], origin[2]
@@ -106,12 +147,31 @@ def cast_walls(table, origin, to_plane, rotation, lo, hi, tilted, angle_min, inv
     for w in range(table.shape[1]):
         seen = _wall_is_seen(table, w, ox, oy, lo, hi, tilted)
         if seen:
-            hit_wall(table, w, seen == 2, ox, oy, oz, p00, p01, p10, p11, rz0, rz1, angle_min, inverse_step, count,
-                      turn, range_min, dirs, ranges)
+            hit_wall(
+                table,
+                w,
+                seen == 2,
+                ox,
+                oy,
+                oz,
+                p00,
+                p01,
+                p10,
+                p11,
+                rz0,
+                rz1,
+                angle_min,
+                inverse_step,
+                count,
+                turn,
+                range_min,
+                dirs,
+                ranges,
+            )
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _cast_faces(table, polygon, poly_start, poly_edges, marked, origin, rotation, lo, hi, range_min, dirs, ranges):  # noqa: ANN001, ANN202
+def _cast_faces(table, polygon, poly_start, poly_edges, marked, origin, rotation, lo, hi, range_min, dirs, ranges):
     """Lower `ranges` to the hits on the top and bottom faces of the marked polygons (box footprints, edges
     counter-clockwise): only a face inside the band and facing the origin can be the first hit."""
     ox, oy, oz = origin[0], origin[1], origin[2]
@@ -143,8 +203,28 @@ def _cast_faces(table, polygon, poly_start, poly_edges, marked, origin, rotation
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def cast_batch(table, polygon, poly_start, poly_edges, floors, others, origins, to_plane, rotations, bands, steep,
-               angle_min, inverse_step, count, turn, range_min, range_max, dirs, ranges, fallback):  # noqa: ANN001, ANN201
+def cast_batch(
+    table,
+    polygon,
+    poly_start,
+    poly_edges,
+    floors,
+    others,
+    origins,
+    to_plane,
+    rotations,
+    bands,
+    steep,
+    angle_min,
+    inverse_step,
+    count,
+    turn,
+    range_min,
+    range_max,
+    dirs,
+    ranges,
+    fallback,
+):
     """batch.BatchWallCaster's cast for worlds i (rows of origins, ...): ranges[i] lowered to its scan's hits
     on the walls and box faces, or fallback[i] set where the 2-D cast cannot answer (see batch.py)."""
     marked = np.zeros(len(poly_start) - 1, np.bool_)
@@ -180,19 +260,58 @@ def cast_batch(table, polygon, poly_start, poly_edges, floors, others, origins, 
         fallback[i] = fall
         if fall:
             continue
-        cast_walls(table, origins[i], to_plane[i], rotations[i], lo, hi, tilted, angle_min, inverse_step, count,
-                   turn, range_min, dirs, ranges[i])
+        cast_walls(
+            table,
+            origins[i],
+            to_plane[i],
+            rotations[i],
+            lo,
+            hi,
+            tilted,
+            angle_min,
+            inverse_step,
+            count,
+            turn,
+            range_min,
+            dirs,
+            ranges[i],
+        )
         if tilted:
-            _cast_faces(table, polygon, poly_start, poly_edges, marked, origins[i], rotations[i], lo, hi, range_min,
-                        dirs, ranges[i])
+            _cast_faces(
+                table,
+                polygon,
+                poly_start,
+                poly_edges,
+                marked,
+                origins[i],
+                rotations[i],
+                lo,
+                hi,
+                range_min,
+                dirs,
+                ranges[i],
+            )
         for b in range(count):
             if ranges[i, b] > range_max:
                 ranges[i, b] = np.inf
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def cast_level(table, floors, origin, rotation, max_tilt_cos, angle_min, inverse_step, count, turn, range_min,
-               range_max, dirs, ranges):  # noqa: ANN001, ANN201
+def cast_level(
+    table,
+    floors,
+    origin,
+    rotation,
+    max_tilt_cos,
+    angle_min,
+    inverse_step,
+    count,
+    turn,
+    range_min,
+    range_max,
+    dirs,
+    ranges,
+):
     """RayCaster.cast's common case in one call: a scan of prisms that all cover its height band. Lowers
     `ranges` (count,) to the first hits on the walls of `table`, range_max applied, and returns True; or returns
     False, `ranges` untouched, when the scan needs the general path (a steep scan plane, a floor in the band, a
@@ -206,8 +325,27 @@ def cast_level(table, floors, origin, rotation, max_tilt_cos, angle_min, inverse
     ox, oy, oz = origin[0], origin[1], origin[2]
     for w in range(table.shape[1]):
         if _wall_is_seen(table, w, ox, oy, lo, hi, False):
-            hit_wall(table, w, False, ox, oy, oz, p00, p01, p10, p11, 0.0, 0.0, angle_min, inverse_step, count,
-                      turn, range_min, dirs, ranges)
+            hit_wall(
+                table,
+                w,
+                False,
+                ox,
+                oy,
+                oz,
+                p00,
+                p01,
+                p10,
+                p11,
+                0.0,
+                0.0,
+                angle_min,
+                inverse_step,
+                count,
+                turn,
+                range_min,
+                dirs,
+                ranges,
+            )
     for b in range(count):
         if ranges[b] > range_max:
             ranges[b] = np.inf
@@ -215,7 +353,7 @@ def cast_level(table, floors, origin, rotation, max_tilt_cos, angle_min, inverse
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def level_band(floors, origin, rotation, max_tilt_cos, range_max):  # noqa: ANN001, ANN201
+def level_band(floors, origin, rotation, max_tilt_cos, range_max):
     """(level, lo, hi): the height band [lo, hi] of a scan from `origin` with axes `rotation`, and whether the 2-D
     cast answers it alone (not a steep scan plane, no floor in the band)."""
     det = rotation[0, 0] * rotation[1, 1] - rotation[0, 1] * rotation[1, 0]
@@ -229,7 +367,7 @@ def level_band(floors, origin, rotation, max_tilt_cos, range_max):  # noqa: ANN0
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def partly_covered(table, ox, oy, lo, hi):  # noqa: ANN001, ANN201
+def partly_covered(table, ox, oy, lo, hi):
     """Whether a wall of `table` within reach of (ox, oy) covers only part of [lo, hi]."""
     for w in range(table.shape[1]):
         zlo, zhi = table[ZLO, w], table[ZHI, w]

@@ -18,8 +18,14 @@ class MujocoRays:
     """Casts chosen beams of a scan in 3-D against the geoms in `group`, never hitting `hidden_geoms`, and against
     the map walls the model holds as data (`walls`, physics.near_walls), cast in a model of their own."""
 
-    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, group: int, hidden_geoms: np.ndarray,
-                 walls: WallBoxes | None = None) -> None:
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
+        group: int,
+        hidden_geoms: np.ndarray,
+        walls: WallBoxes | None = None,
+    ) -> None:
         self.model, self.data, self.group, self.walls = model, data, group, walls
         self.mask = np.zeros(mujoco.mjNGROUP, np.uint8)
         self.mask[group] = 1
@@ -49,8 +55,9 @@ class MujocoRays:
     def _cast(self, model: mujoco.MjModel, data: mujoco.MjData, frame: ScanFrame, directions: np.ndarray) -> np.ndarray:
         fan, n = frame.fan, len(directions)
         dist, geom = np.empty(n), np.empty(n, np.int32)
-        mujoco.mj_multiRay(model, data, frame.origin, directions.ravel(), self.mask, 1, -1, geom, dist, None, n,
-                           fan.range_max)
+        mujoco.mj_multiRay(
+            model, data, frame.origin, directions.ravel(), self.mask, 1, -1, geom, dist, None, n, fan.range_max
+        )
         dist[geom < 0] = np.inf
         for i in np.flatnonzero(dist < fan.range_min):  # something before the ray start: look past it
             start = frame.origin + fan.range_min * directions[i]

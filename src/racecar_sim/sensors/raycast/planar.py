@@ -60,8 +60,22 @@ class Walls:
         if self.count == 0:
             return
         fan = self.fan
-        self._kernel(self.table, frame.origin, frame.to_plane, frame.rotation, frame.band[0], frame.band[1], False,
-                   fan.angle_min, fan.inverse_step, fan.count, fan.turn, fan.range_min, fan.directions, ranges)
+        self._kernel(
+            self.table,
+            frame.origin,
+            frame.to_plane,
+            frame.rotation,
+            frame.band[0],
+            frame.band[1],
+            False,
+            fan.angle_min,
+            fan.inverse_step,
+            fan.count,
+            fan.turn,
+            fan.range_min,
+            fan.directions,
+            ranges,
+        )
 
 
 def circle_intervals(frame: ScanFrame, circles: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:

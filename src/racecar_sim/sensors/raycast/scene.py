@@ -50,11 +50,13 @@ class Footprints:
     @classmethod
     def join(cls, parts: list[Footprints]) -> Footprints:
         """All parts' footprints in one."""
-        return cls(np.concatenate([empty_segments()] + [p.segments for p in parts], axis=1),
-                   np.concatenate([empty_circles()] + [p.circles for p in parts], axis=1),
-                   np.concatenate([empty_circles()] + [p.bounds for p in parts], axis=1),
-                   np.concatenate([np.zeros(0)] + [p.floors for p in parts]),
-                   [name for p in parts for name in p.not_prism_like])
+        return cls(
+            np.concatenate([empty_segments()] + [p.segments for p in parts], axis=1),
+            np.concatenate([empty_circles()] + [p.circles for p in parts], axis=1),
+            np.concatenate([empty_circles()] + [p.bounds for p in parts], axis=1),
+            np.concatenate([np.zeros(0)] + [p.floors for p in parts]),
+            [name for p in parts for name in p.not_prism_like],
+        )
 
 
 def seen_geoms(model: mujoco.MjModel, group: int) -> np.ndarray:
@@ -99,14 +101,30 @@ def _polygon_segments(corners: np.ndarray, zlo: float, zhi: float) -> np.ndarray
     return _segments(a, b, zlo, zhi, centre, float(np.linalg.norm(corners - centre, axis=1).max()), one_sided=True)
 
 
-def _segments(a: np.ndarray, b: np.ndarray, zlo: float, zhi: float, centre: np.ndarray, radius: float,
-              one_sided: bool = False) -> np.ndarray:
+def _segments(
+    a: np.ndarray, b: np.ndarray, zlo: float, zhi: float, centre: np.ndarray, radius: float, one_sided: bool = False
+) -> np.ndarray:
     n = len(a)
     mid = 0.5 * (a + b)
     half = 0.5 * np.linalg.norm(b - a, axis=1)
     z = np.full(n, 1.0)
-    return np.array([a[:, 0], a[:, 1], b[:, 0], b[:, 1], zlo * z, zhi * z, mid[:, 0], mid[:, 1], half,
-                     centre[0] * z, centre[1] * z, radius * z, float(one_sided) * z])[:, half > 0]
+    return np.array(
+        [
+            a[:, 0],
+            a[:, 1],
+            b[:, 0],
+            b[:, 1],
+            zlo * z,
+            zhi * z,
+            mid[:, 0],
+            mid[:, 1],
+            half,
+            centre[0] * z,
+            centre[1] * z,
+            radius * z,
+            float(one_sided) * z,
+        ]
+    )[:, half > 0]
 
 
 def _bound(pos: np.ndarray, radius: float) -> Footprints:
@@ -127,8 +145,9 @@ def box_footprint(pos: np.ndarray, rotation: np.ndarray, half: np.ndarray) -> Fo
 
 def boxes_footprints(pos: np.ndarray, rotations: np.ndarray, half: np.ndarray) -> Footprints:
     """Footprints of boxes given as arrays (n, 3), (n, 3, 3), (n, 3): exact for upright ones, a bound otherwise."""
-    return Footprints.join([box_footprint(p, r, h) or _bound(p, float(np.linalg.norm(h)))
-                            for p, r, h in zip(pos, rotations, half)])
+    return Footprints.join(
+        [box_footprint(p, r, h) or _bound(p, float(np.linalg.norm(h))) for p, r, h in zip(pos, rotations, half)]
+    )
 
 
 def cylinder_footprint(pos: np.ndarray, rotation: np.ndarray, size: np.ndarray) -> Footprints | None:
@@ -169,17 +188,19 @@ def mesh_footprint(vertices: np.ndarray, faces: np.ndarray) -> Footprints | None
     return Footprints(segments=_segments(a, b, zlo, zhi, centre, radius))
 
 
-def mesh_vertices(model: mujoco.MjModel, mesh: int, pos: np.ndarray,
-                  rotation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def mesh_vertices(
+    model: mujoco.MjModel, mesh: int, pos: np.ndarray, rotation: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """World vertices and faces of a mesh geom, exactly as MuJoCo's ray casts see them."""
     adr, num = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
-    local = model.mesh_vert[adr:adr + num].astype(float)
+    local = model.mesh_vert[adr : adr + num].astype(float)
     fadr, fnum = model.mesh_faceadr[mesh], model.mesh_facenum[mesh]
-    return pos + local @ rotation.T, model.mesh_face[fadr:fadr + fnum]
+    return pos + local @ rotation.T, model.mesh_face[fadr : fadr + fnum]
 
 
-def geom_footprint(model: mujoco.MjModel, geom: int, pos: np.ndarray, rotation: np.ndarray,
-                   allow_mesh: bool = True) -> Footprints:
+def geom_footprint(
+    model: mujoco.MjModel, geom: int, pos: np.ndarray, rotation: np.ndarray, allow_mesh: bool = True
+) -> Footprints:
     """The footprint of one geom at the given world pose (exact for prisms, a bound otherwise)."""
     kind, size = int(model.geom_type[geom]), model.geom_size[geom]
     found: Footprints | None = None
@@ -198,8 +219,20 @@ def geom_footprint(model: mujoco.MjModel, geom: int, pos: np.ndarray, rotation: 
     return found if found is not None else _bound(pos, float(model.geom_rbound[geom]))
 
 
-_KNOWN = {int(kind) for kind in (G.mjGEOM_PLANE, G.mjGEOM_HFIELD, G.mjGEOM_SPHERE, G.mjGEOM_CAPSULE,
-                                 G.mjGEOM_ELLIPSOID, G.mjGEOM_CYLINDER, G.mjGEOM_BOX, G.mjGEOM_MESH, G.mjGEOM_SDF)}
+_KNOWN = {
+    int(kind)
+    for kind in (
+        G.mjGEOM_PLANE,
+        G.mjGEOM_HFIELD,
+        G.mjGEOM_SPHERE,
+        G.mjGEOM_CAPSULE,
+        G.mjGEOM_ELLIPSOID,
+        G.mjGEOM_CYLINDER,
+        G.mjGEOM_BOX,
+        G.mjGEOM_MESH,
+        G.mjGEOM_SDF,
+    )
+}
 
 
 def _name(model: mujoco.MjModel, geom: int) -> str:
@@ -210,6 +243,7 @@ def static_footprints(model: mujoco.MjModel, geoms: np.ndarray) -> Footprints:
     """Footprints of the static geoms among `geoms`, at their (fixed) world poses."""
     scratch = mujoco.MjData(model)  # static poses do not depend on the state; leave the caller's data alone
     mujoco.mj_kinematics(model, scratch)
-    parts = [geom_footprint(model, g, scratch.geom_xpos[g].copy(), scratch.geom_xmat[g].reshape(3, 3).copy())
-             for g in geoms]
+    parts = [
+        geom_footprint(model, g, scratch.geom_xpos[g].copy(), scratch.geom_xmat[g].reshape(3, 3).copy()) for g in geoms
+    ]
     return Footprints.join(parts)
