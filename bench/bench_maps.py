@@ -161,8 +161,8 @@ def main() -> None:
             geoms, held = collision_geoms(world)
             print(f"{name:<28}{cells:>8}{geoms:>7}{held:>6}{step:>11.1f}{rate:>17.1f}x{ratio:>10.2f}")
     print(
-        "geoms: colliding geoms in the MuJoCo model (the car's 6, the ground plane and the near-wall slots in use at the start);"
-        " held: map wall boxes kept as data, placed in slots near the car (physics/near_walls.py)"
+        "geoms: colliding geoms in the MuJoCo model (the car's 6, the ground plane and the near-wall slots in use at "
+        "the start); held: map wall boxes kept as data, placed in slots near the car (physics/near_walls.py)"
     )
 
 

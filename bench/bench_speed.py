@@ -1,4 +1,5 @@
-"""The speed figures in one run: `python bench/bench_speed.py [--quick] [--compare SRC]` (or `racecar-sim bench --speed`).
+"""The speed figures in one run: `python bench/bench_speed.py [--quick] [--compare SRC]`
+(or `racecar-sim bench --speed`).
 
 Runs, one after the other, the benches behind each figure and prints their tables, each a ratio measured within
 its own run (interleaved rounds, medians):
@@ -59,7 +60,7 @@ def run(script: str, args: list[str], pythonpath: str | None = None) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=" ".join(__doc__.split("\n\n")[0].split()))
     parser.add_argument("--quick", action="store_true", help="short runs: checks that every bench runs")
     parser.add_argument("--compare", metavar="SRC", help="also measure the code in SRC (e.g. an older checkout's src)")
     args = parser.parse_args(argv)

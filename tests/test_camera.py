@@ -532,7 +532,8 @@ def test_render_ahead_publishes_the_same_frames_one_period_later():
         sim = camera_sim("walker", seed=3)
         got: list[tuple[int, int, np.ndarray]] = []
         sim.subscribe(
-            sim.car.camera.spec.image_topic, lambda msg, sim=sim: got.append((sim.time_ns, stamp_ns(msg), pixels(msg)))
+            sim.car.camera.spec.image_topic,
+            lambda msg, sim=sim, got=got: got.append((sim.time_ns, stamp_ns(msg), pixels(msg))),
         )
         sim.car.camera.render_ahead(ahead)
         sim.run_until(0.2)

@@ -44,7 +44,8 @@ class Watch:
         self.min_range = min(self.min_range, float(np.min(ranges[np.isfinite(ranges)], initial=math.inf)))
 
     def check_contacts(self) -> None:
-        """A contact between the car and the world with a near-horizontal normal is a wall (the ground's is vertical)."""
+        """A contact between the car and the world with a near-horizontal normal is a wall (the ground's is
+        vertical)."""
         model, data = self.sim.model, self.sim.data
         for c in data.contact[: data.ncon]:
             roots = model.body_rootid[model.geom_bodyid[[c.geom1, c.geom2]]]

@@ -109,7 +109,7 @@ def test_batched_cast_of_tilted_scans_matches_mujoco_rays():
     batch = DriveBatch(len(tilts), world="walker", seeds=0)
     lidar, root = batch.lidar, batch.root_qpos
     qpos = np.repeat(batch.template.data.qpos[None], len(tilts), axis=0)
-    for k, (pitch, roll) in enumerate(np.radians(tilts)):
+    for k, (_pitch, _roll) in enumerate(np.radians(tilts)):
         qpos[k, root : root + 2] += [0.7 * k, 0.1 * k]
         qpos[k, root + 3 : root + 7] = [np.cos(0.15 * k), 0, 0, np.sin(0.15 * k)]
     level = lidar.true_ranges(qpos)

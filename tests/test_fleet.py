@@ -24,8 +24,10 @@ CORRIDOR = """<?xml version="1.0"?>
     <collision name="c"><geometry><plane><normal>0 0 1</normal><size>100 100</size></plane></geometry></collision>
   </link></model>
   <model name="walls"><static>true</static><link name="link">
-    <collision name="left"><pose>0 1.2 0.5 0 0 0</pose><geometry><box><size>60 0.1 1</size></box></geometry></collision>
-    <collision name="right"><pose>0 -1.2 0.5 0 0 0</pose><geometry><box><size>60 0.1 1</size></box></geometry></collision>
+    <collision name="left"><pose>0 1.2 0.5 0 0 0</pose>
+      <geometry><box><size>60 0.1 1</size></box></geometry></collision>
+    <collision name="right"><pose>0 -1.2 0.5 0 0 0</pose>
+      <geometry><box><size>60 0.1 1</size></box></geometry></collision>
   </link></model>
 </world></sdf>
 """

@@ -203,8 +203,8 @@ def test_bench_compare_must_be_another_checkouts_src(tmp_path, compare, why):
         (
             "seeds: 1000\ndrivers:\n  - driver: constant\n    params: {speed: &v [0, 1, 2, 3, 4, 5, 6, 7, 8, 9], "
             "steering: *v, rate: [1, 2, 3, 4, 5, 6, 7, 8, 9, 10]}\n",
-            f"drivers[0].params: the grid is 1000000 episodes (worlds x seeds 1000 x driver combinations 1000), more than "
-            f"the {MAX_EPISODES} a sweep runs",
+            "drivers[0].params: the grid is 1000000 episodes (worlds x seeds 1000 x driver combinations 1000), "
+            f"more than the {MAX_EPISODES} a sweep runs",
         ),
     ],
 )

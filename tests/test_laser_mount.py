@@ -1,4 +1,5 @@
-"""LaserMount (the ray origin and axes from the chassis pose in qpos) against MuJoCo's kinematics of the laser's site."""
+"""LaserMount (the ray origin and axes from the chassis pose in qpos) against MuJoCo's kinematics of the laser's
+site."""
 
 from __future__ import annotations
 

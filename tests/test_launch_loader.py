@@ -34,7 +34,8 @@ def test_include_args_namespaces_and_command_line_override(tmp_path):
         "top.launch",
         """
       <arg name="speed" default="1.5"/>
-      <group ns="car1"><include file="$(dirname)/inner.launch"><arg name="speed" value="$(arg speed)"/></include></group>
+      <group ns="car1"><include file="$(dirname)/inner.launch">
+        <arg name="speed" value="$(arg speed)"/></include></group>
       <group ns="car2"><include file="$(dirname)/inner.launch" ns="deeper">
         <arg name="speed" value="$(eval speed * 2)"/><arg name="label" value="two"/></include></group>
       <include file="$(dirname)/inner.launch" ns="/abs" pass_all_args="true"/>""",
@@ -128,7 +129,8 @@ def test_param_command_runs_xacro_in_process(tmp_path):
         tmp_path,
         "xacro.launch",
         """
-      <param name="robot_description" command="$(find xacro)/xacro --inorder '$(find racecar_description)/urdf/racecar.xacro'"/>
+      <param name="robot_description"
+             command="$(find xacro)/xacro --inorder '$(find racecar_description)/urdf/racecar.xacro'"/>
       <param name="old_style" command="$(find xacro)/xacro.py $(find racecar_description)/urdf/racecar.xacro"/>""",
     )
     plan = load_launch(path)

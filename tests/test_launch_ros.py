@@ -38,9 +38,10 @@ LAUNCH = """<launch>
   <node name="racecar_spawn" pkg="gazebo_ros" type="spawn_model" args="-urdf -param robot_description -model racecar"/>
   <rosparam file="$(find racecar_control)/config/racecar_control.yaml" command="load"/>
   <node name="controller_manager" pkg="controller_manager" type="spawner" ns="/racecar"
-        args="left_rear_wheel_velocity_controller right_rear_wheel_velocity_controller left_front_wheel_velocity_controller
-              right_front_wheel_velocity_controller left_steering_hinge_position_controller
-              right_steering_hinge_position_controller joint_state_controller"/>
+        args="left_rear_wheel_velocity_controller right_rear_wheel_velocity_controller
+              left_front_wheel_velocity_controller right_front_wheel_velocity_controller
+              left_steering_hinge_position_controller right_steering_hinge_position_controller
+              joint_state_controller"/>
   <node pkg="racecar_control" type="servo_commands.py" name="servo_commands">
     <remap from="/racecar/ackermann_cmd_mux/output" to="/vesc/low_level/ackermann_cmd_mux/output"/>
   </node>

@@ -33,7 +33,8 @@ RACECAR_CONTROL = f"""<?xml version='1.0'?>
   <rosparam file="$(find racecar_control)/config/racecar_control.yaml" command="load"/>
   <node name="controller_manager" pkg="controller_manager" type="spawner" respawn="false"
         output="screen" ns="/racecar" args="{CONTROLLERS}"/>
-  <node name="robot_state_publisher" pkg="robot_state_publisher" type="robot_state_publisher" respawn="false" output="screen">
+  <node name="robot_state_publisher" pkg="robot_state_publisher" type="robot_state_publisher" respawn="false"
+        output="screen">
     <remap from="/joint_states" to="/racecar/joint_states" />
   </node>
   <node pkg="racecar_control" type="servo_commands.py" name="servo_commands" output="screen">
@@ -53,7 +54,8 @@ RACECAR = """<?xml version="1.0"?>
     <arg name="gui" value="$(arg gui)"/>
   </include>
   <param name="robot_description" command="$(find xacro)/xacro '$(find racecar_description)/urdf/racecar.xacro'" />
-  <node name="racecar_spawn" pkg="gazebo_ros" type="spawn_model" output="screen" args="-urdf -param robot_description -model racecar -z 0.05" />
+  <node name="racecar_spawn" pkg="gazebo_ros" type="spawn_model" output="screen"
+        args="-urdf -param robot_description -model racecar -z 0.05" />
   <include file="$(find racecar_control)/launch/racecar_control.launch" ns="/"/>
   <arg name="racecar_version" default="racecar-v2" />
   <include file="$(find racecar)/launch/mux.launch" ns="vesc" />
@@ -88,7 +90,9 @@ FLEET = """<?xml version="1.0"?>
     <arg name="gui" value="false"/>
   </include>
   <group ns="car1">
-    <include file="$(dirname)/car.launch"><arg name="x" value="$(arg x1)"/><arg name="speed" value="$(arg speed)"/></include>
+    <include file="$(dirname)/car.launch">
+      <arg name="x" value="$(arg x1)"/><arg name="speed" value="$(arg speed)"/>
+    </include>
   </group>
   <group ns="car2">
     <include file="$(dirname)/car.launch">
@@ -271,11 +275,11 @@ def test_a_launch_without_servo_commands_has_no_sim_servo(original_packages):
 
 def test_sim_drivers_and_keyboard_teleop_from_the_launch(tmp_path):
     (tmp_path / "drivers.launch").write_text(
-        """<launch>
+        f"""<launch>
   <param name="robot_description" command="$(find xacro)/xacro '$(find racecar_description)/urdf/racecar.xacro'"/>
   <node name="spawn" pkg="gazebo_ros" type="spawn_model" args="-urdf -param robot_description"/>
   <rosparam file="$(find racecar_control)/config/racecar_control.yaml" command="load"/>
-  <node name="controller_manager" pkg="controller_manager" type="spawner" ns="/racecar" args="%s"/>
+  <node name="controller_manager" pkg="controller_manager" type="spawner" ns="/racecar" args="{CONTROLLERS}"/>
   <node pkg="racecar_control" type="servo_commands.py" name="servo_commands">
     <remap from="/racecar/ackermann_cmd_mux/output" to="/vesc/low_level/ackermann_cmd_mux/output"/>
   </node>
@@ -284,7 +288,6 @@ def test_sim_drivers_and_keyboard_teleop_from_the_launch(tmp_path):
     <param name="distance" value="0.7"/></node>
   <node pkg="racecar_control" type="keyboard_teleop.py" name="keyboard_teleop"/>
 </launch>"""
-        % CONTROLLERS
     )
     setup = map_plan(load_launch(tmp_path / "drivers.launch"), camera=False, lidar=False)
     assert setup.teleop_topics == ["/vesc/ackermann_cmd_mux/input/teleop"]

@@ -212,7 +212,10 @@ def test_rosbag_record_counts_match_sim_time(master: Master, ros_env: dict, tmp_
     odoms = [int(r[2]) / 1e9 for r in rows if r[0] == "/vesc/odom"]
     assert {r[1] for r in rows if r[0] == "/scan"} == {"sensor_msgs/LaserScan"}
     assert {r[1] for r in rows if r[0] == "/vesc/odom"} == {"nav_msgs/Odometry"}
-    in_window = lambda stamps: sum(start + 1e-9 < s <= end + 1e-9 for s in stamps)
+
+    def in_window(stamps: list[float]) -> int:
+        return sum(start + 1e-9 < s <= end + 1e-9 for s in stamps)
+
     assert in_window(scans) == pytest.approx(40 * (end - start), abs=2)
     assert in_window(odoms) == pytest.approx(20 * (end - start), abs=2)
 

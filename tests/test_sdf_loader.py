@@ -70,7 +70,8 @@ def world_file(tmp_path):
       <visual name="v"><geometry><mesh><uri>obstacle.stl</uri></mesh></geometry></visual></link></model>
     <include><uri>model://crate</uri><name>crate_1</name>
       <pose>{CRATE_AT[0]} {CRATE_AT[1]} 0 0 0 {CRATE_YAW}</pose></include>
-    <model name="pad"><static>true</static>{_box("link", f"{PAD[0]} {PAD[1]} 0.01 0 0 0", "1.2 1.2 0.02", mu=PAD[2])}</model>
+    <model name="pad"><static>true</static>
+      {_box("link", f"{PAD[0]} {PAD[1]} 0.01 0 0 0", "1.2 1.2 0.02", mu=PAD[2])}</model>
     <model name="block"><pose>{PAD[0] - 0.4} {PAD[1]} 0.07 0 0 0</pose>
       <link name="link"><inertial><mass>2.0</mass><inertia><ixx>0.01</ixx><iyy>0.01</iyy><izz>0.01</izz></inertia>
       </inertial><collision name='c'><geometry><box><size>0.1 0.1 0.1</size></box></geometry></collision>

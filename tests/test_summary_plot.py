@@ -71,13 +71,13 @@ def assert_path_drawn(rgb: np.ndarray, ax, trajectory: np.ndarray, rows: list[in
 def test_summary_shows_path_scan_and_camera(tmp_path, walker):
     trajectory = circle_drive()
     origin = trajectory[-1, :2]
-    kwargs = dict(
-        scan_origin=origin,
-        scan_points=scan_around(origin),
-        camera_bgr=camera_frame(),
-        title="walker run",
-        lines=["distance   28.3 m", "mean speed 1.75 m/s"],
-    )
+    kwargs = {
+        "scan_origin": origin,
+        "scan_points": scan_around(origin),
+        "camera_bgr": camera_frame(),
+        "title": "walker run",
+        "lines": ["distance   28.3 m", "mean speed 1.75 m/s"],
+    }
     path = save_summary(tmp_path / "summary.png", walker, trajectory, **kwargs)
     assert path == tmp_path / "summary.png"
     rgb = read_png(path)

@@ -142,7 +142,9 @@ def test_run_with_a_missing_package_is_one_line(tmp_path):
         ({'<xacro:steering_hinge_transmission name="left_steering_hinge"/>': ""}, "<transmission>"),
         (
             {
-                '<joint name="left_rear_wheel_joint" type="continuous">': '<joint name="left_rear_axle" type="continuous">'
+                '<joint name="left_rear_wheel_joint" type="continuous">': (
+                    '<joint name="left_rear_axle" type="continuous">'
+                )
             },
             "left_rear_wheel_joint",
         ),

@@ -209,7 +209,8 @@ class Bus:
         t = self._topics.get(topic)
         if t is not None and t.callbacks and (t.plain or any(self.has_listeners(feed) for feed, _ in t.feeds)):
             return True
-        return bool(self._tap_entries) and any(e.wants(topic) for e in self._tap_entries)  # type: ignore[misc]
+        # no tap without `wants` here (_all_taps is False)
+        return bool(self._tap_entries) and any(e.wants(topic) for e in self._tap_entries if e.wants is not None)
 
     def listened(self) -> dict[str, type | None]:
         """Every topic with a subscriber, and the message class a subscriber declared for it (None: none did)."""

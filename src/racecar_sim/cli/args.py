@@ -8,7 +8,7 @@ import math
 import os
 import re
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.description.ros_packages import add_model_path, add_package_path
@@ -123,9 +123,16 @@ def add_xacro_arguments(p: argparse.ArgumentParser) -> None:
     )
 
 
-def xacro_options(args: argparse.Namespace) -> dict:
+class XacroOptions(TypedDict, total=False):
+    """Car / Simulator keyword arguments for the car's description."""
+
+    xacro: Path
+    xacro_args: dict[str, str]
+
+
+def xacro_options(args: argparse.Namespace) -> XacroOptions:
     """Car / Simulator keyword arguments from --xacro and --xacro-arg (none when not given)."""
-    options: dict = {}
+    options: XacroOptions = {}
     if args.xacro is not None:
         options["xacro"] = Path(args.xacro)
     if args.xacro_args:

@@ -21,7 +21,7 @@ from racecar_sim.physics import preset_names
 from racecar_sim.runtime import Simulator
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("bench", help="real-time factor of the full pipeline: sensors off, lidar, lidar + camera")
     p.add_argument("--world", default="empty")
     p.add_argument("--physics", default="default", choices=preset_names())

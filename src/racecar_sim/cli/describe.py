@@ -10,7 +10,7 @@ from racecar_sim.description import DEFAULT_XACRO, VehicleGeometry, load_robot
 from racecar_sim.description.urdf import Robot
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("describe", help="print the robot description (a table, or --urdf for the expanded URDF)")
     p.add_argument("--urdf", action="store_true", help="print the expanded URDF instead of the table")
     p.add_argument("--profile", default="seed", choices=profile_names(), help="driving profile (sets xacro arguments)")

@@ -38,7 +38,7 @@ CHUNK = 0.05  # s of sim time between looks at the keyboard and the clock
 QUIT_KEYS = ("\x03", "q")
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("launch", help="run a roslaunch file (the original racecar_gazebo ones, or a user's own)")
     p.__class__ = type("LaunchParser", (_LaunchArgs, type(p)), {})  # keeps the CLI's one-line errors
     p.add_argument("file", metavar="FILE.launch", help="the roslaunch XML file")

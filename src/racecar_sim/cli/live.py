@@ -111,13 +111,15 @@ class LiveViews:
         """The keyboard teleop of car number `index`: on its own teleop input, with the first one's settings."""
         if index not in self._teleops:
             car, first = self.sim.cars[index], self._teleops.get(0)
-            options = (
-                {}
-                if first is None
-                else {"speed": first.speed, "turn": first.turn, "hold": first.hold_ns / 1e9, "config": first.config}
-            )
             self._teleops[index] = KeyboardTeleop(
-                self.sim.bus, self.sim.scheduler, lambda: self.sim.time_ns, topic=car.topic(TELEOP), **options
+                self.sim.bus,
+                self.sim.scheduler,
+                lambda: self.sim.time_ns,
+                speed=None if first is None else first.speed,
+                turn=None if first is None else first.turn,
+                hold=None if first is None else first.hold_ns / 1e9,
+                config=None if first is None else first.config,
+                topic=car.topic(TELEOP),
             )
         return self._teleops[index]
 

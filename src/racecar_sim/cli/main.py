@@ -58,7 +58,9 @@ def _command_named(argv: Sequence[str]) -> str | None:
     return None
 
 
-def _one_line_warning(message, category, filename, lineno, line=None) -> str:
+def _one_line_warning(
+    message: Warning | str, category: type[Warning], filename: str, lineno: int, line: str | None = None
+) -> str:
     return f"racecar-sim: warning: {message}\n"
 
 

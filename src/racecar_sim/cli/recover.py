@@ -12,7 +12,7 @@ import argparse
 from racecar_sim.recording.recover import recover_mcap
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "recover",
         help="rewrite a killed recording (no footer) into a valid MCAP file",

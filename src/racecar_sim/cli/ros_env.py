@@ -28,7 +28,7 @@ if TYPE_CHECKING:
 PAUSED_WAIT = 0.01  # s the run loop waits for ROS calls (unpause_physics) while the physics is paused
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "ros-env",
         help='shell lines for your own ROS 1 nodes: eval "$(racecar-sim ros-env)"',

@@ -19,7 +19,9 @@ import sys
 import time
 from datetime import datetime
 from pathlib import Path
+from typing import TYPE_CHECKING
 
+import numpy as np
 from tqdm import tqdm
 
 from racecar_sim.cli.args import (
@@ -55,6 +57,11 @@ from racecar_sim.runtime.run_log import RunLog, image_array
 from racecar_sim.worlds import CAR_SPACING, World, load_world, row_centerline
 from racecar_sim.worlds import starting_row as fleet_spawns  # the row of `--cars N` (tests call it by this name)
 
+if TYPE_CHECKING:  # mcap, Pillow and PyAV load only when a run needs them
+    from racecar_sim.recording.run_recording import RunRecording
+    from racecar_sim.recording.video import VideoWriter
+    from racecar_sim.recording.writer_process import ProcessVideo
+
 # the drivers each option applies to; an option given for another driver is an error, not silently ignored
 OPTION_DRIVERS = {
     "speed": DRIVERS,
@@ -69,7 +76,7 @@ CHUNK = 0.1  # s of sim time between progress updates
 LIVE_CHUNK = 0.02  # s of sim time between viewer updates
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "run", help="the main job: a driver drives a world; writes runs/<time>/ (MCAP, summary.png, camera.mp4)"
     )
@@ -166,7 +173,7 @@ def choose_driver(args: argparse.Namespace) -> str:
     """The driver the options ask for. Without --driver: constant when --steering or --rate is given (or --speed
     is 0: a car that stands still), else wall-follow. An option that does not apply to it is an error."""
     given = [name for name in OPTION_DRIVERS if getattr(args, name) is not None]
-    driver = args.driver
+    driver: str | None = args.driver
     if driver is None:
         wants_constant = "steering" in given or "rate" in given or args.speed == 0
         driver = "constant" if wants_constant else "wall-follow"
@@ -304,6 +311,8 @@ def main(args: argparse.Namespace) -> int:
         finally:
             if recording is not None:
                 recording.close()  # writes what the writer process still holds, then the summary and footer
+        origin: np.ndarray | None
+        ends: np.ndarray | None
         if sim.car.lidar is not None and runlog.last_scan is not None:
             origin, ends = sim.car.lidar.beam_ends(runlog.last_scan.ranges)
         else:
@@ -338,7 +347,7 @@ def main(args: argparse.Namespace) -> int:
     return 0
 
 
-def _recording(args: argparse.Namespace, sim: Simulator, record: Path | None) -> object:
+def _recording(args: argparse.Namespace, sim: Simulator, record: Path | None) -> RunRecording | None:
     """The run's MCAP, written by a writer process; camera images as JPEG CompressedImage unless --raw-images."""
     if record is None:
         return None
@@ -359,7 +368,9 @@ def _recording(args: argparse.Namespace, sim: Simulator, record: Path | None) ->
         raise RecordingError(f"--record {exc}") from None
 
 
-def _video(args: argparse.Namespace, sim: Simulator, out: Path, recording: object) -> object:
+def _video(
+    args: argparse.Namespace, sim: Simulator, out: Path, recording: RunRecording | None
+) -> VideoWriter | ProcessVideo | None:
     """camera.mp4, encoded by the recording's writer process (each frame crosses to it once), by a process of its
     own without a recording, or on a writer thread where no process can start."""
     if args.no_video or sim.car.camera is None:

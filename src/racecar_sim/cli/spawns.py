@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from racecar_sim.cli.args import XacroOptions
 from racecar_sim.core.errors import WorldError
 from racecar_sim.physics import load_preset
 from racecar_sim.physics.spawn_check import CarOverlap, SpawnProbe
@@ -50,12 +51,12 @@ def spawn_text(spawn: Spawn, sep: str = ",") -> str:
 def probe(world: World, args: argparse.Namespace) -> SpawnProbe | None:
     """The world with the run's car (--xacro, --xacro-arg, --profile) compiled for spawn checks; None where MuJoCo
     refuses the world itself (the Simulator's build says so in its own words)."""
-    options: dict = {"profile": getattr(args, "profile", "seed"), "lidar": False, "camera": False}
+    options: XacroOptions = {}
     if getattr(args, "xacro", None) is not None:
         options["xacro"] = Path(args.xacro)
     if getattr(args, "xacro_args", None):
         options["xacro_args"] = dict(args.xacro_args)
-    car = Car(**options)
+    car = Car(profile=getattr(args, "profile", "seed"), lidar=False, camera=False, **options)
     car.load()
     try:
         return SpawnProbe(world, car.robot, load_preset(getattr(args, "physics", "default")))

@@ -21,7 +21,7 @@ from racecar_sim.sweep import load_sweep, run_sweep
 from racecar_sim.sweep.ray_runner import INSTALL_HINT, ray_available
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "sweep",
         help="many episodes over worlds, seeds, drivers and their parameters on Ray; writes "

@@ -9,7 +9,9 @@ import os
 import sys
 import time
 from pathlib import Path
-from typing import TextIO
+from typing import TYPE_CHECKING, TextIO
+
+import numpy as np
 
 from racecar_sim.cli.args import (
     add_overwrite_argument,
@@ -36,6 +38,9 @@ from racecar_sim.msgs import AckermannDriveStamped, Odometry
 from racecar_sim.runtime import Simulator
 from racecar_sim.worlds import World, load_world
 
+if TYPE_CHECKING:  # mcap loads only when a session records
+    from racecar_sim.recording import RunRecording
+
 SLICE = 0.02  # s of sim time between two looks at the keyboard
 STATUS_PERIOD = 0.1  # s of wall time between status line redraws
 SETTLE = 0.05  # s of sim time after the final zero command, so that it reaches the wheels
@@ -51,7 +56,7 @@ def _non_negative(text: str) -> float:
     return value
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """The `teleop` subcommand and its options."""
     config = load_teleop_config()
     p = sub.add_parser("teleop", help="drive the car from the keyboard (w/a/s/d), in real time")
@@ -100,8 +105,11 @@ class Dashboard:
         self._next_draw = 0.0
         self._last: tuple[float, float] | None = None  # (wall, sim) at the last redraw
         self._rtf = 0.0
+        chain = sim.car.chain
+        assert chain is not None, "teleop's car has the mux chain (the default CarNodes)"
+        self.chain = chain
         sim.subscribe("/vesc/odom", self._on_odom)
-        sim.subscribe(sim.car.chain.output_topic, self._on_output)
+        sim.subscribe(chain.output_topic, self._on_output)
 
     def _on_odom(self, msg: Odometry) -> None:
         if self.odom is not None:
@@ -117,7 +125,7 @@ class Dashboard:
         if self.odom is None:
             return 0.0, 0.0, 0.0
         p, q = self.odom.pose.pose.position, self.odom.pose.pose.orientation
-        return p.x, p.y, yaw_of((q.w, q.x, q.y, q.z))
+        return p.x, p.y, yaw_of(np.array((q.w, q.x, q.y, q.z)))
 
     def write(self, text: str) -> None:
         """Write to the terminal, which may have gone away (SIGHUP) by now."""
@@ -155,7 +163,7 @@ class Dashboard:
         speed = self.odom.twist.twist.linear.x if self.odom is not None else 0.0
         line = (
             f"t {self.sim.time:7.2f} s | v {speed:+5.2f} m/s | steer {self.steering:+5.2f} rad | "
-            f"x {x:+7.2f} y {y:+7.2f} yaw {yaw:+5.2f} | {self._rtf:4.2f}x | {self.sim.car.chain.in_control()}"
+            f"x {x:+7.2f} y {y:+7.2f} yaw {yaw:+5.2f} | {self._rtf:4.2f}x | {self.chain.in_control()}"
         )
         if self.record:
             line += f" | rec {self.record}"
@@ -171,7 +179,7 @@ class Dashboard:
             self.draw(force=True)
             self.write("\r\n")
 
-    def summary(self, reason: str, recorder: object) -> str:
+    def summary(self, reason: str, recorder: RunRecording | None) -> str:
         """One line: why the session ended, how far the car went, where it is, what was recorded."""
         x, y, yaw = self.pose()
         text = (
@@ -179,7 +187,7 @@ class Dashboard:
             f"final pose x {x:.3f} y {y:.3f} yaw {yaw:.3f} rad"
         )
         if recorder is not None:
-            counts = recorder.message_count  # type: ignore[attr-defined]
+            counts = recorder.message_count
             text += f"; recorded {sum(counts.values())} messages on {len(counts)} topics to {self.record}"
         return text
 
@@ -217,7 +225,7 @@ def _session(
         pacer.wait(sim.time)
 
 
-def _recording(args: argparse.Namespace, sim: Simulator) -> object:
+def _recording(args: argparse.Namespace, sim: Simulator) -> RunRecording | None:
     """--record: every topic to the MCAP (camera images raw, as sim.record() records them), written by a writer
     process, the file taken exclusively (an existing one only with --overwrite); None without --record."""
     if not args.record:

@@ -11,7 +11,7 @@ import sys
 import termios
 import tty
 from types import FrameType
-from typing import Any, Self
+from typing import Any
 
 # An arrow or function key arrives as ESC [ ... or ESC O x; taken apart, "\x1b[A" would read as an
 # "a" (forward and left). Each such sequence counts as one key that is not bound: it stops the car.
@@ -40,7 +40,7 @@ class RawTerminal:
         self._saved: list[Any] | None = None
         self._decoder = codecs.getincrementaldecoder("utf-8")(errors="replace")
 
-    def __enter__(self) -> Self:
+    def __enter__(self) -> RawTerminal:
         self._saved = termios.tcgetattr(self.fd)
         try:
             tty.setraw(self.fd)
@@ -102,7 +102,7 @@ class StopSignals:
         self.received: int | None = None
         self._previous: dict[int, Any] = {}
 
-    def __enter__(self) -> Self:
+    def __enter__(self) -> StopSignals:
         for signum in self.SIGNALS:
             if signal.getsignal(signum) != signal.SIG_IGN:  # ignored on purpose (nohup, a background job)
                 self._previous[signum] = signal.signal(signum, self._handle)

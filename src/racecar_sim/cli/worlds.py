@@ -11,7 +11,7 @@ from racecar_sim.core.errors import RacecarSimError
 from racecar_sim.worlds import BUILTIN_WORLDS, load_world, world_names, world_summary
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("worlds", help="list the built-in worlds, or draw one from above to a PNG (--show)")
     p.add_argument("--show", metavar="NAME|PATH", help="draw this world (built-in name or world file) to a PNG")
     p.add_argument("--names", action="store_true", help="only the built-in worlds' names, one a line (for scripts)")

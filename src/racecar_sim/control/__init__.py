@@ -1,1 +1,2 @@
-"""Control: ros_control-style joint controllers (as MuJoCo actuators), servo_commands and the command mux."""
+"""Control: gazebo_ros_control (ros_control joint controllers as MuJoCo actuators, joint_state_controller, the
+controller_manager), servo_commands and its law, the ackermann_cmd_mux chain, driving profiles, keyboard teleop."""

@@ -6,7 +6,7 @@ import logging
 import math
 from collections.abc import Callable
 
-from racecar_sim.bus import Bus, type_name
+from racecar_sim.bus import BusPort, type_name
 from racecar_sim.control.controllers import VELOCITY, ControllerConfig, JointController
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.throttle import ThrottledWarning, is_finite_number
@@ -22,7 +22,7 @@ class ControllerCommands:
 
     def __init__(
         self,
-        bus: Bus,
+        bus: BusPort,
         state: CarState,
         config: ControllerConfig,
         robot: Robot,
@@ -39,6 +39,7 @@ class ControllerCommands:
                 # than the limit has the same effect on a P controller.
                 self.limits[c.name] = (-limit.velocity, limit.velocity)
             elif c.type != VELOCITY and robot.joints[c.joint].type == "revolute":
+                assert limit is not None, "parse_urdf gives every revolute joint a <limit>"
                 self.limits[c.name] = (limit.lower, limit.upper)  # JointPositionController enforces joint limits
             bus.subscribe(names.topic(c.command_topic), self._subscriber(c), Float64)
 

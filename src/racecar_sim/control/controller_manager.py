@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from racecar_sim.bus import Bus
+from racecar_sim.bus import BusPort
 from racecar_sim.control.controller_state import ControllerStatePublisher
 from racecar_sim.control.controllers import JOINT_STATE, POSITION, VELOCITY, ControllerConfig, JointController
 from racecar_sim.core.names import CarNames
@@ -93,7 +93,7 @@ class ControllerManager:
 
     def __init__(
         self,
-        bus: Bus,
+        bus: BusPort,
         scheduler: Timers,
         state: CarState,
         config: ControllerConfig,

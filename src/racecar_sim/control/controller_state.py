@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from racecar_sim.bus import Bus
+from racecar_sim.bus import BusPort
 from racecar_sim.control.controllers import VELOCITY, ControllerConfig, JointController
 from racecar_sim.core.names import CarNames
 from racecar_sim.msgs import Header, JointControllerState
@@ -45,7 +45,7 @@ class ControllerStatePublisher:
 
     def __init__(
         self,
-        bus: Bus,
+        bus: BusPort,
         scheduler: Timers,
         state: CarState,
         config: ControllerConfig,

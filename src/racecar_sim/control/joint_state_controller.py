@@ -2,10 +2,23 @@
 
 from __future__ import annotations
 
-from racecar_sim.bus import Bus
+from typing import Any, Protocol
+
+from racecar_sim.bus import BusPort
 from racecar_sim.msgs import Header, JointState
 from racecar_sim.nodes import Timers
 from racecar_sim.physics.state import CarState
+
+
+class Outlet(Protocol):
+    """What the publisher needs of the bus: the bus itself, or the controller_manager's muted stand-in while
+    joint_state_controller is stopped."""
+
+    def publish(self, topic: str, msg: Any) -> None: ...
+
+    def has_listeners(self, topic: str) -> bool: ...
+
+    def tally(self, topic: str, msgtype: type) -> None: ...
 
 
 class JointStatePublisher:
@@ -13,14 +26,15 @@ class JointStatePublisher:
 
     def __init__(
         self,
-        bus: Bus,
+        bus: BusPort,
         scheduler: Timers,
         state: CarState,
         joints: list[str],
         rate: float,
         topic: str = "/racecar/joint_states",
     ) -> None:
-        self.bus, self.state, self.topic = bus, state, topic
+        self.bus: Outlet = bus
+        self.state, self.topic = state, topic
         self.names = list(joints)
         self._adr = state.joint_indices(self.names)
         scheduler.every(rate, self.publish, "joint_state_controller", unheard=self._unheard)

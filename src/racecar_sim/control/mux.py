@@ -18,7 +18,7 @@ from typing import Any
 
 import yaml
 
-from racecar_sim.bus import Bus, type_name
+from racecar_sim.bus import BusPort, type_name
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.tables import finite_number
@@ -63,7 +63,7 @@ class _Forwarding:
     msg: AckermannDriveStamped | None = None
 
 
-def forward(bus: Bus, topic: str, msg: AckermannDriveStamped) -> None:
+def forward(bus: BusPort, topic: str, msg: AckermannDriveStamped) -> None:
     """Publish an accepted command unchanged on `topic`, vouching for it while its subscribers run."""
     before, _Forwarding.msg = _Forwarding.msg, msg
     try:
@@ -149,7 +149,7 @@ class AckermannCmdMux:
 
     def __init__(
         self,
-        bus: Bus,
+        bus: BusPort,
         scheduler: Timers,
         now: Callable[[], int],
         namespace: str,
@@ -209,7 +209,7 @@ class CommandChain(NodeBase):
 
     def __init__(
         self,
-        bus: Bus,
+        bus: BusPort,
         scheduler: Timers,
         now: Callable[[], int],
         config: Path | Mapping = MUX_WIRING,
@@ -233,7 +233,7 @@ class CommandChain(NodeBase):
             rate = _number(default, "rate", where, positive=True)
             if not isinstance(default.get("topic"), str):
                 raise ConfigError(f"{where}: topic must be a topic name, got {default.get('topic')!r}")
-            self.default_topic = names.topic(default["topic"])
+            self.default_topic = default_topic = names.topic(default["topic"])
             speed, steering = _number(default, "speed", where), _number(default, "steering_angle", where)
         self.muxes = []
         for namespace, file in muxes.items():
@@ -244,15 +244,16 @@ class CommandChain(NodeBase):
             bus.subscribe(source, partial(self._relay, source, target), AckermannDriveStamped)
         self.bus = bus
         self._feeders = {target: mux for source, target in relays for mux in self.muxes if mux.output_topic == source}
-        self._final = next((m for m in self.muxes if m.output_topic == self.output_topic), None)
-        if self._final is None:
+        final = next((m for m in self.muxes if m.output_topic == self.output_topic), None)
+        if final is None:
             raise ConfigError(f"{config}: output {self.output_topic} is no mux's output")
+        self._final = final
         if default is None:
             return
         command = AckermannDrive(steering_angle=float(steering), speed=float(speed))
 
         def publish_default(now_ns: int) -> None:
-            bus.publish(self.default_topic, AckermannDriveStamped(Header.at(now_ns), command))
+            bus.publish(default_topic, AckermannDriveStamped(Header.at(now_ns), command))
 
         scheduler.every(float(rate), publish_default, "zero_ackermann_cmd")
 
@@ -268,9 +269,10 @@ class CommandChain(NodeBase):
         if holder is None:
             return "idle"
         upstream = self._feeders.get(f"{self._final.namespace}/{holder.topic}")
-        source = upstream.last_forwarded if upstream is not None else None
-        if source is not None and f"{upstream.namespace}/{source.topic}" == self.default_topic:
-            return IDLE_ZERO
+        if upstream is not None:
+            source = upstream.last_forwarded
+            if source is not None and f"{upstream.namespace}/{source.topic}" == self.default_topic:
+                return IDLE_ZERO
         return holder.name
 
     def _relay(self, source: str, target: str, msg: AckermannDriveStamped) -> None:

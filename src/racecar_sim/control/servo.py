@@ -15,7 +15,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 
-from racecar_sim.bus import Bus
+from racecar_sim.bus import BusPort
 from racecar_sim.control.controllers import ControllerConfig
 from racecar_sim.control.mux import accept_command
 from racecar_sim.control.servo_law import ServoLaw, ServoWheel
@@ -34,7 +34,7 @@ class ServoCommands(NodeBase):
 
     def __init__(
         self,
-        bus: Bus,
+        bus: BusPort,
         robot: Robot,
         controllers: ControllerConfig,
         mode: str,

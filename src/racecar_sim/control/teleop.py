@@ -7,7 +7,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from racecar_sim.bus import Bus
+from racecar_sim.bus import BusPort
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.tables import finite_number, load_record
 from racecar_sim.core.time import to_ns
@@ -36,11 +36,12 @@ def load_teleop_config(path: Path = DEFAULTS) -> TeleopConfig:
     """Read a keyboard_teleop.yaml; ConfigError names the file and the field."""
     path = Path(path)
     config = load_record(path, TeleopConfig)
-    bindings = {}
+    bindings: dict[str, tuple[float, float]] = {}
     for key, factors in (config.bindings or {}).items():
         if not isinstance(factors, (list, tuple)) or len(factors) != 2:
             raise ConfigError(f"{path}: bindings: {key}: expected [speed factor, steering factor], got {factors!r}")
-        bindings[str(key)] = tuple(finite_number(f, f"{path}: bindings: {key}") for f in factors)
+        speed, steering = (finite_number(f, f"{path}: bindings: {key}") for f in factors)
+        bindings[str(key)] = (speed, steering)
     if config.hold < 0 or config.repeat_rate <= 0:
         raise ConfigError(
             f"{path}: hold must be >= 0 and repeat_rate positive, got {config.hold:g}, {config.repeat_rate:g}"
@@ -58,7 +59,7 @@ class KeyboardTeleop:
 
     def __init__(
         self,
-        bus: Bus,
+        bus: BusPort,
         scheduler: Timers,
         now: Callable[[], int],
         speed: float | None = None,

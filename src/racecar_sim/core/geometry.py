@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 
 
 def convex_hull(points: np.ndarray) -> np.ndarray:
     """Convex hull of 2-D points, counter-clockwise (Andrew's monotone chain); fewer than 3 points pass through."""
-    pts = np.round(np.asarray(points, dtype=float).reshape(-1, 2), 9)
+    pts: npt.NDArray[np.float64] = np.round(np.asarray(points, dtype=float).reshape(-1, 2), 9)
     pts = pts[np.lexsort((pts[:, 1], pts[:, 0]))]  # by x, then y; faster than np.unique(axis=0) on tiny arrays
     pts = pts[np.r_[True, np.any(np.diff(pts, axis=0) != 0, axis=1)][: len(pts)]]
     if len(pts) < 3:

@@ -4,9 +4,10 @@ before (a sensor that skips work while nobody listens still reproduces the same 
 from __future__ import annotations
 
 import zlib
-from typing import ClassVar
+from typing import ClassVar, overload
 
 import numpy as np
+import numpy.typing as npt
 
 from racecar_sim.core.errors import ConfigError
 
@@ -20,8 +21,15 @@ def check_seed(seed: object) -> int:
 
 _MASK64 = (1 << 64) - 1
 
+# uint64 arrays of seeds, stamps and hashes (numpy's stubs widen uint64 mixed with a Python int to some integer)
+_Ints = npt.NDArray[np.integer]
 
-def _splitmix(x):  # type: ignore[no-untyped-def]
+
+@overload
+def _splitmix(x: int) -> int: ...
+@overload
+def _splitmix(x: _Ints) -> _Ints: ...
+def _splitmix(x: int | _Ints) -> int | _Ints:
     """splitmix64's finaliser: a Python int (< 2**64) or a uint64 array, mixed into a well-spread 64-bit value."""
     x = (x + 0x9E3779B97F4A7C15) & _MASK64
     x = ((x ^ (x >> 30)) * 0xBF58476D1CE4E5B9) & _MASK64
@@ -37,8 +45,9 @@ class NoiseTable:
     sample's noise is the mean of two non-overlapping windows of the table, scaled back to unit variance, at
     offsets hashed from (seed, stream, stamp): still exactly N(0, 1) per value and independent across a sample's
     values, the same for a given (seed, stamp) however many samples were taken before, different for another
-    seed. The table is standardised (mean exactly 0, variance 1), so averages over many samples are unbiased. Windows of different samples may share values (two random samples overlap with probability
-    ~2 count / size per window pair), which no per-sample statistic sees.
+    seed. The table is standardised (mean exactly 0, variance 1), so averages over many samples are unbiased.
+    Windows of different samples may share values (two random samples overlap with probability ~2 count / size per
+    window pair), which no per-sample statistic sees.
     """
 
     _shared: ClassVar[dict[tuple[str, int, str], NoiseTable]] = {}
@@ -50,7 +59,9 @@ class NoiseTable:
         # exactly mean 0, variance 1 over the table: every sample reuses its values, so the table's own sampling
         # error would otherwise be a bias shared by all samples, forever
         values = ((values - values.mean()) / values.std()).astype(dtype)
-        self.values = np.concatenate([values, values[:count]])  # a window starting anywhere is one slice
+        self.values: npt.NDArray[np.floating] = np.concatenate(
+            [values, values[:count]]
+        )  # a window starting anywhere is one slice
         self.values *= np.sqrt(0.5).astype(dtype)  # so that the sum of two windows has unit variance
         self._key = zlib.crc32(name.encode()) << 32
 
@@ -63,7 +74,11 @@ class NoiseTable:
             table = cls._shared[key] = cls(name, count, dtype)
         return table
 
-    def offsets(self, seed, stamp_ns):  # type: ignore[no-untyped-def]
+    @overload
+    def offsets(self, seed: int, stamp_ns: int) -> tuple[int, int]: ...
+    @overload
+    def offsets(self, seed: _Ints, stamp_ns: _Ints) -> tuple[_Ints, _Ints]: ...
+    def offsets(self, seed: int | _Ints, stamp_ns: int | _Ints) -> tuple[int | _Ints, int | _Ints]:
         """The two window starts of the samples stamped `stamp_ns` in run `seed`: ints, or uint64 arrays for
         arrays of seeds and stamps (the same values element by element)."""
         h = _splitmix(_splitmix((seed * 0x100000001B3 + self._key) & _MASK64) ^ stamp_ns)
@@ -83,4 +98,7 @@ class NoiseTable:
         first, second = self.offsets(np.asarray(seeds).astype(np.uint64), np.asarray(stamps_ns).astype(np.uint64))
         window = np.arange(self.count)
         v = self.values
-        return v[first.astype(np.intp)[:, None] + window] + v[second.astype(np.intp)[:, None] + window]
+        noise: npt.NDArray[np.floating] = (
+            v[first.astype(np.intp)[:, None] + window] + v[second.astype(np.intp)[:, None] + window]
+        )
+        return noise

@@ -7,18 +7,21 @@ import math
 import typing
 from functools import cache
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import yaml
 
 from racecar_sim.core.errors import ConfigError
 
-T = TypeVar("T")
+if TYPE_CHECKING:
+    from _typeshed import DataclassInstance
+
+T = TypeVar("T", bound="DataclassInstance")
 
 
 @cache
-def read_table(path: Path) -> dict[str, dict]:
-    """The YAML mapping of names to entries in `path` (read once)."""
+def read_table(path: Path) -> dict[str, object]:
+    """The YAML mapping of names to entries (or of fields to values) in `path` (read once)."""
     try:
         data = yaml.safe_load(path.read_text())
     except (OSError, yaml.YAMLError) as exc:
@@ -38,13 +41,13 @@ def table_entry(path: Path, name: str, cls: type[T], kind: str) -> T:
     if not isinstance(entry, dict):
         raise ConfigError(f"{where}: expected a mapping of fields")
     hints = typing.get_type_hints(cls)
-    known = {f.name for f in dataclasses.fields(cls)} - {"name"}  # type: ignore[arg-type]
+    known = {f.name for f in dataclasses.fields(cls)} - {"name"}
     unknown = sorted(set(entry) - known)
     if unknown:
         raise ConfigError(f"{where}: unknown field {', '.join(unknown)}")
     values = {key: checked_value(hints[key], value, f"{where}: {key}") for key, value in entry.items()}
     try:
-        return cls(name=name, **values)  # type: ignore[call-arg]
+        return cls(name=name, **values)  # type: ignore[call-arg]  # any dataclass with a `name` field
     except TypeError as exc:
         raise ConfigError(f"{where}: {exc}") from None
 
@@ -90,14 +93,17 @@ def load_record(path: Path, cls: type[T], overrides: dict[str, object] | None = 
     for key, value in (overrides or {}).items():
         if value is not None:
             data[key] = value
-    fields = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    fields = {f.name: f for f in dataclasses.fields(cls)}
     unknown = sorted(set(data) - set(fields))
     missing = sorted(set(fields) - set(data))
     if unknown or missing:
         what = "; ".join(
             filter(
                 None,
-                [unknown and f"unknown field {', '.join(unknown)}", missing and f"missing field {', '.join(missing)}"],
+                [
+                    f"unknown field {', '.join(unknown)}" if unknown else None,
+                    f"missing field {', '.join(missing)}" if missing else None,
+                ],
             )
         )
         raise ConfigError(f"{path}: {what}")

@@ -8,7 +8,7 @@ from collections.abc import Sequence
 import numpy as np
 
 
-def quat_from_rpy(rpy: Sequence[float]) -> np.ndarray:
+def quat_from_rpy(rpy: Sequence[float] | np.ndarray) -> np.ndarray:
     """URDF/SDF fixed-axis roll-pitch-yaw (R = Rz(yaw) Ry(pitch) Rx(roll)) to a (w, x, y, z) quaternion."""
     r, p, y = (0.5 * a for a in rpy)
     cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
@@ -42,9 +42,10 @@ def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     )
 
 
-def quat_rotate(q: np.ndarray, v: Sequence[float]) -> np.ndarray:
+def quat_rotate(q: np.ndarray, v: Sequence[float] | np.ndarray) -> np.ndarray:
     """Rotate vector v by quaternion q."""
-    return quat_to_matrix(q) @ np.asarray(v, dtype=float)
+    rotated: np.ndarray = quat_to_matrix(q) @ np.asarray(v, dtype=float)
+    return rotated
 
 
 def quat_to_matrix(q: np.ndarray) -> np.ndarray:
@@ -59,7 +60,7 @@ def quat_to_matrix(q: np.ndarray) -> np.ndarray:
     )
 
 
-def yaw_of(q: np.ndarray) -> float:
+def yaw_of(q: Sequence[float] | np.ndarray) -> float:
     """Heading (rotation about world z) of a (w, x, y, z) quaternion."""
     w, x, y, z = q
     return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
+from typing import Literal, overload
 
 from racecar_sim.core.errors import DescriptionError
 
 Vec3 = tuple[float, float, float]
+RGBA = tuple[float, float, float, float]
 ZERO: Vec3 = (0.0, 0.0, 0.0)
 
 
@@ -175,7 +177,18 @@ class Robot:
         return next((s for s in self.sensors if s.type == kind), None)
 
 
+@overload
+def _floats(text: str | None, n: Literal[1], where: str, default: tuple[float] | None = None) -> tuple[float]: ...
+@overload
+def _floats(text: str | None, n: Literal[3], where: str, default: Vec3 | None = None) -> Vec3: ...
+@overload
+def _floats(text: str | None, n: Literal[4], where: str, default: RGBA | None = None) -> RGBA: ...
+@overload
+def _floats(
+    text: str | None, n: Literal[6], where: str, default: tuple[float, float, float, float, float, float] | None = None
+) -> tuple[float, float, float, float, float, float]: ...
 def _floats(text: str | None, n: int, where: str, default: tuple[float, ...] | None = None) -> tuple[float, ...]:
+    """`n` numbers (the length of the tuple returned: 1, 3, 4 or 6), or `default` where `text` is None."""
     if text is None:
         if default is None:
             raise DescriptionError(f"{where}: missing value")
@@ -193,8 +206,8 @@ def _origin(el: ET.Element | None, where: str) -> Origin:
     if el is None:
         return Origin()
     return Origin(
-        _floats(el.get("xyz"), 3, f"{where} origin xyz", ZERO),  # type: ignore[arg-type]
-        _floats(el.get("rpy"), 3, f"{where} origin rpy", ZERO),  # type: ignore[arg-type]
+        _floats(el.get("xyz"), 3, f"{where} origin xyz", ZERO),
+        _floats(el.get("rpy"), 3, f"{where} origin rpy", ZERO),
     )
 
 
@@ -203,7 +216,7 @@ def _geometry(el: ET.Element | None, where: str) -> Geometry:
         raise DescriptionError(f"{where}: <geometry> is missing or empty")
     g = next(child for child in el if isinstance(child.tag, str))
     if g.tag == "box":
-        return Geometry("box", _floats(g.get("size"), 3, f"{where} box size"))  # type: ignore[arg-type]
+        return Geometry("box", _floats(g.get("size"), 3, f"{where} box size"))
     if g.tag == "cylinder":
         r, length = _floats(g.get("radius"), 1, f"{where} radius")[0], _floats(g.get("length"), 1, f"{where} length")[0]
         return Geometry("cylinder", (r, length, 0.0))
@@ -211,17 +224,22 @@ def _geometry(el: ET.Element | None, where: str) -> Geometry:
         return Geometry("sphere", (_floats(g.get("radius"), 1, f"{where} radius")[0], 0.0, 0.0))
     if g.tag == "mesh":
         scale = _floats(g.get("scale"), 3, f"{where} mesh scale", (1.0, 1.0, 1.0))
-        return Geometry("mesh", filename=g.get("filename", ""), scale=scale)  # type: ignore[arg-type]
+        return Geometry("mesh", filename=g.get("filename", ""), scale=scale)
     raise DescriptionError(f"{where}: unsupported geometry <{g.tag}>")
 
 
-def _rgba(el: ET.Element | None, materials: dict[str, tuple[float, float, float, float]]) -> tuple[float, ...] | None:
+def _rgba(el: ET.Element | None, materials: dict[str, RGBA]) -> RGBA | None:
     if el is None:
         return None
     color = el.find("color")
     if color is not None:
-        return _floats(color.get("rgba"), 4, f"material {el.get('name')} rgba")
+        return _color(el, color)
     return materials.get(el.get("name", ""))
+
+
+def _color(el: ET.Element, color: ET.Element) -> RGBA:
+    """The rgba of a <material> element `el` with a <color> child."""
+    return _floats(color.get("rgba"), 4, f"material {el.get('name')} rgba")
 
 
 def _tag_value(el: ET.Element, tag: str) -> str | None:
@@ -239,7 +257,7 @@ def _surface(el: ET.Element, surface: Surface, where: str) -> None:
             setattr(surface, name, _floats(text, 1, f"{where} <{name}>")[0])
     fdir = _tag_value(el, "fdir1")
     if fdir is not None:
-        surface.fdir1 = _floats(fdir, 3, f"{where} <fdir1>")  # type: ignore[assignment]
+        surface.fdir1 = _floats(fdir, 3, f"{where} <fdir1>")
     material = _tag_value(el, "material")
     if material is not None:
         surface.material = material.strip()
@@ -249,7 +267,7 @@ def _sensor(el: ET.Element, link: str, where: str) -> Sensor:
     name = el.get("name", "")
     pose = _floats(el.findtext("pose"), 6, f"{where} sensor {name} <pose>", (0.0,) * 6)
     rate = _floats(el.findtext("update_rate"), 1, f"{where} sensor {name} <update_rate>", (0.0,))[0]
-    return Sensor(name, el.get("type", ""), link, Origin(pose[:3], pose[3:]), rate, el)  # type: ignore[arg-type]
+    return Sensor(name, el.get("type", ""), link, Origin(pose[:3], pose[3:]), rate, el)
 
 
 def parse_urdf(text: str, source: str = "<urdf>") -> Robot:
@@ -261,7 +279,9 @@ def parse_urdf(text: str, source: str = "<urdf>") -> Robot:
     if root.tag != "robot":
         raise DescriptionError(f"{source}: root element is <{root.tag}>, expected <robot>")
 
-    materials = {m.get("name", ""): _rgba(m, {}) for m in root.findall("material") if m.find("color") is not None}
+    materials = {
+        m.get("name", ""): _color(m, color) for m in root.findall("material") if (color := m.find("color")) is not None
+    }
     links: dict[str, Link] = {}
     for el in root.findall("link"):
         name = el.get("name")
@@ -277,11 +297,11 @@ def parse_urdf(text: str, source: str = "<urdf>") -> Robot:
             mass = _floats(mass_el.get("value"), 1, f"{where} mass")[0]
             if mass <= 0 or mass != mass:
                 raise DescriptionError(f"{where}: mass {mass} must be positive")
-            inertia = tuple(
+            ixx, iyy, izz, ixy, ixz, iyz = (
                 _floats(inertia_el.get(k), 1, f"{where} inertia {k}", (0.0,))[0]
                 for k in ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
             )
-            link.inertial = Inertial(mass, _origin(inertial.find("origin"), where), inertia)  # type: ignore[arg-type]
+            link.inertial = Inertial(mass, _origin(inertial.find("origin"), where), (ixx, iyy, izz, ixy, ixz, iyz))
         for vis in el.findall("visual"):
             link.visuals.append(
                 Shape(
@@ -289,7 +309,7 @@ def parse_urdf(text: str, source: str = "<urdf>") -> Robot:
                     _origin(vis.find("origin"), where),
                     _rgba(vis.find("material"), materials),
                 )
-            )  # type: ignore[arg-type]
+            )
         for col in el.findall("collision"):
             link.collisions.append(
                 Shape(_geometry(col.find("geometry"), f"{where} collision"), _origin(col.find("origin"), where))
@@ -323,7 +343,7 @@ def parse_urdf(text: str, source: str = "<urdf>") -> Robot:
             raise DescriptionError(f"{where}: a {kind} joint needs a <limit>")
         joints[name] = Joint(
             name, kind, parent.get("link", ""), child.get("link", ""), _origin(el.find("origin"), where), axis, limit
-        )  # type: ignore[arg-type]
+        )
 
     transmissions = []
     for el in root.findall("transmission"):
@@ -361,7 +381,7 @@ def parse_urdf(text: str, source: str = "<urdf>") -> Robot:
         transmissions,
         sensors,
         plugins,
-        text,  # type: ignore[arg-type]
+        text,
         materials,
         source,
     )

@@ -49,27 +49,34 @@ class VehicleGeometry:
             pos, quat = link_pose(robot, link.name)
             centre = pos + quat_rotate(quat, shape.origin.xyz)
             parent_joint = robot.joint_to(joint.parent)
-            steered = parent_joint is not None and parent_joint.type in ("revolute", "continuous")
-            hinge_point = tuple(float(c) for c in link_pose(robot, parent_joint.child)[0][:2]) if steered else None
+            hinge = (
+                parent_joint if parent_joint is not None and parent_joint.type in ("revolute", "continuous") else None
+            )
+            hinge_point = None
+            if hinge is not None:
+                axis_x, axis_y = link_pose(robot, hinge.child)[0][:2]
+                hinge_point = (float(axis_x), float(axis_y))
+            centre_x, centre_y, centre_z = centre
             wheels.append(
                 WheelGeometry(
                     link.name,
                     joint.name,
-                    tuple(float(c) for c in centre),
-                    parent_joint.name if steered else None,
+                    (float(centre_x), float(centre_y), float(centre_z)),
+                    hinge.name if hinge is not None else None,
                     hinge_point,
                 )
             )
         front = [w for w in wheels if w.hinge_joint]
         rear = [w for w in wheels if not w.hinge_joint]
-        if len(front) != 2 or len(rear) != 2 or radius is None:
+        if len(front) != 2 or len(rear) != 2 or radius is None or width is None:
             raise DescriptionError(
                 f"robot '{robot.name}': expected 2 steered and 2 rear wheels with cylinder collisions, "
                 f"found {len(front)} and {len(rear)}"
             )
         rear_x = np.mean([w.centre[0] for w in rear])
-        hinge_x = np.mean([w.hinge_axis_point[0] for w in front])
-        kingpin = abs(front[0].hinge_axis_point[1] - front[1].hinge_axis_point[1])
+        hinges = [w.hinge_axis_point for w in front if w.hinge_axis_point is not None]  # every steered wheel's
+        hinge_x = np.mean([p[0] for p in hinges])
+        kingpin = abs(hinges[0][1] - hinges[1][1])
         mass = sum(link.inertial.mass for link in robot.links.values() if link.inertial)
         return cls(
             float(hinge_x - rear_x),

@@ -69,11 +69,11 @@ def _positive(config: object, *names: str) -> None:
             raise ConfigError(f"{type(config).__name__}: {name} must be positive, got {getattr(config, name)}")
 
 
-def wall_follow_config(path: Path = DATA / "wall_follow.yaml", **overrides: object) -> WallFollowConfig:
+def wall_follow_config(path: Path = DATA / "wall_follow.yaml", /, **overrides: object) -> WallFollowConfig:
     """The wall-follow settings from `path`, with keyword overrides (None = keep the file's value)."""
     return load_record(path, WallFollowConfig, overrides)
 
 
-def pure_pursuit_config(path: Path = DATA / "pure_pursuit.yaml", **overrides: object) -> PurePursuitConfig:
+def pure_pursuit_config(path: Path = DATA / "pure_pursuit.yaml", /, **overrides: object) -> PurePursuitConfig:
     """The pure-pursuit settings from `path`, with keyword overrides (None = keep the file's value)."""
     return load_record(path, PurePursuitConfig, overrides)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from racecar_sim.bus import Bus
+from racecar_sim.bus import BusPort
 from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header
 from racecar_sim.nodes import NodeBase, Timers
 
@@ -14,7 +14,7 @@ class ConstantCommand(NodeBase):
 
     def __init__(
         self,
-        bus: Bus,
+        bus: BusPort,
         scheduler: Timers,
         speed: float,
         steering_angle: float,

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from racecar_sim.bus import Bus
+from racecar_sim.bus import BusPort
 from racecar_sim.drivers.config import PurePursuitConfig, pure_pursuit_config
 from racecar_sim.drivers.constant import NAVIGATION
 from racecar_sim.drivers.odom import planar_pose
@@ -28,7 +28,7 @@ class PurePursuit(NodeBase):
 
     def __init__(
         self,
-        bus: Bus,
+        bus: BusPort,
         path: Waypoints,
         config: PurePursuitConfig | None = None,
         topic: str = NAVIGATION,

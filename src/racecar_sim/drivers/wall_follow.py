@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from racecar_sim.bus import Bus
+from racecar_sim.bus import BusPort
 from racecar_sim.core.time import NS_PER_S
 from racecar_sim.drivers.config import WallFollowConfig, wall_follow_config
 from racecar_sim.drivers.constant import NAVIGATION
@@ -47,7 +47,7 @@ class WallFollower(NodeBase):
 
     def __init__(
         self,
-        bus: Bus,
+        bus: BusPort,
         config: WallFollowConfig | None = None,
         topic: str = NAVIGATION,
         scan_topic: str = "/scan",
@@ -139,8 +139,8 @@ class WallFollower(NodeBase):
         wanted = _clip(cfg.kp * error + cfg.ki * self._integral, -cfg.max_approach, cfg.max_approach)
         steer_away = cfg.kd * (approach - wanted)
 
-        front = ranges[self._layout[2]]  # +inf (no echo) reads as range_max
-        front = min(float(front.min()), scan.range_max) if len(front) else scan.range_max
+        front_ranges = ranges[self._layout[2]]  # +inf (no echo) reads as range_max
+        front = min(float(front_ranges.min()), scan.range_max) if len(front_ranges) else scan.range_max
         if front < cfg.stuck or now < self._reverse_until:
             # boxed in (an acute pocket, a dead end too tight to turn in): back out, swinging the nose away
             if now >= self._reverse_until:

@@ -27,6 +27,8 @@ not itself, except a wheel resting on a surface whose normal points up, |n_z| > 
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from gymnasium.envs.registration import register, registry
 
 from racecar_sim.envs.spaces import (
@@ -36,6 +38,10 @@ from racecar_sim.envs.spaces import (
     action_space,
     observation_space,
 )
+
+if TYPE_CHECKING:  # loaded by __getattr__ below when first asked for
+    from racecar_sim.envs.drive import DriveEnv
+    from racecar_sim.envs.race import RaceEnv, parallel_env, race_env
 
 DRIVE_ID = "racecar_sim/Drive-v0"
 DRIVE_CAMERA_ID = "racecar_sim/DriveCamera-v0"
@@ -73,7 +79,7 @@ def _register() -> None:
 _register()
 
 
-def __getattr__(name: str):  # the env classes load the simulator: only when asked for
+def __getattr__(name: str) -> object:  # the env classes load the simulator: only when asked for
     if name == "DriveEnv":
         from racecar_sim.envs.drive import DriveEnv
 

@@ -9,6 +9,7 @@ import numpy as np
 
 from racecar_sim.core.names import NAVIGATION
 from racecar_sim.core.time import to_ns
+from racecar_sim.description.vehicle import VehicleGeometry
 from racecar_sim.envs.reward import Centerline, Progress
 from racecar_sim.envs.spaces import (
     IMAGE,
@@ -23,9 +24,15 @@ from racecar_sim.envs.spaces import (
     steering_from_hinges,
     to_command,
 )
-from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header
+from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header, Image, LaserScan
 from racecar_sim.runtime.car import Car
 from racecar_sim.runtime.simulator import Simulator
+
+
+def servo_geometry(car: Car) -> VehicleGeometry:
+    """The geometry the car's servo_commands drives by (every car of the envs has one: the default CarNodes)."""
+    assert car.servo is not None, f"{car.model_name} has no servo_commands"
+    return car.servo.geometry
 
 
 class CarAgent:
@@ -45,19 +52,19 @@ class CarAgent:
             raise RuntimeError(f"{car.model_name} has no lidar: the driving envs observe its scan")
         self.sim, self.car, self.action, self.limits = sim, car, action, limits
         self.command_topic = car.topic(NAVIGATION)
-        lidar = car.lidar
+        self.lidar = lidar = car.lidar
         self.range_max = lidar.spec.range_max
         self.camera = car.camera if camera else None
         self.observation_space = observation_space(lidar.spec, self.camera.spec if self.camera else None)
         self.action_space = action_space(action, limits)
         self.progress = Progress(centerline)
-        geometry = car.servo.geometry
+        geometry = servo_geometry(car)
         front = [w for w in geometry.wheels if w.hinge_joint]
-        self._hinge_qpos, _ = car.state.joint_indices([w.hinge_joint for w in front])
+        self._hinge_qpos, _ = car.state.joint_indices([w.hinge_joint for w in front if w.hinge_joint])
         self._hinge_points = np.array([w.hinge_axis_point for w in front], np.float64)
         self._wheelbase, self._servo = geometry.wheelbase, car.profile.servo
         self._ranges: np.ndarray | None = None
-        self._image: np.ndarray | None = None
+        self._image: np.ndarray | bytes | None = None  # the camera publishes its pixels as an array
         # When every control step ends on a scan's stamp, the latest /scan is the one cast at the step's end: cast
         # it then (the same ranges: a scan's noise depends on its stamp only), not the one in between as well.
         self._scan_at_step_end = period_ns % to_ns(1.0 / lidar.spec.update_rate) == 0
@@ -66,24 +73,24 @@ class CarAgent:
         if self.camera is not None:
             sim.subscribe(self.camera.spec.image_topic, self._on_image)
 
-    def _on_scan(self, msg) -> None:
+    def _on_scan(self, msg: LaserScan) -> None:
         self._ranges = msg.ranges
 
-    def _on_image(self, msg) -> None:
+    def _on_image(self, msg: Image) -> None:
         self._image = msg.data
 
     def fresh_sensors(self) -> None:
         """Take the sensors' readings at the current pose (after a reset: nothing of the last episode is kept), as
         the sensors would publish them stamped now."""
         now = self.sim.time_ns
-        self._ranges = self.car.lidar.scan(now)
+        self._ranges = self.lidar.scan(now)
         if self.camera is not None:
             self._image = self.camera.capture(now)
 
     def after_step(self) -> None:
         """The control step is over: take the scan due now, when the lidar's schedule puts one here."""
         if self._scan_at_step_end:
-            self._ranges = self.car.lidar.scan(self.sim.time_ns)
+            self._ranges = self.lidar.scan(self.sim.time_ns)
 
     def send(self, action: np.ndarray) -> None:
         """Publish the action as an AckermannDriveStamped on the car's navigation mux input."""
@@ -109,6 +116,7 @@ class CarAgent:
 
     def observation(self) -> dict[str, np.ndarray]:
         """The observation Dict (new arrays: the caller may keep them)."""
+        assert self._ranges is not None, "reset() takes the first scan"
         obs = {
             SCAN: scan_observation(self._ranges, self.range_max),
             SPEED: np.array([min(max(self.speed(), -SPEED_BOUND), SPEED_BOUND)], np.float32),

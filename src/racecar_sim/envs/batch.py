@@ -26,7 +26,7 @@ import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import mujoco
 import numpy as np
@@ -35,6 +35,7 @@ from gymnasium.utils import seeding
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.rng import check_seed
 from racecar_sim.core.time import ceil_to_step, to_ns
+from racecar_sim.envs.agent import servo_geometry
 from racecar_sim.envs.batch_command import BatchCommands
 from racecar_sim.envs.batch_lidar import BatchLidar
 from racecar_sim.envs.batch_reward import BatchProgress, CrashTable
@@ -57,6 +58,9 @@ from racecar_sim.envs.spaces import (
 from racecar_sim.physics.builder import ROOT_JOINT
 from racecar_sim.runtime.simulator import Simulator
 from racecar_sim.worlds import load_world
+
+if TYPE_CHECKING:  # mujoco-warp loads only for device="warp"
+    from racecar_sim.envs.batch_warp import WarpWorlds
 
 DEVICES = ("cpu", "warp", "warp-cpu")
 MAX_EPISODE_STEPS = 1200
@@ -123,16 +127,20 @@ class DriveBatch:
         root_joint = self.model.joint(car.names.mj(ROOT_JOINT)).id
         self.root_qpos = int(self.model.jnt_qposadr[root_joint])
         self.root_body = car.state.body_id
-        geometry = car.servo.geometry
+        geometry = servo_geometry(car)
         front = [w for w in geometry.wheels if w.hinge_joint]
-        self._hinge_qpos, _ = car.state.joint_indices([w.hinge_joint for w in front])
+        self._hinge_qpos, _ = car.state.joint_indices([w.hinge_joint for w in front if w.hinge_joint])
         self._hinge_points = np.array([w.hinge_axis_point for w in front], np.float64)
         self._wheelbase, self._servo = geometry.wheelbase, car.profile.servo
         wheels = [self.model.body(car.names.mj(w.link)).id for w in geometry.wheels]
         self.crash_table = CrashTable(self.model, self.root_body, wheels)
-        self.lidar = BatchLidar(car.lidar, self.model, self.root_body, self.root_qpos) if lidar else None
-        self.range_max = car.lidar.spec.range_max if lidar else 0.0
-        self.observation_space = observation_space(car.lidar.spec) if lidar else None
+        laser = None
+        if lidar:
+            assert car.lidar is not None, "the Simulator built with lidar=True has the car's lidar"
+            laser = car.lidar
+        self.lidar = BatchLidar(laser, self.model, self.root_body, self.root_qpos) if laser is not None else None
+        self.range_max = laser.spec.range_max if laser is not None else 0.0
+        self.observation_space = observation_space(laser.spec) if laser is not None else None
         self.action_space = action_space(self.action_mode, self.limits)
         sim.reset(0)
         self._state0 = np.empty(mujoco.mj_stateSize(self.model, _STATE))
@@ -155,7 +163,7 @@ class DriveBatch:
         self.time_ns = np.zeros(n, np.int64)
         self.steps = np.zeros(n, np.int64)
         self.seeds = np.zeros(n, np.int64)
-        self.scan = np.zeros((n, car.lidar.spec.samples if lidar else 0), np.float32)
+        self.scan = np.zeros((n, laser.spec.samples if laser is not None else 0), np.float32)
         self._rngs: list[np.random.Generator] = [np.random.default_rng()] * n
         self.progress = BatchProgress(world_centerline(loaded, centerline), n)
         self.threads = threads or os.cpu_count() or 1
@@ -167,7 +175,7 @@ class DriveBatch:
         self._chunks = [np.arange(k, min(k + per_chunk, n)) for k in range(0, n, per_chunk)]
         self._velocity = [np.zeros(6) for _ in range(n)]
         self._seeds_arg = seeds
-        self.warp = None
+        self.warp: WarpWorlds | None = None
         if device != "cpu":
             from racecar_sim.envs.batch_warp import WarpWorlds
 
@@ -213,7 +221,7 @@ class DriveBatch:
         terminated = self.crashed.copy()
         truncated = (self.steps >= self.max_episode_steps) if self.max_episode_steps else np.zeros_like(terminated)
         obs = self.observation()
-        infos: dict[str, Any] = {"progress": progress, "crash": np.where(self.crashed, "wall", None)}
+        infos: dict[str, Any] = {"progress": progress, "crash": np.where(self.crashed, "wall", np.array(None))}
         done = terminated | truncated
         if done.any():
             worlds = np.flatnonzero(done)
@@ -290,7 +298,7 @@ class DriveBatch:
         """Every world one control period on from its own episode time."""
         plans = {start: self._substeps(start, start + self.period_ns) for start in np.unique(self.time_ns).tolist()}
         if self.warp is not None:
-            self._run_warp(plans)
+            self._run_warp(self.warp, plans)
         elif self._pool is None:
             for chunk in self._chunks:
                 self._run_chunk(chunk, plans)
@@ -320,11 +328,11 @@ class DriveBatch:
         if self.lidar is not None:
             self.scan[chunk] = self.lidar.scans(self.qpos[chunk], self.seeds[chunk], self.time_ns[chunk])
 
-    def _run_warp(self, plans: dict[int, list[int]]) -> None:
+    def _run_warp(self, warp: WarpWorlds, plans: dict[int, list[int]]) -> None:
         """Every world one control period on MuJoCo Warp. Worlds at different episode times check for crashes at
         different offsets into the period: the period is stepped in segments between the union of those offsets,
         and after each segment only the worlds whose own plan checks there are looked at."""
-        warp, crashed = self.warp, self.crashed
+        crashed = self.crashed
         offsets = {start: set(np.cumsum(plan).tolist()) for start, plan in plans.items()}
         starts = self.time_ns.tolist()
         warp.set_ctrl(self.ctrl)

@@ -24,9 +24,10 @@ class BatchLidar:
         self.root_qpos, self._lidar = root_qpos, lidar
         caster = lidar.caster
         self.walls = BatchWallCaster(caster.static, self.fan, caster._has_moving)
-        self.mount = lidar.mount  # the ray origin and axes from each world's chassis pose, as the single car's
-        if self.mount is None or self.mount.qpos_adr != root_qpos:
+        mount = lidar.mount  # the ray origin and axes from each world's chassis pose, as the single car's
+        if mount is None or mount.qpos_adr != root_qpos:
             raise ValueError("the batch lidar needs the laser welded to the car's root body")
+        self.mount = mount
         self._model, self._root_body = model, root_body
         self._local = threading.local()  # per thread: a model copy, a posed MjData and a RayCaster (fallback)
 

@@ -16,8 +16,8 @@ class BatchProgress:
         self.centerline = centerline
         self.s, self.xy = np.zeros(n), np.zeros((n, 2))
 
-    def _project(self, xy: np.ndarray, near: np.ndarray | None) -> np.ndarray:
-        c = self.centerline
+    @staticmethod
+    def _project(c: Centerline, xy: np.ndarray, near: np.ndarray | None) -> np.ndarray:
         px, py = xy[:, 0, None] - c._start[:, 0], xy[:, 1, None] - c._start[:, 1]
         t = np.clip((px * c._delta[:, 0] + py * c._delta[:, 1]) / c._seg_len**2, 0.0, 1.0)
         dist = np.hypot(px - t * c._delta[:, 0], py - t * c._delta[:, 1])
@@ -31,15 +31,16 @@ class BatchProgress:
         """Start measuring the chosen worlds at xy (len(worlds), 2)."""
         self.xy[worlds] = xy
         if self.centerline is not None:
-            self.s[worlds] = self._project(xy, None)
+            self.s[worlds] = self._project(self.centerline, xy, None)
 
     def step(self, xy: np.ndarray, yaw: np.ndarray) -> np.ndarray:
         """Metres gained by every world since the last call."""
+        gained: np.ndarray
         if self.centerline is None:
             d = xy - self.xy
             gained = d[:, 0] * np.cos(yaw) + d[:, 1] * np.sin(yaw)
         else:
-            s = self._project(xy, self.s)
+            s = self._project(self.centerline, xy, self.s)
             gained = np.asarray(self.centerline.wrap(s - self.s), float)
             self.s = s
         self.xy = xy.copy()

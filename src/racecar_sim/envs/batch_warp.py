@@ -45,7 +45,7 @@ def _import_warp(device: str) -> Any:
 
 
 def warp_model(model: mujoco.MjModel) -> mujoco.MjModel:
-    """A copy of `model` that mujoco-warp can load: pid actuators become the equivalent fixed-gain ones, sleeping off."""
+    """A copy of `model` that mujoco-warp can load: pid actuators become equivalent fixed-gain ones, sleeping off."""
     model = copy.copy(model)
     # MuJoCo Warp never resets a diverged world (a NaN state stays NaN), so it refuses a model that asks not to
     model.opt.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)

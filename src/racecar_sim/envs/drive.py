@@ -9,15 +9,16 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from gymnasium import spaces
 
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.throttle import is_finite_number
 from racecar_sim.core.time import NS_PER_S, to_ns
-from racecar_sim.envs.agent import CarAgent
+from racecar_sim.envs.agent import CarAgent, servo_geometry
 from racecar_sim.envs.crash import CHECK_RATE, CrashMonitor
 from racecar_sim.envs.reward import world_centerline
 from racecar_sim.envs.spaces import (
@@ -73,7 +74,8 @@ class DriveEnv(gym.Env):
     camera: add the camera image to the observation. profile, physics, sensor_noise: as for Simulator.
     """
 
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array", "human"], "render_fps": CONTROL_RATE}
+    metadata: dict[str, Any] = {"render_modes": ["rgb_array", "human"], "render_fps": CONTROL_RATE}
+    action_space: spaces.Box  # the agent's
 
     def __init__(
         self,
@@ -118,7 +120,6 @@ class DriveEnv(gym.Env):
         self._centerline_arg = centerline
         self._view: EnvView | None = None
         self._world_key: str | None = None
-        self.sim: Simulator | None = None
         self._build(world)
         self.observation_space = self.agent.observation_space
         self.action_space = self.agent.action_space
@@ -126,8 +127,8 @@ class DriveEnv(gym.Env):
 
     # --- building ---------------------------------------------------------------------------------
     def _build(self, world: str | Path) -> None:
-        """(Re)build the Simulator on `world`; the spaces stay those of the car (its laser and camera)."""
-        self.close()
+        """Build the Simulator on `world` (close() the last one first); the spaces stay those of the car (its laser
+        and camera)."""
         loaded = load_world(world)
         self.sim = sim = Simulator(
             world=loaded, profile=self.profile, physics=self.physics, camera=self.camera, sensor_noise=self.sensor_noise
@@ -142,7 +143,7 @@ class DriveEnv(gym.Env):
             world_centerline(loaded, self._centerline_arg),
             self.period_ns,
         )
-        geometry = sim.car.servo.geometry
+        geometry = servo_geometry(sim.car)
         self.crashes = CrashMonitor.for_cars(sim.model, [(sim.car.names, sim.car.robot.root, geometry)])
         sim.scheduler.every(CHECK_RATE, lambda now: self.crashes.check(sim.data, now), "env crash check")
         self._steps = 0
@@ -162,6 +163,7 @@ class DriveEnv(gym.Env):
         super().reset(seed=seed)
         world = options.get("world")
         if world is not None and str(world) != self._world_key:
+            self.close()
             self._build(world)
             self._view = EnvView(self.render_mode, self.sim)
         noise_seed = seed if seed is not None else int(self.np_random.integers(2**31))

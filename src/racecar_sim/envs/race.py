@@ -14,12 +14,13 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
+from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.rng import check_seed
 from racecar_sim.core.time import NS_PER_S, to_ns
-from racecar_sim.envs.agent import CarAgent
+from racecar_sim.envs.agent import CarAgent, servo_geometry
 from racecar_sim.envs.crash import CHECK_RATE, CrashMonitor
 from racecar_sim.envs.drive import (
     CONTROL_RATE,
@@ -116,17 +117,17 @@ class RaceEnv(ParallelEnv):
         }
         self.observation_spaces = {name: a.observation_space for name, a in self._agents.items()}
         self.action_spaces = {name: a.action_space for name, a in self._agents.items()}
-        self.crashes = CrashMonitor.for_cars(sim.model, [(c.names, c.robot.root, c.servo.geometry) for c in sim.cars])
+        self.crashes = CrashMonitor.for_cars(sim.model, [(c.names, c.robot.root, servo_geometry(c)) for c in sim.cars])
         sim.scheduler.every(CHECK_RATE, lambda now: self.crashes.check(sim.data, now), "env crash check")
         self.agents: list[str] = []
         self._steps = 0
         self._rng = np.random.default_rng()
         self._view = EnvView(render_mode, sim)  # RenderingError (one line) where there is no GL
 
-    def observation_space(self, agent: str):
+    def observation_space(self, agent: str) -> spaces.Dict:
         return self.observation_spaces[agent]
 
-    def action_space(self, agent: str):
+    def action_space(self, agent: str) -> spaces.Box:
         return self.action_spaces[agent]
 
     def reset(
@@ -159,7 +160,11 @@ class RaceEnv(ParallelEnv):
         observations = {name: self._agents[name].observation() for name in self.agents}
         return observations, {name: {"progress": 0.0, "crash": None} for name in self.agents}
 
-    def step(self, actions: Mapping[str, np.ndarray]):
+    def step(
+        self, actions: Mapping[str, np.ndarray]
+    ) -> tuple[
+        dict[str, dict[str, np.ndarray]], dict[str, float], dict[str, bool], dict[str, bool], dict[str, dict[str, Any]]
+    ]:
         """Each live agent's action as its navigation command, the sim run one control period, then per agent:
         observation, reward, termination, truncation, info; terminated and truncated agents leave `agents`."""
         if not isinstance(actions, Mapping):

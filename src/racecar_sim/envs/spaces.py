@@ -116,7 +116,7 @@ def to_command(actions: np.ndarray, action: str = "normalized", limits: DriveLim
 
 def observation_space(laser: LaserSpec, camera: CameraSpec | None = None) -> spaces.Dict:
     """The observation Dict for a car with this laser (and camera, when the env shows images)."""
-    entries: dict[str, spaces.Space] = {
+    entries: dict[str, spaces.Space[np.ndarray]] = {
         SCAN: spaces.Box(np.float32(laser.range_min), np.float32(laser.range_max), (laser.samples,), np.float32),
         SPEED: spaces.Box(-SPEED_BOUND, SPEED_BOUND, (1,), np.float32),
         STEERING: spaces.Box(np.float32(-math.pi / 2), np.float32(math.pi / 2), (1,), np.float32),

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
 if TYPE_CHECKING:
+    from racecar_sim.envs.chase_camera import ChaseCamera
     from racecar_sim.runtime import Simulator
+    from racecar_sim.viz.viewer import CarViewer
 
 
 class EnvView:
@@ -19,8 +21,8 @@ class EnvView:
 
     def __init__(self, render_mode: str | None, sim: Simulator) -> None:
         self.render_mode = render_mode
-        self._chase: Any = None
-        self._viewer: Any = None
+        self._chase: ChaseCamera | None = None
+        self._viewer: CarViewer | Literal[False] | None = None  # False: no window could open
         self.open(sim)
 
     def open(self, sim: Simulator) -> None:

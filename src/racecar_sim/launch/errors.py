@@ -22,9 +22,10 @@ class Where:
 
 
 class LaunchError(ConfigError):
-    """A launch file the sim cannot run; the message is `file:line: <element>: problem; fix`."""
+    """A launch file the sim cannot run; the message is `file:line: <element>: problem; fix`. `where` is None for
+    a NodeSpec made without one (not by the loader)."""
 
-    def __init__(self, where: Where | Path | str, problem: str, fix: str = "") -> None:
+    def __init__(self, where: Where | Path | str | None, problem: str, fix: str = "") -> None:
         self.where, self.problem, self.fix = where, problem, fix
         super().__init__(f"{where}: {problem}" + (f"; {fix}" if fix else ""))
 

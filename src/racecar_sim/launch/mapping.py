@@ -187,8 +187,11 @@ def _sort_node(plan: LaunchPlan, node: NodeSpec, parts: dict[str, _Parts], setup
         )
         return
     part = _car_of(node, parts)
-    if part is None and _is_sim_node(node):
-        log.warning("%s: %s skipped: no car is spawned in its namespace %s", node.where, node.label, node.namespace)
+    if part is None:
+        if _is_sim_node(node):
+            log.warning("%s: %s skipped: no car is spawned in its namespace %s", node.where, node.label, node.namespace)
+        else:  # a rostopic default command too: there is no car to give it to
+            _other(node, setup, ros)
         return
     if key == ("controller_manager", "spawner"):
         part.spawners.append(node)
@@ -213,8 +216,8 @@ def _sort_node(plan: LaunchPlan, node: NodeSpec, parts: dict[str, _Parts], setup
         and node.args[1] == MUX_NODELET
     ):
         part.muxes.append((node.full_name, _mux_config(plan, node), node))
-    elif key == ("rostopic", "rostopic") and _default_command(node) is not None:
-        part.defaults.append((node.resolve(node.args[-3]), *_default_command(node), node))
+    elif key == ("rostopic", "rostopic") and (default := _default_command(node)) is not None:
+        part.defaults.append((node.resolve(node.args[-3]), *default, node))
     elif node.package == "racecar_sim" and node.type.replace("-", "_") in DRIVERS:
         setup.drivers.append(_driver(plan, node, part))
     else:
@@ -407,8 +410,8 @@ def _controllers(plan: LaunchPlan, part: _Parts, scratch: Path) -> Path:
         )
     leaves = [k for k in plan.params if k.startswith(ns)]
     files = {plan.sources.get(k) for k in leaves}
-    if len(files) == 1 and None not in files:
-        source = files.pop()
+    source = files.pop() if len(files) == 1 else None
+    if source is not None:
         try:
             if yaml.safe_load(source.read_text()) == {key: tree}:
                 return source

@@ -6,7 +6,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from racecar_sim.control.teleop import KeyboardTeleop
 from racecar_sim.core.errors import ConfigError
@@ -14,6 +14,9 @@ from racecar_sim.launch.errors import LaunchError
 from racecar_sim.launch.mapping import DriverSpec, SimSetup
 from racecar_sim.runtime import Simulator
 from racecar_sim.runtime.driving import attach_driver
+
+if TYPE_CHECKING:
+    from racecar_sim.bridges.ros1 import RosBridge
 
 log = logging.getLogger("racecar_sim.launch")
 # a launch file's driver node types and the run command's driver names
@@ -42,12 +45,16 @@ class LaunchRun:
             model_path=list(model_path),
             sensor_noise=sensor_noise,
         )
-        self.bridge: Any = None
+        self.bridge: RosBridge | None = None
         try:
             self.sim.paused = setup.world.paused  # gazebo -u: sim time waits for /gazebo/unpause_physics
             self.drivers = [self._driver(spec) for spec in setup.drivers]
             for source, target in setup.relays:
-                self.sim.subscribe(source, lambda msg, target=target: self.sim.bus.publish(target, msg))
+
+                def relay(msg: Any, target: str = target) -> None:
+                    self.sim.bus.publish(target, msg)
+
+                self.sim.subscribe(source, relay)
             self.teleops = [
                 KeyboardTeleop(self.sim.bus, self.sim.scheduler, lambda: self.sim.time_ns, topic=topic)
                 for topic in setup.teleop_topics

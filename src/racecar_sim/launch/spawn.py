@@ -43,7 +43,7 @@ class WorldChoice:
 
 def world_of(plan: LaunchPlan) -> WorldChoice:
     """The world of the launch's gzserver node (empty_world.launch's `gazebo`); the empty world without one."""
-    servers = [n for n in plan.nodes_of("gazebo_ros", *SERVERS)]
+    servers = plan.nodes_of("gazebo_ros", *SERVERS)
     if not servers:
         log.info("%s: no gazebo_ros server node (empty_world.launch): the sim runs the empty world", plan.file)
         return WorldChoice(EMPTY, False)

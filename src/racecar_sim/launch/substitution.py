@@ -20,7 +20,7 @@ import uuid
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, overload
 
 from racecar_sim.launch.errors import SubstitutionError
 
@@ -108,6 +108,12 @@ class Context:
         return str(Path(self.filename).resolve().parent)
 
 
+@overload
+def resolve(text: str, ctx: Context) -> str: ...
+@overload
+def resolve(text: None, ctx: Context) -> None: ...
+@overload
+def resolve(text: str | None, ctx: Context) -> str | None: ...
 def resolve(text: str | None, ctx: Context) -> str | None:
     """`text` with every substitution resolved (None stays None)."""
     if not text:
@@ -119,7 +125,7 @@ def resolve(text: str | None, ctx: Context) -> str | None:
 
 
 def _replace(text: str, ctx: Context, find: bool) -> str:
-    def one(match: re.Match) -> str:
+    def one(match: re.Match[str]) -> str:
         words = match.group(1).split()
         if not words:
             raise SubstitutionError(f"empty substitution {match.group(0)}; write $(arg NAME), $(find PKG), ...")
@@ -157,7 +163,7 @@ def _command(command: str, rest: list[str], whole: str, ctx: Context) -> str:
     return ctx.dirname()
 
 
-class _Names(dict):
+class _Names(dict[str, Any]):
     """eval's namespace: the functions first, then the args by bare name (converted as type="auto")."""
 
     def __init__(self, ctx: Context, functions: dict[str, Any]) -> None:
@@ -288,7 +294,8 @@ class _Evaluator:
             if not isinstance(node.func, ast.Name) or id(function) not in self.functions:
                 raise self.refuse(node, f"{ast.unparse(node.func)} is not a function $(eval) may call")
             args = [self._value(a) for a in node.args]
-            return function(*args, **{k.arg: self._value(k.value) for k in node.keywords})
+            # `f(**m)` has arg None: Python's call refuses it ("keywords must be strings"), the message $(eval) gives
+            return function(*args, **{k.arg: self._value(k.value) for k in node.keywords})  # type: ignore[arg-type]
         if isinstance(node, ast.Subscript):
             return self._value(node.value)[self._value(node.slice)]
         if isinstance(node, ast.Slice):
@@ -297,7 +304,8 @@ class _Evaluator:
             items = [self._value(e) for e in node.elts]
             return {ast.List: list, ast.Tuple: tuple, ast.Set: set}[type(node)](items)
         if isinstance(node, ast.Dict):
-            return {self._value(k): self._value(v) for k, v in zip(node.keys, node.values)}
+            # `{**m}` has key None: _value refuses it ("NoneType is not allowed")
+            return {self._value(k): self._value(v) for k, v in zip(node.keys, node.values)}  # type: ignore[arg-type]
         raise self.refuse(node)
 
 

@@ -11,7 +11,7 @@ import shlex
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, overload
 
 import yaml
 
@@ -190,12 +190,12 @@ class _Loader:
         name = self.attr(tag, scope, "name", required=True)
         kind = (tag.attrs.get("type") or "auto").strip().lower()
         sources = {key: self.attr(tag, scope, key) for key in ("value", "textfile", "binfile", "command")}
-        given = [key for key, text in sources.items() if text is not None]
+        given = [(key, text) for key, text in sources.items() if text is not None]
         if len(given) != 1:
             raise LaunchError(
                 where, "a <param> needs exactly one of value=, textfile=, binfile=, command=", "keep one of them"
             )
-        source, text = given[0], sources[given[0]]
+        source, text = given[0]
         try:
             if source == "value":
                 value: Any = convert_value(text, kind)
@@ -312,7 +312,7 @@ class _Loader:
     def where(self, tag: Tag, scope: _Scope) -> Where:
         return Where(scope.file, tag.line, tag.describe())
 
-    def resolve(self, text: str | None, scope: _Scope, where: Where) -> str | None:
+    def resolve(self, text: str, scope: _Scope, where: Where) -> str:
         try:
             return resolve(text, scope.context())
         except SubstitutionError as exc:
@@ -320,7 +320,12 @@ class _Loader:
         except ConfigError as exc:  # a package $(find) cannot find
             raise LaunchError(where, str(exc)) from None
 
+    @overload
+    def attr(self, tag: Tag, scope: _Scope, key: str, required: Literal[True]) -> str: ...
+    @overload
+    def attr(self, tag: Tag, scope: _Scope, key: str, required: bool = False) -> str | None: ...
     def attr(self, tag: Tag, scope: _Scope, key: str, required: bool = False) -> str | None:
+        """The attribute with its substitutions resolved; None if it is absent (LaunchError if `required`)."""
         if key not in tag.attrs:
             if required:
                 raise LaunchError(self.where(tag, scope), f"<{tag.name}> needs a {key}= attribute", f'add {key}="..."')

@@ -26,20 +26,19 @@ class Message:
 
     __slots__ = ()
     __msgtype__: ClassVar[str]
+    # set by @dataclass on every subclass: what makes a message a dataclass instance to the type checker
+    __dataclass_fields__: ClassVar[dict[str, dataclasses.Field[Any]]]
 
     def __eq__(self, other: object) -> bool:
         if other.__class__ is not self.__class__:
             return NotImplemented
-        return all(
-            _field_equal(getattr(self, f.name), getattr(other, f.name))
-            for f in dataclasses.fields(self)  # type: ignore[arg-type]
-        )
+        return all(_field_equal(getattr(self, f.name), getattr(other, f.name)) for f in dataclasses.fields(self))
 
     __hash__ = None  # type: ignore[assignment]  # mutable value objects
 
     def __repr__(self) -> str:
         parts = []
-        for f in dataclasses.fields(self):  # type: ignore[arg-type]
+        for f in dataclasses.fields(self):
             value = getattr(self, f.name)
             if isinstance(value, (bytes, bytearray)) and len(value) > _BYTES_REPR_LIMIT:
                 text = f"<{len(value)} bytes>"

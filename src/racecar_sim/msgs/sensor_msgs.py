@@ -65,7 +65,7 @@ class Image(Message):
     encoding: str = ""
     is_bigendian: int = 0
     step: int = 0
-    data: bytes = b""
+    data: bytes | npt.NDArray[np.uint8] = b""  # the cameras publish their pixel array as it is
 
     def bgr_pixels(self) -> np.ndarray:
         """A bgr8 / rgb8 image's pixels as a (height, width, 3) uint8 array in BGR order (a view where it can be)."""

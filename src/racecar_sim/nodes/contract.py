@@ -27,6 +27,7 @@ from racecar_sim.core.names import CarNames
 if TYPE_CHECKING:
     from racecar_sim.description.controllers import ControllerConfig
     from racecar_sim.description.urdf import Robot
+    from racecar_sim.msgs import TransformStamped
     from racecar_sim.physics.state import CarState
 
 
@@ -69,7 +70,7 @@ class Timers(Protocol):
 class StaticTf(Protocol):
     """/tf_static for every car: transforms added to the one latched message."""
 
-    def add(self, transforms: list) -> None: ...
+    def add(self, transforms: list[TransformStamped]) -> None: ...
 
 
 @runtime_checkable

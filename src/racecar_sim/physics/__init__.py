@@ -1,4 +1,6 @@
-"""Physics: the MuJoCo model built from the description and a world, and its presets."""
+"""Physics: the MuJoCo model built from the description and a world (builder.py), the scene that owns its MjSpec
+through build, compile and recompile (scene.py), the map walls held near the cars, presets, spawn checks and state
+access."""
 
 from racecar_sim.physics.builder import (
     ROOT_JOINT,

@@ -169,18 +169,18 @@ def _add_collisions(
         surface = link.surface
         mu = surface.mu1 if surface.mu1 is not None else 1.0  # SDF default friction
         solref, solimp = solref_solimp(surface.kp, _sprung_mass(robot), preset.contact_timeconst)
-        contact = dict(
-            pos=list(shape.origin.xyz),
-            quat=list(quat_from_rpy(shape.origin.rpy)),
-            group=COLLISION_GROUP,
-            contype=1,
-            conaffinity=1,
-            condim=3,
-            friction=[mu, 0.0, 0.0],
-            solref=solref,
-            solimp=solimp,
-            rgba=[0.9, 0.3, 0.3, 0.4],
-        )
+        contact = {
+            "pos": list(shape.origin.xyz),
+            "quat": list(quat_from_rpy(shape.origin.rpy)),
+            "group": COLLISION_GROUP,
+            "contype": 1,
+            "conaffinity": 1,
+            "condim": 3,
+            "friction": [mu, 0.0, 0.0],
+            "solref": solref,
+            "solimp": solimp,
+            "rgba": [0.9, 0.3, 0.3, 0.4],
+        }
         if shape.geometry.kind == "mesh":
             pieces = []
             for part in _mesh_parts(robot, link, shape, "collision"):
@@ -207,14 +207,14 @@ def _add_visuals(spec: mujoco.MjSpec, body: mujoco.MjsBody, link: Link, robot: R
     """Visual geoms (drawn, never touched); a mesh's parts keep the file's own colours unless the URDF gives one."""
     for i, shape in enumerate(link.visuals):
         name = names.mj(f"{link.name}_visual{'' if i == 0 else i}")
-        placed = dict(
-            pos=list(shape.origin.xyz),
-            quat=list(quat_from_rpy(shape.origin.rpy)),
-            group=VISUAL_GROUP,
-            contype=0,
-            conaffinity=0,
-            mass=0.0,
-        )
+        placed = {
+            "pos": list(shape.origin.xyz),
+            "quat": list(quat_from_rpy(shape.origin.rpy)),
+            "group": VISUAL_GROUP,
+            "contype": 0,
+            "conaffinity": 0,
+            "mass": 0.0,
+        }
         if shape.geometry.kind == "mesh":
             own_colour = shape.rgba is not None or link.surface.material
             for j, part in enumerate(_mesh_parts(robot, link, shape, "visual")):
@@ -261,6 +261,7 @@ def _add_link(
             type=mujoco.mjtJoint.mjJNT_HINGE if joint.type != "prismatic" else mujoco.mjtJoint.mjJNT_SLIDE,
         )
         if joint.type in ("revolute", "prismatic"):
+            assert joint.limit is not None, "parse_urdf gives every revolute and prismatic joint a <limit>"
             mj_joint.range = [joint.limit.lower, joint.limit.upper]
             mj_joint.limited = mujoco.mjtLimited.mjLIMITED_TRUE
             # a hard stop, as ODE's joint stop (MuJoCo's default limit is a soft 20 ms spring)

@@ -1,4 +1,5 @@
-"""Near walls: a map's thousands of wall boxes kept out of MuJoCo's collision, a few stand-ins placed where the cars are.
+"""Near walls: a map's thousands of wall boxes kept out of MuJoCo's collision, a few stand-ins placed where the cars
+are.
 
 MuJoCo's broad phase visits every geom of a model on every step, and each car body walks the world's tree of
 walls, so a map of 2,000 boxes costs half again the physics of an empty world - though a car can only touch the
@@ -14,6 +15,7 @@ exactly those the full set of walls would give. The lidar reads the same boxes f
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import mujoco
@@ -86,7 +88,7 @@ class WallBoxes:
 
 
 def hold_out(
-    spec: mujoco.MjSpec, name: str, friction: float, boxes: list[tuple[np.ndarray, np.ndarray, np.ndarray]]
+    spec: mujoco.MjSpec, name: str, friction: float, boxes: list[tuple[np.ndarray, np.ndarray, tuple[float, ...]]]
 ) -> None:
     """Put the collision boxes (pos, quat, full size) of the static body `name` into `spec` as data."""
     rows = [[*pos, *quat, *(0.5 * np.asarray(size[:3]))] for pos, quat, size in boxes]
@@ -114,7 +116,7 @@ def slots_needed(model: mujoco.MjModel) -> int:
     return sum(_most_per_cell(lower, upper, reach + SLACK) for reach in _movers(model)[1])
 
 
-def add_slots(spec: mujoco.MjSpec, model: mujoco.MjModel, friction_rule: object) -> bool:
+def add_slots(spec: mujoco.MjSpec, model: mujoco.MjModel, friction_rule: Callable[[mujoco.MjSpec], None]) -> bool:
     """Give `spec` the slots `model` (compiled from it) needs; True if it changed and must be compiled again.
     `friction_rule(spec)` ranks the new geoms' friction among the others' (builder.friction_min_rule)."""
     boxes = WallBoxes.of(model)
@@ -135,7 +137,7 @@ def add_slots(spec: mujoco.MjSpec, model: mujoco.MjModel, friction_rule: object)
             friction=[boxes.friction, 0.0, 0.0],
             rgba=[0.5, 0.5, 0.5, 1.0],
         )
-    friction_rule(spec)  # type: ignore[operator]
+    friction_rule(spec)
     return True
 
 

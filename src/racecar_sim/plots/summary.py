@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 from matplotlib import colormaps
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -133,7 +134,7 @@ def summary_figure(
     lo, hi = _view_bounds(np.vstack([finite_points(prints), _view_points(traj, origin, points, world)]))
     layout = WIDE if (hi[1] - lo[1]) < WIDE_BELOW * (hi[0] - lo[0]) else SIDE
     fig = Figure(figsize=FIGSIZE, dpi=DPI)
-    FigureCanvasAgg(fig)
+    canvas = FigureCanvasAgg(fig)
     fig.suptitle(title or world.name, x=0.045, y=TITLE_Y, ha="left", fontsize=16, fontweight="bold")
     ax = fig.add_axes(layout.map)
     draw_world(ax, world, prints)
@@ -153,7 +154,7 @@ def summary_figure(
         handles = _draw_trajectory(ax, traj, norm, rate) + handles
         colorbar = fig.colorbar(ScalarMappable(norm=norm, cmap=SPEED_CMAP), cax=fig.add_axes(layout.colorbar))
         colorbar.set_label("speed (m/s)")
-    _fill_panel(fig, layout, image, handles, lines, f"{next(iter(paths))}'s " if fleet else "")
+    _fill_panel(fig, canvas, layout, image, handles, lines, f"{next(iter(paths))}'s " if fleet else "")
     return fig, ax
 
 
@@ -172,10 +173,17 @@ def fleet_color(index: int) -> str:
 
 
 def _fill_panel(
-    fig: Figure, layout: Layout, image: np.ndarray | None, handles: list[Line2D], lines: Sequence[str], owner: str = ""
+    fig: Figure,
+    canvas: FigureCanvasAgg,
+    layout: Layout,
+    image: np.ndarray | None,
+    handles: list[Line2D],
+    lines: Sequence[str],
+    owner: str = "",
 ) -> None:
-    """The camera frame, the legend and the text box, one after the other from the panel's corner."""
-    renderer = fig.canvas.get_renderer()
+    """The camera frame, the legend and the text box, one after the other from the panel's corner (`canvas`: the
+    figure's)."""
+    renderer = canvas.get_renderer()
     x, top = layout.panel
     to_figure = fig.transFigure.inverted()
 
@@ -195,7 +203,9 @@ def _fill_panel(
         title_room = 0.03
         cam = fig.add_axes((x, top - title_room - height, width, height))
         _draw_camera(cam, image, f"{owner}camera, last frame")
-        advance(cam.get_tightbbox(renderer))
+        extent = cam.get_tightbbox(renderer)
+        assert extent is not None, "a visible axes has a bounding box"
+        advance(extent)
     if handles:
         legend = fig.legend(
             handles=handles,
@@ -224,7 +234,8 @@ def _fill_panel(
 
 def _view_points(traj: np.ndarray, origin: np.ndarray | None, points: np.ndarray, world: World) -> np.ndarray:
     """The points the map must show besides the world's geoms: the spawn, the path and the scan."""
-    parts = [[[world.spawn.x, world.spawn.y]], traj[:, :2], points] + ([origin[None]] if origin is not None else [])
+    parts: list[npt.ArrayLike] = [[[world.spawn.x, world.spawn.y]], traj[:, :2], points]
+    parts += [origin[None]] if origin is not None else []
     xy = np.vstack(parts)
     return xy[np.all(np.isfinite(xy), axis=1)]
 
@@ -268,7 +279,7 @@ def _draw_trajectory(ax: Axes, traj: np.ndarray, norm: Normalize, rate: float = 
         speed = (traj[:-1, 2] + traj[1:, 2]) / 2
         ax.add_collection(
             LineCollection(
-                segments,
+                list(segments),
                 array=speed,
                 cmap=SPEED_CMAP,
                 norm=norm,
@@ -311,6 +322,7 @@ def _draw_trajectory(ax: Axes, traj: np.ndarray, norm: Normalize, rate: float = 
         zorder=Z_MARKS,
         label="end",
     )
+    assert norm.vmax is not None, "the caller's norm has its upper limit"
     mid = float(norm.vmax) / 2
     path = Line2D([], [], color=_cmap_color(norm, mid), linewidth=PATH_WIDTH, label="path, coloured by speed")
     return [path, start, end]
@@ -379,7 +391,9 @@ def _cmap_color(norm: Normalize, value: float) -> tuple[float, float, float, flo
 def _draw_scan(ax: Axes, origin: np.ndarray, points: np.ndarray, owner: str = "") -> Line2D:
     """The last scan from the laser: faint rays and the points they hit."""
     rays = np.stack([np.broadcast_to(origin, points.shape), points], axis=1)
-    ax.add_collection(LineCollection(rays, colors=SCAN_COLOR, linewidths=0.5, alpha=0.18, zorder=Z_RAYS), autolim=False)
+    ax.add_collection(
+        LineCollection(list(rays), colors=SCAN_COLOR, linewidths=0.5, alpha=0.18, zorder=Z_RAYS), autolim=False
+    )
     ax.scatter(points[:, 0], points[:, 1], s=5, color=SCAN_COLOR, linewidths=0, zorder=Z_SCAN)
     label = f"last lidar scan ({len(points)} hits)"
     return Line2D(

@@ -85,7 +85,8 @@ def open_recording_file(path: str | os.PathLike[str], overwrite: bool = True) ->
         ) from None
     except OSError as exc:
         reason = exc.strerror or str(exc)
-        raise _file_error_type(type(exc))(exc.errno, reason, name) from None
+        # mypy sees no type[X] as Hashable, as functools.cache asks (python/mypy#11470)
+        raise _file_error_type(type(exc))(exc.errno, reason, name) from None  # type: ignore[arg-type]
     try:
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -332,7 +333,7 @@ class McapRecorder:
             if max(last, log_time) - min(first, log_time) >= CHUNK_DURATION_NS:
                 # Writer.flush() is mcap's public way to end the chunk in progress: it
                 # compresses and writes it with its message indexes, then flushes the file.
-                self._writer.flush()  # type: ignore[no-untyped-call]
+                self._writer.flush()
                 self._chunk_written()
         channel = self._channels.get(topic)
         if channel is None or channel[1] != msgtype:
@@ -411,7 +412,7 @@ class McapRecorder:
             self._closed = True
             self._interrupt.hold()
             try:
-                self._writer.finish()  # type: ignore[no-untyped-call]
+                self._writer.finish()
                 self._stream.close()
             except OSError as exc:
                 raise self._give_up(exc, "while finishing it") from None

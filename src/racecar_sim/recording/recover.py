@@ -15,7 +15,7 @@ import io
 import os
 import struct
 import zlib
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
@@ -23,7 +23,7 @@ from typing import IO, Any
 from mcap.data_stream import ReadDataStream
 from mcap.exceptions import EndOfFile, McapError
 from mcap.opcode import Opcode
-from mcap.records import Attachment, Channel, Chunk, Footer, Header, Message, Metadata, Schema
+from mcap.records import Attachment, Channel, Chunk, Footer, Header, McapRecord, Message, Metadata, Schema
 from mcap.writer import CompressionType, Writer
 
 from racecar_sim.core.errors import RecordingError
@@ -139,16 +139,16 @@ def _parse(opcode: int, body: bytes) -> Any:
     try:
         if opcode == Opcode.MESSAGE:
             return Message.read(stream, len(body))
-        parser = {
-            Opcode.HEADER: Header,
-            Opcode.SCHEMA: Schema,
-            Opcode.CHANNEL: Channel,
-            Opcode.CHUNK: Chunk,
-            Opcode.METADATA: Metadata,
-            Opcode.ATTACHMENT: Attachment,
-            Opcode.FOOTER: Footer,
-        }[opcode]
-        return parser.read(stream)
+        parsers: dict[int, Callable[[ReadDataStream], McapRecord]] = {
+            Opcode.HEADER: Header.read,
+            Opcode.SCHEMA: Schema.read,
+            Opcode.CHANNEL: Channel.read,
+            Opcode.CHUNK: Chunk.read,
+            Opcode.METADATA: Metadata.read,
+            Opcode.ATTACHMENT: Attachment.read,
+            Opcode.FOOTER: Footer.read,
+        }
+        return parsers[opcode](stream)
     except (EndOfFile, McapError, struct.error, UnicodeDecodeError, KeyError) as exc:
         raise ValueError(f"corrupt {_name(opcode)} record") from exc
 
@@ -276,8 +276,8 @@ class _Scan:
             return True
         if opcode == Opcode.CHUNK:
             chunk = _parse(opcode, body)
-            times = [self._inner(op, rec) for op, rec in _chunk_records(chunk)]
-            times = [t for t in times if t is not None]
+            inner = [self._inner(op, rec) for op, rec in _chunk_records(chunk)]
+            times = [t for t in inner if t is not None]
             if times:
                 self.sources.append(_Source(min(times), offset, opcode, len(body)))
         elif opcode in (Opcode.SCHEMA, Opcode.CHANNEL):
@@ -363,7 +363,7 @@ def _write_records(scan: _Scan, out: IO[bytes], result: Recovery) -> None:
         result.counts[target[1]] = result.counts.get(target[1], 0) + 1
         result.start_ns = message.log_time if result.start_ns is None else result.start_ns
         result.end_ns = message.log_time
-    writer.finish()  # type: ignore[no-untyped-call]
+    writer.finish()
     result.channels = len(channel_ids)
 
 

@@ -13,7 +13,7 @@ import math
 from fractions import Fraction
 from pathlib import Path
 from types import TracebackType
-from typing import Any, BinaryIO
+from typing import Any, BinaryIO, Final
 
 import numpy as np
 
@@ -21,7 +21,7 @@ from racecar_sim.recording.writer_thread import WriterThread
 
 log = logging.getLogger("racecar_sim")
 
-CODEC = "libx264"
+CODEC: Final = "libx264"
 PIX_FMT = "yuv420p"  # what every player decodes; needs even width and height
 # ultrafast: ~2 ms of CPU a 640x480 sim frame, colour conversion included, 2-5 MB a minute at x264's default
 # quality (crf 23); veryfast halves the size for three times the CPU. One thread: the encoder runs beside the

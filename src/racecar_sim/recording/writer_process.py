@@ -119,7 +119,7 @@ class WriterProcess:
             return _SAME
         self._last_image = msg
         self._pixels_queued = True
-        data = memoryview(msg.data)
+        data = memoryview(msg.data)  # type: ignore[arg-type]  # an ndarray is a buffer: its stubs do not say so
         pixels = pickle.PickleBuffer(data if data.c_contiguous else data.tobytes())  # crosses the pipe uncopied
         return (msg.header, msg.height, msg.width, msg.encoding, msg.is_bigendian, msg.step, pixels)
 
@@ -154,9 +154,11 @@ class WriterProcess:
             self._interrupt.release()
 
     def _write_pending(self) -> None:
+        data = self._data
+        assert data is not None, "a hand-over after the data pipe was closed"
         while self._pending:
             try:
-                written = os.writev(self._data, self._pending)
+                written = os.writev(data, self._pending)
             except BrokenPipeError:
                 self._pending, self._ops = [], []
                 self._read_back(until="closed")  # its error, if it reported one before it died
@@ -364,10 +366,11 @@ def _read_hand_overs(fd: int, hand_overs: queue.Queue[tuple[bytes, list[bytearra
             body_size, count = _HEAD.unpack(head)
             sizes = _read_into(pipe, bytearray(_SIZE.size * count))
             body = _read_into(pipe, bytearray(body_size))
-            buffers = [_read_into(pipe, bytearray(size)) for (size,) in _SIZE.iter_unpack(sizes or b"")]
-            if sizes is None or body is None or any(b is None for b in buffers):
+            received = [_read_into(pipe, bytearray(size)) for (size,) in _SIZE.iter_unpack(sizes or b"")]
+            buffers = [b for b in received if b is not None]
+            if sizes is None or body is None or len(buffers) != len(received):
                 break  # cut off: the parent died half-way through a hand-over
-            hand_overs.put((bytes(body), buffers))  # type: ignore[arg-type]
+            hand_overs.put((bytes(body), buffers))
     hand_overs.put(None)
 
 

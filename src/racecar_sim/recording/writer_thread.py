@@ -14,7 +14,9 @@ DEPTH = 64
 """Jobs that may wait (two seconds of 30 Hz frames): beyond that submit() waits, so the simulation never runs far
 ahead of its files and memory stays bounded."""
 
-_STOP = object()
+
+def _STOP() -> None:
+    """The job that ends the thread (a marker: never run)."""
 
 
 class WriterThread:
@@ -28,7 +30,7 @@ class WriterThread:
 
     def __init__(self, name: str, depth: int = DEPTH) -> None:
         self.name = name
-        self._queue: queue.Queue[object] = queue.Queue(maxsize=depth)
+        self._queue: queue.Queue[Callable[[], object]] = queue.Queue(maxsize=depth)
         self._error: BaseException | None = None
         self._closed = False
         # daemon: a thread left running can never hold the interpreter's exit; close() is what waits for it
@@ -49,7 +51,7 @@ class WriterThread:
                 return
             if self._error is None:
                 try:
-                    job()  # type: ignore[operator]
+                    job()
                 except BaseException as exc:
                     self._error = exc
 

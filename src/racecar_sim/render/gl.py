@@ -269,7 +269,8 @@ def _renderer_string() -> str:
     try:
         from OpenGL import GL
 
-        return GL.glGetString(GL.GL_RENDERER).decode()
+        renderer: str = GL.glGetString(GL.GL_RENDERER).decode()
+        return renderer
     except Exception:
         return "unknown"
 

@@ -63,7 +63,8 @@ def flat_sky(model: mujoco.MjModel) -> np.ndarray | None:
     materials = model.geom_matid[visual]
     if (model.geom_rgba[visual, 3] < 1).any() or (model.mat_rgba[materials[materials >= 0], 3] < 1).any():
         return None
-    return texels[0, :3].astype(np.uint8)
+    sky: np.ndarray = texels[0, :3].astype(np.uint8)
+    return sky
 
 
 class GLScene:

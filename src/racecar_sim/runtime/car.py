@@ -19,7 +19,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import mujoco
 
@@ -44,6 +44,9 @@ if TYPE_CHECKING:
     from racecar_sim.bus import BusPort
     from racecar_sim.sensors.camera import CameraPublisher
     from racecar_sim.sensors.lidar import LidarPublisher
+
+_T = TypeVar("_T")
+_N = TypeVar("_N", bound=Node)
 
 DEFAULT_CONTROLLERS = package_path("racecar_control") / "config" / "racecar_control.yaml"
 
@@ -270,7 +273,10 @@ class Car:
             )
         model_plugins, sensors = self._planned
         for planned in model_plugins:
-            node = self.hold(planned.kind.build(ctx, planned.block))
+            node = planned.kind.build(ctx, planned.block)
+            if node is None:  # it cannot run here, and has said why
+                continue
+            self.hold(node)
             if isinstance(node, RosControl):
                 self.ros_control = node
         self._spawn_controllers()
@@ -302,7 +308,7 @@ class Car:
         """The context the car's nodes are built from (once started)."""
         return _loaded(self._context, self, "nodes")
 
-    def hold(self, node: Any) -> Any:
+    def hold(self, node: _N) -> _N:
         """Hold a node built elsewhere (a driver attached to the car) with the car's own: its hooks run with theirs."""
         self.nodes.append(node)
         return node
@@ -386,7 +392,7 @@ class Car:
         return self.names.topic(name)
 
 
-def _loaded(value: Any, car: Car, what: str) -> Any:
+def _loaded(value: _T | None, car: Car, what: str) -> _T:
     if value is None:
         raise RuntimeError(f"{car!r} has no {what} yet: put it in a Simulator (which loads and starts it)")
     return value

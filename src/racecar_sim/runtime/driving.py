@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Mapping
+from pathlib import Path
 
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import NAVIGATION, ODOM
@@ -87,18 +88,23 @@ def attach_driver(
             )
         )
     if driver == "wall-follow":
-        if car.lidar is None and scan_topic is None:  # a given scan topic may be fed from elsewhere (ROS)
-            raise ConfigError("wall-follow steers by the lidar: the car needs its lidar on")
+        if not scan_topic:  # a given scan topic may be fed from elsewhere (ROS)
+            lidar = car.lidar
+            if lidar is None:
+                raise ConfigError("wall-follow steers by the lidar: the car needs its lidar on")
+            scan_topic = lidar.topic
         return car.hold(
             WallFollower(
                 sim.bus,
                 wall_follow_config(**params),
                 topic=navigation,
-                scan_topic=scan_topic or car.lidar.topic,
+                scan_topic=scan_topic,
                 odom_topic=odom,
             )
         )
     path = params.pop("path", None)
+    if path is not None and not isinstance(path, (str, Path)):
+        raise ConfigError(f"pure-pursuit: path must be a file name, got {path!r}")
     waypoints = load_waypoints(path) if path else track_path(sim.world)
     if waypoints is None:
         raise ConfigError(

@@ -89,7 +89,9 @@ class EventLoop:
                 )
                 self._pause_told = True
             return
-        scheduler, step, scene, counted, warnings = self.scheduler, mujoco.mj_step, self.scene, None, None
+        scheduler, step, scene = self.scheduler, mujoco.mj_step, self.scene
+        counted = scene.data
+        warnings = counted.warning.number  # a live view of MuJoCo's warning counters (of `counted`)
         while self.time_ns < end and not self._paused:
             # tasks whose messages nobody would receive run without a stop; with a contact check, every task stops
             due = scheduler.next_time(end if self.after_physics is None else None)
@@ -99,7 +101,7 @@ class EventLoop:
                 step(scene.model, data, nstep=(target - self.time_ns) // self.step_ns)
                 self.time_ns = target
                 if data is not counted:
-                    counted, warnings = data, data.warning.number  # a live view of MuJoCo's warning counters
+                    counted, warnings = data, data.warning.number
                 if warnings[_BADQPOS] or warnings[_BADQVEL] or warnings[_BADQACC]:
                     self._check_physics()
                 if self.after_physics is not None:

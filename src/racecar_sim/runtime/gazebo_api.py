@@ -107,11 +107,13 @@ class _Model:
 class GazeboHost(Protocol):
     """What the Gazebo API needs of the simulation: reads of its state, and the few calls that change the scene."""
 
-    bus: BusPort
     world: World
     cars: list[Car]
     paused: bool
     seed: int
+
+    @property
+    def bus(self) -> BusPort: ...
 
     @property
     def scheduler(self) -> Timers: ...
@@ -134,7 +136,7 @@ class GazeboHost(Protocol):
 
     def reset(self) -> None: ...
 
-    def spawn_car(self, car: Car, quat: Sequence[float] | None = None) -> None: ...
+    def spawn_car(self, car: Car, quat: Sequence[float] | np.ndarray | None = None) -> None: ...
 
     def delete_car(self, car: Car) -> None: ...
 
@@ -536,12 +538,13 @@ class GazeboApi(NodeBase):
         if name in self.models or any(car.name == namespace for car in sim.cars):
             return SpawnModelResponse(False, f"SpawnModel: Failure - entity [{name}] already exists.")
         (pos, quat) = initial
+        x, y, z = (float(v) for v in pos)
         first = sim.cars[0]
         car = Car(
             namespace,
             profile=first.profile_name,
             controllers=first.controllers_file,
-            spawn=Spawn(*(float(v) for v in pos), yaw_of(quat)),
+            spawn=Spawn(x, y, z, yaw_of(quat)),
             sensors_off=first.off,
             odometry=first.odometry_mode,
         )
@@ -699,8 +702,8 @@ def _load_model(xml: str, model_name: str, initial: PoseArrays) -> tuple[str, Po
     pose_el.text = " ".join(repr(float(v)) for v in (*pos, quat[1], quat[2], quat[3], quat[0]))
     sdf = ET.Element("sdf", version=root.get("version", "1.6"))
     ET.SubElement(sdf, "world", name="spawn_sdf_model").append(target)
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / f"{name}.sdf"
+    with tempfile.TemporaryDirectory() as temp:
+        path = Path(temp) / f"{name}.sdf"
         path.write_text(ET.tostring(sdf, encoding="unicode"))
         world = load_sdf(path)
     return name, placed, world.bodies

@@ -39,7 +39,8 @@ Block = Sensor | Plugin
 class NodeKind:
     """How one kind of description block becomes a node.
 
-    build(ctx, block): the node (None: it cannot run here, and has said why). prepare(spec, block, mount): its parts in the MjSpec, before compiling (or None).
+    build(ctx, block): the node (None: it cannot run here, and has said why). prepare(spec, block, mount): its parts
+    in the MjSpec, before compiling (or None).
     switch: the sensor switch that turns it off ("" for none). plugins: for a sensor type, the plugin libraries that
     give it its ROS interface (any other inside the block is a warning).
     """

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from racecar_sim.bus import Bus
+from racecar_sim.bus import BusPort
 from racecar_sim.drivers.odom import planar_pose
 from racecar_sim.msgs import Image, LaserScan, Odometry
 
@@ -31,7 +31,7 @@ class RunLog:
 
     def __init__(
         self,
-        bus: Bus,
+        bus: BusPort,
         scan_topic: str | None = "/scan",
         image_topic: str | None = "/camera/zed/rgb/image_rect_color",
         odom_topic: str = "/vesc/odom",
@@ -94,7 +94,8 @@ class RunLog:
         path = self._path[: self._kept]
         if self._last_row is not None and (self._count - 1) % self._stride:  # the last message was not kept
             return np.vstack([path, self._last_row])
-        return path.copy()
+        trajectory: np.ndarray = path.copy()
+        return trajectory
 
     @property
     def trajectory_rate(self) -> float:

@@ -106,7 +106,7 @@ class Scheduler:
     def __init__(self, step_ns: int) -> None:
         self.step_ns = step_ns
         # (time_ns, seq, task): tuples compare in C; seq is unique, so tasks are never compared
-        self._heap: list[tuple[int, int, Task]] = []
+        self._heap: list[tuple[int, int, Task | Timeout]] = []
         self._seq = itertools.count()
 
     def _push(self, time_ns: int, task: Task) -> None:
@@ -151,7 +151,7 @@ class Scheduler:
         """Sim time is back at 0: every periodic task starts over (next fire at its first period) and one-shot
         tasks are dropped (a node that wants a timer after a reset sets it again in its reset hook)."""
         tasks = [
-            task
+            (task, task.period_ns)
             for _, _, task in sorted(self._heap)  # a periodic task has one entry: its next firing
             if not task.cancelled and task.period_ns is not None
         ]
@@ -159,9 +159,9 @@ class Scheduler:
             if type(task) is Timeout:
                 task._entry = task._due = None
         self._heap = []
-        for task in tasks:
+        for task, period_ns in tasks:
             task.start_ns, task.index = 0, 1
-            self._push(_ceil(task.period_ns), task)
+            self._push(_ceil(period_ns), task)
 
     def next_time(self, until_ns: int | None = None) -> int | None:
         """Sim time of the next live task, or None.

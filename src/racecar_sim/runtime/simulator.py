@@ -36,6 +36,8 @@ from racecar_sim.worlds import DEFAULT_WALL_HEIGHT, Spawn, World, load_world
 from racecar_sim.worlds.world import WorldBody
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from racecar_sim.recording import McapRecorder
 
 __all__ = ["CLOCK_RATE", "COLLISIONS", "Collision", "Simulator"]
@@ -311,7 +313,7 @@ class Simulator:
         self.close()
 
     # --- changing the scene at run time: what the Gazebo API's spawn and delete call --------------------------
-    def spawn_car(self, car: Car, quat: Sequence[float] | None = None) -> None:
+    def spawn_car(self, car: Car, quat: Sequence[float] | np.ndarray | None = None) -> None:
         """Add a loaded car to the running simulation at its spawn pose (turned by `quat`, w x y z, if given): into the
         scene, checked like a start-up spawn, its nodes started now. RacecarSimError (and nothing changed) if it
         cannot be."""

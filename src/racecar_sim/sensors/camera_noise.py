@@ -10,10 +10,22 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from numpy.typing import NDArray
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def finish_frame(gl_rgba, sky, fill_sky, table, first, second, stddev, mean, bgr, out):
+def finish_frame(
+    gl_rgba: NDArray[np.uint8],
+    sky: NDArray[np.uint8],
+    fill_sky: bool,
+    table: NDArray[np.float32],
+    first: int,
+    second: int,
+    stddev: np.float32,
+    mean: np.float32,
+    bgr: bool,
+    out: NDArray[np.uint8],
+) -> None:
     """`out` (h, w, 3) uint8 = the GL buffer `gl_rgba` (h, w, 4, bottom row first) flipped to top row first, in BGR
     order if `bgr`, the pixels of alpha 0 painted `sky` (3 uint8, RGB) if `fill_sky` (render.flat_sky), plus per
     pixel p = row * w + column the noise round(stddev * (table[first + p] + table[second + p]) + mean) (a

@@ -164,7 +164,7 @@ def _offset(params: dict[str, str], where: str) -> tuple[float, float, float]:
         values = ()
     if len(values) != 3 or not all(math.isfinite(v) for v in values):
         raise DescriptionError(f"{where}: <rpyOffset> '{text}' is not 3 numbers")
-    return values  # type: ignore[return-value]
+    return values
 
 
 def _sensor_noise(sensor: Sensor, where: str) -> tuple[tuple[float, ...], tuple[float, ...]]:

@@ -14,13 +14,27 @@ import math
 
 import numpy as np
 from numba import njit
+from numpy.typing import NDArray
 
 from racecar_sim.sensors.raycast import dense
-from racecar_sim.sensors.raycast.kernels import cast_level
+from racecar_sim.sensors.raycast.kernels import Floats, cast_level
+
+Noise = NDArray[np.floating]  # a NoiseTable's values
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def published_scan(ranges, values, first, second, stddev, mean, noisy, range_min, range_max, out):
+def published_scan(
+    ranges: Floats,
+    values: Noise,
+    first: int,
+    second: int,
+    stddev: float,
+    mean: float,
+    noisy: bool,
+    range_min: float,
+    range_max: float,
+    out: NDArray[np.float32],
+) -> None:
     """out (float32) = the published scan of the true `ranges` (float64), with the noise of the table windows
     values[first:] + values[second:] when `noisy`."""
     for b in range(ranges.shape[0]):
@@ -34,7 +48,18 @@ def published_scan(ranges, values, first, second, stddev, mean, noisy, range_min
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def published_scans(ranges, values, first, second, stddev, mean, noisy, range_min, range_max, out):
+def published_scans(
+    ranges: Floats,
+    values: Noise,
+    first: NDArray[np.intp],
+    second: NDArray[np.intp],
+    stddev: float,
+    mean: float,
+    noisy: bool,
+    range_min: float,
+    range_max: float,
+    out: NDArray[np.float32],
+) -> None:
     """published_scan for every row i of `ranges` (N, beams), with the windows first[i], second[i]."""
     for i in range(ranges.shape[0]):
         published_scan(ranges[i], values, first[i], second[i], stddev, mean, noisy, range_min, range_max, out[i])
@@ -42,34 +67,34 @@ def published_scans(ranges, values, first, second, stddev, mean, noisy, range_mi
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def level_scan(
-    qpos,
-    adr,
-    local_origin,
-    local_axes,
-    size,
-    x0,
-    y0,
-    ids,
-    starts,
-    table,
-    floors,
-    max_tilt_cos,
-    angle_min,
-    inverse_step,
-    count,
-    turn,
-    range_min,
-    range_max,
-    dirs,
-    values,
-    first,
-    second,
-    stddev,
-    mean,
-    noisy,
-    ranges,
-    out,
-):
+    qpos: Floats,
+    adr: int,
+    local_origin: Floats,
+    local_axes: Floats,
+    size: float,
+    x0: int,
+    y0: int,
+    ids: NDArray[np.int64],
+    starts: NDArray[np.int64],
+    table: Floats,
+    floors: Floats,
+    max_tilt_cos: float,
+    angle_min: float,
+    inverse_step: float,
+    count: int,
+    turn: float,
+    range_min: float,
+    range_max: float,
+    dirs: Floats,
+    values: Noise,
+    first: int,
+    second: int,
+    stddev: float,
+    mean: float,
+    noisy: bool,
+    ranges: Floats,
+    out: NDArray[np.float32],
+) -> bool:
     """A whole published scan in one call, for a laser on a free body (LaserMount) in a world of walls: the ray
     origin and axes from the body's pose in qpos (LaserMount.pose's operations, in its order), the origin's grid
     cell (FlatWalls), kernels.cast_level into `ranges`, published_scan into `out`. Returns False, `out` untouched,
@@ -98,34 +123,34 @@ def level_scan(
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def dense_level_scan(
-    qpos,
-    adr,
-    local_origin,
-    local_axes,
-    size,
-    x0,
-    y0,
-    ids,
-    starts,
-    table,
-    floors,
-    max_tilt_cos,
-    angle_min,
-    inverse_step,
-    count,
-    turn,
-    range_min,
-    range_max,
-    dirs,
-    values,
-    first,
-    second,
-    stddev,
-    mean,
-    noisy,
-    ranges,
-    out,
-):
+    qpos: Floats,
+    adr: int,
+    local_origin: Floats,
+    local_axes: Floats,
+    size: float,
+    x0: int,
+    y0: int,
+    ids: NDArray[np.int64],
+    starts: NDArray[np.int64],
+    table: Floats,
+    floors: Floats,
+    max_tilt_cos: float,
+    angle_min: float,
+    inverse_step: float,
+    count: int,
+    turn: float,
+    range_min: float,
+    range_max: float,
+    dirs: Floats,
+    values: Noise,
+    first: int,
+    second: int,
+    stddev: float,
+    mean: float,
+    noisy: bool,
+    ranges: Floats,
+    out: NDArray[np.float32],
+) -> bool:
     """level_scan in a world of dense cells (a map; FlatWalls.dense): raycast.dense's cast on its tables."""
     k, origin, axes = _laser_cell(qpos, adr, local_origin, local_axes, size, x0, y0, ids)
     ranges[:] = np.inf
@@ -150,7 +175,16 @@ def dense_level_scan(
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _laser_cell(qpos, adr, local_origin, local_axes, size, x0, y0, ids):
+def _laser_cell(
+    qpos: Floats,
+    adr: int,
+    local_origin: Floats,
+    local_axes: Floats,
+    size: float,
+    x0: int,
+    y0: int,
+    ids: NDArray[np.int64],
+) -> tuple[int, Floats, Floats]:
     """(cell number, ray origin, sensor axes) of the laser on the free body at qpos[adr:]; cell -1 where FlatWalls
     has no walls-only cell."""
     px, py, pz = qpos[adr], qpos[adr + 1], qpos[adr + 2]

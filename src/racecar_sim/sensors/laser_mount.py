@@ -9,6 +9,9 @@ agree bit for bit.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import overload
+
 import mujoco
 import numpy as np
 
@@ -67,7 +70,13 @@ class LaserMount:
         return origin, axes
 
 
-def _rotation(w, x, y, z):  # type: ignore[no-untyped-def]
+@overload
+def _rotation(w: float, x: float, y: float, z: float) -> Sequence[Sequence[float]]: ...
+@overload
+def _rotation(w: np.ndarray, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> Sequence[Sequence[np.ndarray]]: ...
+def _rotation(
+    w: float | np.ndarray, x: float | np.ndarray, y: float | np.ndarray, z: float | np.ndarray
+) -> Sequence[Sequence[float | np.ndarray]]:
     """The rotation matrix (rows of entries) of a unit quaternion: floats, or arrays for many."""
     return [
         [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],

@@ -84,7 +84,7 @@ class LidarPublisher(NodeBase):
         self._task = ctx.timers.every(spec.update_rate, self._tick, "hokuyo")
 
     def _site_id(self, model: mujoco.MjModel) -> int:
-        site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, self.spec.link)
+        site: int = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, self.spec.link)
         if site < 0:
             raise DescriptionError(f"ray sensor '{self.spec.name}': link {self.spec.link} is not in the model")
         return site
@@ -144,12 +144,13 @@ class LidarPublisher(NodeBase):
     def scan(self, stamp_ns: int) -> np.ndarray:
         """The ranges (float32) of a scan taken now and stamped `stamp_ns`, with that stamp's noise."""
         spec = self.spec
-        walls = self.caster.level_walls() if self.mount is not None and self.mode == "auto" else None
-        if walls is not None:  # the common case in one compiled call (laser_kernel.level_scan), else the steps below
+        mount = self.mount
+        # the common case in one compiled call (laser_kernel.level_scan), else the steps below
+        if mount is not None and self.mode == "auto" and (walls := self.caster.level_walls()) is not None:
             from racecar_sim.sensors.laser_kernel import dense_level_scan, level_scan
             from racecar_sim.sensors.raycast.fan import MAX_TILT_COS
 
-            fan, mount = self.fan, self.mount
+            fan = self.fan
             first, second = self.noise_table.offsets(self.seed, stamp_ns)
             out = np.empty(fan.count, np.float32)
             scan = dense_level_scan if walls.dense else level_scan  # a map's dense cells: hidden walls dropped

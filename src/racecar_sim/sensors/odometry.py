@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from racecar_sim.bus import Bus
+from racecar_sim.bus import BusPort
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import ODOM, ODOM_RELAY, TF, CarNames
 from racecar_sim.msgs import (
@@ -41,7 +41,7 @@ class OdometryPublisher(NodeBase):
 
     def __init__(
         self,
-        bus: Bus,
+        bus: BusPort,
         scheduler: Timers,
         state: CarState,
         mode: str = "original",

@@ -3,17 +3,18 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
-from racecar_sim.bus import Bus
+from racecar_sim.bus import BusPort
 from racecar_sim.core.names import TF, TF_STATIC, CarNames
 from racecar_sim.core.time import NS_PER_S
 from racecar_sim.core.transforms import quat_from_rpy
 from racecar_sim.description.kinematics import joint_transform
 from racecar_sim.description.urdf import Robot
 from racecar_sim.msgs import Header, JointState, Quaternion, TFMessage, Time, Transform, TransformStamped, Vector3
-from racecar_sim.nodes import NodeBase
+from racecar_sim.nodes import NodeBase, StaticTf
 
 
 def transform_msg(stamp_ns: int, parent: str, child: str, pos: np.ndarray, quat_wxyz: np.ndarray) -> TransformStamped:
@@ -28,7 +29,7 @@ class StaticTransforms:
     """/tf_static for every car: one latched message holding all static transforms so far, as a tf2
     StaticTransformBroadcaster sends (a latched topic keeps one message, so cars must not overwrite each other)."""
 
-    def __init__(self, bus: Bus) -> None:
+    def __init__(self, bus: BusPort) -> None:
         self.bus = bus
         self.transforms: list[TransformStamped] = []
         bus.latch(TF_STATIC)
@@ -39,15 +40,16 @@ class StaticTransforms:
 
 
 class RobotStatePublisher(NodeBase):
-    """Publishes the URDF tree as TF (frames with the car's tf_prefix), from the joint states on `joint_states_topic`."""
+    """Publishes the URDF tree as TF (frames with the car's tf_prefix), from the joint states on
+    `joint_states_topic`."""
 
     def __init__(
         self,
-        bus: Bus,
+        bus: BusPort,
         robot: Robot,
         joint_states_topic: str = "/racecar/joint_states",
         names: CarNames = CarNames(),
-        static: StaticTransforms | None = None,
+        static: StaticTf | None = None,
     ) -> None:
         self.bus = bus
         frame = names.frame
@@ -110,18 +112,18 @@ class RobotStatePublisher(NodeBase):
                     )
                 )
             elif name in self.sliding:
-                joint = self.sliding[name]
+                slider = self.sliding[name]
                 transforms.append(
                     transform_msg(
                         msg.header.stamp.to_ns(),
-                        self.frame(joint.parent),
-                        self.frame(joint.child),
-                        *joint_transform(joint, float(position)),
+                        self.frame(slider.parent),
+                        self.frame(slider.child),
+                        *joint_transform(slider, float(position)),
                     )
                 )
         self.bus.publish(TF, TFMessage(transforms))
 
 
-def _floats(values: object) -> list[float]:
+def _floats(values: np.ndarray | Sequence[float]) -> list[float]:
     """Joint positions as Python floats (a message's numpy array, or a list from elsewhere)."""
     return values.tolist() if isinstance(values, np.ndarray) else [float(v) for v in values]

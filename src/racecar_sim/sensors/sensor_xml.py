@@ -26,7 +26,8 @@ def sensor_number(el: ET.Element, path: str, where: str, default: float | None =
 
 
 def plugin_number(params: dict[str, str], tag: str, where: str, default: float) -> float:
-    """The finite number a gazebo_ros plugin parameter (<updateRateHZ>, <gaussianNoise>) holds; `default` when absent."""
+    """The finite number a gazebo_ros plugin parameter (<updateRateHZ>, <gaussianNoise>) holds; `default` when
+    absent."""
     text = params.get(tag, "").strip()
     if not text:
         return default

@@ -41,7 +41,8 @@ from racecar_sim.core.tables import finite_number
 from racecar_sim.drivers import PurePursuitConfig, WallFollowConfig, pure_pursuit_config, wall_follow_config
 from racecar_sim.drivers.config import DATA as DRIVER_DATA
 from racecar_sim.physics import preset_names
-from racecar_sim.runtime.driving import CONSTANT_DEFAULTS, driver_parameters, track_file
+from racecar_sim.runtime.driving import CONSTANT_DEFAULTS, driver_parameters
+from racecar_sim.worlds import track_file
 from racecar_sim.worlds.catalog import world_names
 
 FIELDS = {
@@ -179,7 +180,10 @@ def load_sweep(path: str | Path) -> SweepSpec:
     missing = [name for name in ("worlds", "seeds", "drivers") if name not in data]
     if missing:
         raise ConfigError(f"{path}: missing field {missing[0]!r}")
-    where = lambda name: f"{path}: {name}"
+
+    def where(name: str) -> str:
+        return f"{path}: {name}"
+
     duration = finite_number(data.get("duration", DEFAULT_DURATION), where("duration"))
     if duration <= 0:
         raise ConfigError(f"{where('duration')}: must be positive seconds of sim time, got {duration:g}")
@@ -212,7 +216,7 @@ def load_sweep(path: str | Path) -> SweepSpec:
     )
 
 
-def _flag(data: dict, name: str, default: bool, where: str) -> bool:
+def _flag(data: dict[str, object], name: str, default: bool, where: str) -> bool:
     value = data.get(name, default)
     if not isinstance(value, bool):
         raise ConfigError(f"{where}: expected true or false, got {value!r}")
@@ -225,7 +229,7 @@ def _choice(value: object, choices: list[str], where: str) -> str:
     return str(value)
 
 
-def _as_list(value: object, where: str) -> list:
+def _as_list(value: object, where: str) -> list[object]:
     values = value if isinstance(value, list) else [value]
     if not values:
         raise ConfigError(f"{where}: an empty list sweeps nothing: give at least one value")
@@ -256,10 +260,11 @@ def _seeds(value: object, where: str) -> Sequence[int]:
         if value > MAX_EPISODES:
             raise ConfigError(f"{where}: {value} seeds are more than the {MAX_EPISODES} episodes a sweep runs")
         return range(value)  # 0 .. value - 1, made as they are used
-    seeds = _as_list(value, where)
-    for seed in seeds:
+    seeds: list[int] = []
+    for seed in _as_list(value, where):
         if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
             raise ConfigError(f"{where}: a seed is a whole number >= 0, got {seed!r}")
+        seeds.append(seed)
     if len(set(seeds)) != len(seeds):
         raise ConfigError(f"{where}: a seed is given twice")
     return seeds
@@ -267,7 +272,7 @@ def _seeds(value: object, where: str) -> Sequence[int]:
 
 def _drivers(value: object, path: Path, per_cell: int) -> list[DriverGrid]:
     """The drivers' grids, their size checked (times `per_cell`: worlds x seeds) before any value is."""
-    grids = []
+    grids: list[DriverGrid] = []
     entries = _as_list(value, f"{path}: drivers")
     total = 0
     for k, entry in enumerate(entries):
@@ -313,8 +318,8 @@ def _values(driver: str, name: str, values: object, path: Path, where: str) -> l
     hint = typing.get_type_hints(config).get(name) if config is not None else None
     listed = typing.get_origin(hint) is tuple
     if listed:
-        swept = isinstance(values, list) and values and all(isinstance(v, list) for v in values)
-        values = values if swept else [values]
+        if not (isinstance(values, list) and values and all(isinstance(v, list) for v in values)):  # not swept
+            values = [values]
         values = [tuple(v) if isinstance(v, list) else v for v in values]
     values = _as_list(values, where)
     if name == "path":  # a waypoint file, relative to the sweep file

@@ -65,7 +65,7 @@ class CarViewer:
         self.data = mujoco.MjData(self.model)
         mujoco.mj_copyData(self.data, self.model, data)
         names = [root_body] if isinstance(root_body, str) else list(root_body)
-        self.roots = [self.model.body(name).id for name in names]
+        self.roots: list[int] = [self.model.body(name).id for name in names]
         self.following = 0
         self.handle: Any = None  # mujoco.viewer.Handle once the window is up
         self._thread: threading.Thread | None = None  # the viewer's own thread (window, events, rendering)
@@ -305,6 +305,7 @@ def _glfw_problem(glfw: Any) -> str | None:
     print; None when both work. MuJoCo's viewer thread would fail with 'ERROR: could not create window' and end
     the whole process (exit code 1), e.g. on an X server without GLX. The viewer reuses this initialisation."""
     problem = None
+    failure: str | None = None  # what an exception from GLFW said, after its warnings
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")  # pyGLFW reports GLFW's errors as warnings
         try:
@@ -320,11 +321,12 @@ def _glfw_problem(glfw: Any) -> str | None:
                 else:
                     problem = "no OpenGL window on this display"
         except Exception as exc:
-            caught.append(warnings.WarningMessage(exc, type(exc), "", 0))
+            failure = str(exc)
             problem = problem or "no display"
     if problem is None:
         return None
-    reasons = [_glfw_text(str(w.message)) for w in caught] or ["no reason given"]
+    texts = [str(w.message) for w in caught] + ([] if failure is None else [failure])
+    reasons = [_glfw_text(text) for text in texts] or ["no reason given"]
     return f"{problem} (GLFW: {'; '.join(reasons)})"
 
 

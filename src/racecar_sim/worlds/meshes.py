@@ -8,7 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -41,7 +41,7 @@ def _load(path: Path, mtime_ns: int, scale: tuple[float, float, float]) -> tuple
     import trimesh  # scipy and networkx with it: 0.4 s, paid only by a world or car with meshes
 
     try:
-        scene = trimesh.load(path, force="scene")
+        scene = cast("trimesh.Scene", trimesh.load(path, force="scene"))  # force="scene": always a Scene
     except Exception as exc:  # trimesh raises many kinds for a bad file; all mean the same to a user
         raise WorldError(f"mesh file {path} cannot be read: {exc}") from None
     if scene.units and scene.units != "meters":
@@ -91,7 +91,9 @@ def convex_pieces(mesh: Mesh) -> tuple[list[Mesh], bool]:
 def textured_box(size: tuple[float, float, float]) -> Mesh:
     """A box of full extents `size` as 24 vertices with each face mapped to the whole image (as an SDF box is)."""
     half = np.asarray(size, dtype=np.float64) / 2
-    vertices, texcoord, faces = [], [], []
+    vertices: list[np.ndarray] = []
+    texcoord: list[tuple[int, int]] = []
+    faces: list[tuple[int, int, int]] = []
     for axis in range(3):
         u_axis, v_axis = [a for a in range(3) if a != axis]
         for sign in (1.0, -1.0):

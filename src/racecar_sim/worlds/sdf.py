@@ -3,9 +3,9 @@
 Read: <world> with <physics>, <gravity>, <scene>, <light>, <model> and <include> of model:// models (built-in
 sun and ground_plane, then --model-path, GAZEBO_MODEL_PATH, GZ_SIM_RESOURCE_PATH, and the packages on
 ROS_PACKAGE_PATH as gazebo_ros adds them: their gazebo_model_path exports and the folders holding them); an
-include's <pose>, <name> and <static> override the model's own. <model> with <static>, <pose>, nested <model>/<include>, <link>
-with <pose>, <inertial> and <collision>/<visual> (box, cylinder, sphere, plane, capsule, ellipsoid, mesh),
-<surface><friction><ode><mu>/<mu2>, <material> (Gazebo script names, colours, <pbr> albedo_map).
+include's <pose>, <name> and <static> override the model's own. <model> with <static>, <pose>, nested
+<model>/<include>, <link> with <pose>, <inertial> and <collision>/<visual> (box, cylinder, sphere, plane, capsule,
+ellipsoid, mesh), <surface><friction><ode><mu>/<mu2>, <material> (Gazebo script names, colours, <pbr> albedo_map).
 Anything else gets a warning naming the element and where it is; nothing is dropped silently.
 """
 
@@ -41,7 +41,7 @@ _INCLUDE_KNOWN = {"uri", "name", "pose", "static"}
 _LIGHT_KNOWN = {"pose", "diffuse", "specular", "attenuation", "direction", "cast_shadows", "spot", "intensity"}
 _SCENE_KNOWN = {"ambient", "background", "shadows", "grid", "origin_visual"}
 # ODE tuning with no MuJoCo counterpart, and Gazebo's defaults for them: a world that changes one is told so.
-_ODE_DEFAULTS = {
+_ODE_DEFAULTS: dict[str, str | float] = {
     "solver/type": "quick",
     "solver/sor": 1.3,
     "solver/min_step_size": 0.0001,
@@ -204,10 +204,11 @@ def _light(el: ET.Element, ctx: SdfContext, placed: Pose | None = None) -> Light
     attenuation = el.find("attenuation")
     if attenuation is not None:
         ctx.warn_unknown(attenuation, {"constant", "linear", "quadratic", "range"}, f"{where} <attenuation>")
-        light.attenuation = tuple(
-            number(attenuation, k, d, ctx, f"{where} <attenuation>")  # type: ignore[assignment]
+        constant, linear, quadratic = (
+            number(attenuation, k, d, ctx, f"{where} <attenuation>")
             for k, d in (("constant", 1.0), ("linear", 0.0), ("quadratic", 0.0))
         )
+        light.attenuation = (constant, linear, quadratic)
     if kind == "spot":
         light.spot_cutoff = number(el, "spot/outer_angle", 1.0, ctx, f"{where} <spot>")
     return light
@@ -236,7 +237,7 @@ def _include(el: ET.Element, world: World, ctx: SdfContext, parent: Pose | None 
         name = prefix + ((el.findtext("name") or "").strip() or model.get("name", "model"))
         static = el.findtext("static")
         _model(model, world, inner, placed, name, None if static is None else flag(el, "static", False))
-    else:
+    elif light is not None:  # the target
         world.lights.append(_light(light, inner, placed))
 
 
@@ -268,7 +269,7 @@ def _physics(el: ET.Element, physics: Physics, ctx: SdfContext) -> None:
             )
     gravity = el.findtext("gravity")
     if gravity is not None and gravity.strip():
-        physics.gravity = numbers(gravity, 3, ctx, "<physics><gravity>")  # type: ignore[assignment]
+        physics.gravity = numbers(gravity, 3, ctx, "<physics><gravity>")
 
 
 def _scene(el: ET.Element, scene: Scene, ctx: SdfContext) -> None:
@@ -304,7 +305,7 @@ def load_sdf(path: str | Path, model_path: list[Path] | None = None) -> World:
         elif el.tag == "physics":
             _physics(el, world.physics, ctx)
         elif el.tag == "gravity":
-            world.physics.gravity = numbers(el.text, 3, ctx, "<gravity>")  # type: ignore[assignment]
+            world.physics.gravity = numbers(el.text, 3, ctx, "<gravity>")
         elif el.tag == "scene":
             _scene(el, world.scene, ctx)
     return world

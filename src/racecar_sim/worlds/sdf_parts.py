@@ -11,6 +11,7 @@ import warnings
 import xml.etree.ElementTree as ET
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Literal, overload
 
 import numpy as np
 
@@ -42,16 +43,16 @@ class SdfContext:
         self,
         source: Path,
         model_path: list[Path],
-        warned: set | None = None,
+        warned: set[tuple[Path, str, str]] | None = None,
         includes: tuple[tuple[str, Path], ...] = (),
-        names: set | None = None,
+        names: set[tuple[str, str]] | None = None,
         root: Path | None = None,
     ) -> None:
         self.source = source
         self.model_path = model_path
-        self.warned: set = set() if warned is None else warned
+        self.warned: set[tuple[Path, str, str]] = set() if warned is None else warned  # (file, element, where)
         self.includes = includes
-        self.names: set = set() if names is None else names
+        self.names: set[tuple[str, str]] = set() if names is None else names  # (kind, full name)
         self.root = source if root is None else root
 
     def inside(self, source: Path, uri: str = "") -> SdfContext:
@@ -98,8 +99,14 @@ class SdfContext:
         yield from gazebo_model_dirs()
 
 
+@overload
+def numbers(text: str | None, n: Literal[3], ctx: SdfContext, where: str) -> tuple[float, float, float]: ...
+@overload
+def numbers(text: str | None, n: Literal[4], ctx: SdfContext, where: str) -> tuple[float, float, float, float]: ...
+@overload
+def numbers(text: str | None, n: int, ctx: SdfContext, where: str) -> tuple[float, ...]: ...
 def numbers(text: str | None, n: int, ctx: SdfContext, where: str) -> tuple[float, ...]:
-    """Exactly n finite numbers from whitespace-separated text."""
+    """Exactly n finite numbers from whitespace-separated text (a tuple of n)."""
     try:
         values = tuple(float(v) for v in (text or "").split())
     except ValueError:
@@ -186,9 +193,11 @@ def shapes(el: ET.Element, collides: bool, ctx: SdfContext, where: str, static: 
         raise ctx.error(f"{where}: <geometry> is missing or empty")
     g = geometry[0]
     pos, quat = pose_or_identity(el, ctx, where)
-    kind, size = g.tag, ()
+    kind = g.tag
+    size: tuple[float, ...] = ()
+    box: tuple[float, float, float] | None = None  # the size of a box
     if kind == "box":
-        size = numbers(g.findtext("size"), 3, ctx, f"{where} box <size>")
+        size = box = numbers(g.findtext("size"), 3, ctx, f"{where} box <size>")
     elif kind in ("cylinder", "capsule"):
         size = (number(g, "radius", math.nan, ctx, where), number(g, "length", math.nan, ctx, where))
     elif kind == "sphere":
@@ -210,8 +219,8 @@ def shapes(el: ET.Element, collides: bool, ctx: SdfContext, where: str, static: 
         raise ctx.error(f"{where} <{kind}>: sizes must be positive, got {' '.join(f'{s:g}' for s in size)}")
     geom = WorldGeom(where, kind, size, pos, quat, collides=collides)
     texture = None if collides else albedo_map(el.find("material"), ctx, where)
-    if texture is not None and kind == "box":
-        geom.kind, geom.size, geom.mesh, geom.texture = "mesh", (), textured_box(size), texture
+    if texture is not None and box is not None:
+        geom.kind, geom.size, geom.mesh, geom.texture = "mesh", (), textured_box(box), texture
     elif texture is not None:
         ctx.warn("albedo_map", where, f"is only drawn on boxes and meshes, not on a {kind}")
     return [geom]
@@ -319,7 +328,7 @@ def rgba_of(material: ET.Element | None, ctx: SdfContext, where: str) -> tuple[f
         text = material.findtext(tag)
         if text and text.strip():
             values = text.split()
-            return numbers(" ".join(values + ["1"] * (len(values) == 3)), 4, ctx, f"{where} <material><{tag}>")  # type: ignore[return-value]
+            return numbers(" ".join(values + ["1"] * (len(values) == 3)), 4, ctx, f"{where} <material><{tag}>")
     return DEFAULT_RGBA
 
 

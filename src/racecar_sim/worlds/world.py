@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 
 from racecar_sim.core.errors import ConfigError, WorldError
 
@@ -202,7 +203,7 @@ class World:
                     f"largest world coordinate ({MAX_COORDINATE:g} m)"
                 )
 
-    def cover_ground(self, points: np.ndarray, margin: float = 5.0) -> None:
+    def cover_ground(self, points: npt.ArrayLike, margin: float = 5.0) -> None:
         """Grow the ground planes to reach `margin` beyond every xy point given (a plane collides everywhere in
         MuJoCo, but is drawn only over its size)."""
         reach = np.abs(np.asarray(points, dtype=float)).max(axis=0) + margin

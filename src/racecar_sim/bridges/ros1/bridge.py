@@ -120,7 +120,7 @@ class RosBridge:
         args: Sequence[str] = (),
         remaps: Sequence[tuple[str, str]] = (),
         env: Mapping[str, str] | None = None,
-    ) -> subprocess.Popen:
+    ) -> subprocess.Popen[bytes]:
         """Start a real ROS node as rosrun would (Python nodes under the ROS interpreter), with the generated
         messages on its PYTHONPATH and this bridge's master; close() stops it."""
         return self._ros.start_node(package, node_type, name, namespace, args, remaps, env)
@@ -138,6 +138,13 @@ class RosBridge:
             self._link.close()
             self._link = None
         self._ros.master.close()
+
+    @property
+    def _side(self) -> RosSideLink:
+        """The link to the ROS side, between start() and close()."""
+        if self._link is None:
+            raise RuntimeError("the ROS bridge is not started")
+        return self._link
 
     def __enter__(self) -> RosBridge:
         self.start()
@@ -164,7 +171,7 @@ class RosBridge:
             out.ok = False
             log.warning("not bridging %s to ROS: %s", topic, exc)
             return
-        self._link.send(DATA, ID.pack(out.id), data)
+        self._side.send(DATA, ID.pack(out.id), data)
         self.sent += 1
 
     def _advertise(self, topic: str, cls: type) -> _Outbound:
@@ -177,7 +184,7 @@ class RosBridge:
             out.ok = False
             log.warning("not bridging %s to ROS: %s", topic, exc)
             return out
-        self._link.send_control(
+        self._side.send_control(
             op="advertise", id=out.id, topic=topic, type=ros_type, latch=out.latched, queue_size=QUEUE_SIZE
         )
         return out
@@ -248,9 +255,9 @@ class RosBridge:
         try:
             request_cls, _ = wire.service_classes(self._services[name])
             response = self.sim.bus.call(name, wire.deserialize(op["data"], request_cls))
-            self._link.send_control(op="reply", call=op["call"], data=wire.serialize(response))
+            self._side.send_control(op="reply", call=op["call"], data=wire.serialize(response))
         except Exception as exc:
-            self._link.send_control(op="reply", call=op["call"], error=f"{type(exc).__name__}: {exc}")
+            self._side.send_control(op="reply", call=op["call"], error=f"{type(exc).__name__}: {exc}")
 
     # --- what to subscribe to and offer -------------------------------------------------------------------------
     def _sync(self) -> None:
@@ -264,12 +271,12 @@ class RosBridge:
             self._subscribed.add(topic)
             sub_id = len(self._in) + 1
             self._in[sub_id] = _Inbound(topic, cls)
-            self._link.send_control(op="subscribe", id=sub_id, topic=topic, type=wire.ros1_name(wire.type_of(cls)))
+            self._side.send_control(op="subscribe", id=sub_id, topic=topic, type=wire.ros1_name(wire.type_of(cls)))
         offered = {name: catalog.service_type(name) for name in self.sim.bus.services()}
         for name in set(self._services) - set(offered):
             del self._services[name]
-            self._link.send_control(op="unservice", name=name)
+            self._side.send_control(op="unservice", name=name)
         for name, srv_type in offered.items():
             if srv_type is not None and name not in self._services:
                 self._services[name] = srv_type
-                self._link.send_control(op="service", name=name, type=wire.ros1_name(srv_type))
+                self._side.send_control(op="service", name=name, type=wire.ros1_name(srv_type))

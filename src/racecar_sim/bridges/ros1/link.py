@@ -25,6 +25,8 @@ class RosSideLink:
         self.process = subprocess.Popen(
             list(command), stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=dict(env), start_new_session=True
         )
+        assert self.process.stdin is not None and self.process.stdout is not None  # both are PIPE
+        self._stdin, self._stdout = self.process.stdin, self.process.stdout
         self._on_frame = on_frame
         self._lock = threading.Lock()
         self.closed = threading.Event()
@@ -34,7 +36,7 @@ class RosSideLink:
     def send(self, kind: int, *parts: bytes | memoryview) -> None:
         """One frame; `parts` are written back to back (no copy of a large message)."""
         size = 1 + sum(len(p) if not isinstance(p, memoryview) else p.nbytes for p in parts)
-        stdin = self.process.stdin
+        stdin = self._stdin
         with self._lock:
             try:
                 stdin.write(_HEAD.pack(size, kind))
@@ -48,7 +50,7 @@ class RosSideLink:
         self.send(CONTROL, pickle.dumps(fields, protocol=4))
 
     def _read_loop(self) -> None:
-        out = self.process.stdout
+        out = self._stdout
         try:
             while True:
                 head = out.read(_HEAD.size)
@@ -67,7 +69,7 @@ class RosSideLink:
         if self.process.poll() is None:
             self.send_control(op="shutdown")
             try:
-                self.process.stdin.close()
+                self._stdin.close()
             except (BrokenPipeError, OSError):
                 pass
             try:

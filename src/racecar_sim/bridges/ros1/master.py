@@ -19,7 +19,7 @@ import uuid
 import xmlrpc.client
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -31,6 +31,7 @@ DEFAULT_URI = f"http://{LOOPBACK}:{DEFAULT_PORT}/"  # where `run --ros` starts i
 START_TIMEOUT = 30.0  # s for a roscore to answer
 CALLER_ID = "/racecar_sim"
 ROSOUT = Path(__file__).with_name("rosout.py")
+_Reply = tuple[int, str, Any]  # what a ROS master API call returns: [code, statusMessage, value] (a list, unpacked)
 
 
 def free_port(preferred: int | None = None) -> int:
@@ -43,14 +44,14 @@ def free_port(preferred: int | None = None) -> int:
                 s.bind((LOOPBACK, port))
             except OSError:
                 continue
-            return s.getsockname()[1]
+            return int(s.getsockname()[1])
     raise OSError("no free port")
 
 
 def master_up(uri: str) -> bool:
     """Whether a ROS master answers at `uri`."""
     try:
-        code, _, _ = xmlrpc.client.ServerProxy(uri).getPid(CALLER_ID)
+        code, _, _ = cast(_Reply, xmlrpc.client.ServerProxy(uri).getPid(CALLER_ID))
         return code == 1
     except (OSError, xmlrpc.client.Error):
         return False
@@ -60,8 +61,8 @@ class Master:
     """A connection to a ROS master; starts a roscore on 127.0.0.1 when `uri` is None."""
 
     def __init__(self, uri: str | None, env: Mapping[str, str] | None = None, port: int | None = DEFAULT_PORT) -> None:
-        self._process: subprocess.Popen | None = None  # rosmaster
-        self._rosout: subprocess.Popen | None = None
+        self._process: subprocess.Popen[bytes] | None = None  # rosmaster
+        self._rosout: subprocess.Popen[bytes] | None = None
         if uri is None:
             uri = self._start(free_port(port), dict(env or os.environ))
         elif not master_up(uri):
@@ -82,14 +83,8 @@ class Master:
             raise RosUnavailable(f"--ros: no roscore on PATH (and no ROS_MASTER_URI); install ROS 1: {INSTALL}")
         rosmaster = shutil.which("rosmaster", path=path) or "rosmaster"
         python = ros_python()
-        quiet = {
-            "stdout": subprocess.DEVNULL,
-            "stderr": subprocess.DEVNULL,
-            "stdin": subprocess.DEVNULL,
-            "start_new_session": True,
-        }  # each in its own session: close() stops it and what it started
         try:  # roscore's own command line for the master
-            self._process = subprocess.Popen([rosmaster, "--core", "-p", str(port), "-w", "3"], env=env, **quiet)
+            self._process = _start_quiet([rosmaster, "--core", "-p", str(port), "-w", "3"], env)
         except FileNotFoundError:
             raise RosUnavailable(
                 f"--ros: no rosmaster on PATH (and no ROS_MASTER_URI); install ROS 1: {INSTALL}"
@@ -111,7 +106,7 @@ class Master:
         ):
             if value is not None:  # as roscore.xml sets them (rosversion's output, newline and all)
                 proxy.setParam(CALLER_ID, name, value)
-        self._rosout = subprocess.Popen([python, str(ROSOUT), "__name:=rosout"], env=env, **quiet)
+        self._rosout = _start_quiet([python, str(ROSOUT), "__name:=rosout"], env)
         return uri
 
     @property
@@ -128,7 +123,7 @@ class Master:
 
     def get_param(self, name: str) -> Any:
         """A parameter's value; KeyError if it is not set."""
-        code, message, value = self._proxy.getParam(CALLER_ID, name)
+        code, message, value = cast(_Reply, self._proxy.getParam(CALLER_ID, name))
         if code != 1:
             raise KeyError(f"{name}: {message}")
         return value
@@ -152,6 +147,18 @@ class Master:
     def pids(self) -> list[int]:
         """The processes of the roscore started here (rosmaster, rosout), running or not; none for a master given."""
         return [p.pid for p in (self._process, self._rosout) if p is not None]
+
+
+def _start_quiet(command: list[str], env: dict[str, str]) -> subprocess.Popen[bytes]:
+    """A roscore process with no input or output, in its own session: close() stops it and what it started."""
+    return subprocess.Popen(
+        command,
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        stdin=subprocess.DEVNULL,
+        start_new_session=True,
+    )
 
 
 def _command(command: list[str], env: Mapping[str, str]) -> str | None:

@@ -40,7 +40,7 @@ class RosNodes:
         )
         self.master_uri = self.master.uri
         self.env = ros_environment(self.master_uri, self.messages)
-        self.processes: list[subprocess.Popen] = []
+        self.processes: list[subprocess.Popen[bytes]] = []
 
     def set_params(self, params: Mapping[str, Any]) -> None:
         """Put parameters (absolute names -> values) on the ROS parameter server."""
@@ -59,7 +59,7 @@ class RosNodes:
         args: Sequence[str] = (),
         remaps: Sequence[tuple[str, str]] = (),
         env: Mapping[str, str] | None = None,
-    ) -> subprocess.Popen:
+    ) -> subprocess.Popen[bytes]:
         """Start a real ROS node as rosrun would (Python nodes under the ROS interpreter), with the generated
         messages on its PYTHONPATH and this master; close() stops it."""
         executable = find_executable(package, node_type)
@@ -117,7 +117,7 @@ def _is_python(path: Path) -> bool:
     return first.startswith(b"#!") and b"python" in first
 
 
-def start(command: Sequence[str], env: Mapping[str, str], namespace: str) -> subprocess.Popen:
+def start(command: Sequence[str], env: Mapping[str, str], namespace: str) -> subprocess.Popen[bytes]:
     """Start the node in its own session (so close() stops it and whatever it starts)."""
     env = dict(env)
     ns = "/" + namespace.strip("/") if namespace.strip("/") else "/"
@@ -125,7 +125,7 @@ def start(command: Sequence[str], env: Mapping[str, str], namespace: str) -> sub
     return subprocess.Popen(list(command), env=env, stdin=subprocess.DEVNULL, start_new_session=True)
 
 
-def stop(process: subprocess.Popen, timeout: float = STOP_TIMEOUT) -> None:
+def stop(process: subprocess.Popen[bytes], timeout: float = STOP_TIMEOUT) -> None:
     """SIGINT to the node's session (as roslaunch stops nodes), SIGKILL if it lingers."""
     if process.poll() is not None:
         return

@@ -15,6 +15,8 @@ Messages are never converted here: publishers and subscribers use classes that c
 _md5sum and _full_text but hold the raw bytes, so rospy checks the types and nothing is deserialized twice.
 """
 
+from __future__ import annotations  # the ROS interpreter may be older than the sim's (annotations stay text)
+
 import argparse
 import importlib
 import os
@@ -23,6 +25,11 @@ import struct
 import sys
 import threading
 import time
+from typing import IO, TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the ROS interpreter's packages (no type information: Any to mypy)
+    import genpy
+    import rospy
 
 CONTROL, DATA = 0, 1
 _HEAD = struct.Struct("<IB")
@@ -30,34 +37,35 @@ _ID = struct.Struct("<I")
 CONNECTION_POLL = 0.05  # s between checks of how many ROS subscribers each publisher has
 
 
-def _real_class(ros_type, kind="msg"):
+def _real_class(ros_type: str, kind: str = "msg") -> type[Any]:
     package, name = ros_type.split("/")
-    return getattr(importlib.import_module("%s.%s" % (package, kind)), name)
+    cls: type[Any] = getattr(importlib.import_module(f"{package}.{kind}"), name)
+    return cls
 
 
-def _raw_class(real):
+def _raw_class(real: type[Any]) -> type[Any]:
     """A message class with `real`'s identity whose instances hold the serialized bytes."""
     import genpy
 
-    class Raw(genpy.Message):
+    class Raw(genpy.Message):  # genpy has no type information: its Message is Any
         __slots__ = ("data",)
         _type, _md5sum, _full_text, _has_header = real._type, real._md5sum, real._full_text, False
-        _slot_types = []
+        _slot_types: list[str] = []
 
-        def __init__(self, data=b""):
+        def __init__(self, data: bytes = b"") -> None:
             self.data = data
 
-        def serialize(self, buff):
+        def serialize(self, buff: IO[bytes]) -> None:
             buff.write(self.data)
 
-        def deserialize(self, data):
+        def deserialize(self, data: bytes) -> Raw:
             self.data = bytes(data)
             return self
 
     return Raw
 
 
-def _raw_service(ros_type):
+def _raw_service(ros_type: str) -> type[Any]:
     real = _real_class(ros_type, "srv")
 
     class RawService:
@@ -71,27 +79,27 @@ def _raw_service(ros_type):
 class Link:
     """The framed pipe to the sim: reads on the main thread, writes from any thread."""
 
-    def __init__(self, inp, out):
+    def __init__(self, inp: IO[bytes], out: IO[bytes]) -> None:
         self.inp, self.out = inp, out
         self.lock = threading.Lock()
 
-    def send(self, kind, payload):
+    def send(self, kind: int, payload: bytes) -> None:
         with self.lock:
             self.out.write(_HEAD.pack(len(payload) + 1, kind))
             self.out.write(payload)
             self.out.flush()
 
-    def send_control(self, **fields):
+    def send_control(self, **fields: object) -> None:
         self.send(CONTROL, pickle.dumps(fields, protocol=4))
 
-    def read(self):
+    def read(self) -> tuple[int | None, bytes | None]:
         head = self._exact(_HEAD.size)
         if head is None:
             return None, None
         size, kind = _HEAD.unpack(head)
         return kind, self._exact(size - 1)
 
-    def _exact(self, n):
+    def _exact(self, n: int) -> bytes | None:
         chunks, left = [], n
         while left:
             chunk = self.inp.read(left)
@@ -102,23 +110,31 @@ class Link:
         return b"".join(chunks)
 
 
+class _Call:
+    """A ROS service call waiting for the sim's reply (set before `answered`)."""
+
+    def __init__(self) -> None:
+        self.answered = threading.Event()
+        self.reply: dict[str, Any] | None = None
+
+
 class RosSide:
     """The node: publishers, subscribers and services that forward bytes to and from the sim."""
 
-    def __init__(self, link):
+    def __init__(self, link: Link) -> None:
         import rospy
 
         self.rospy, self.link = rospy, link
-        self.publishers = {}  # id -> rospy.Publisher
-        self.counts = {}  # id -> connections last reported
-        self.subscribers = []
-        self.subscribed = set()  # resolved names of the topics subscribed to
-        self.services = {}
-        self.calls = {}  # call id -> [threading.Event, reply]
+        self.publishers: dict[int, tuple[rospy.Publisher, type[genpy.Message]]] = {}
+        self.counts: dict[int, int] = {}  # id -> connections last reported
+        self.subscribers: list[rospy.Subscriber] = []
+        self.subscribed: set[str] = set()  # resolved names of the topics subscribed to
+        self.services: dict[str, rospy.Service] = {}
+        self.calls: dict[int, _Call] = {}
         self.next_call = 0
         self.lock = threading.Lock()
 
-    def handle(self, op):
+    def handle(self, op: dict[str, Any]) -> None:
         name = op["op"]
         if name == "advertise":
             cls = _raw_class(_real_class(op["type"]))
@@ -131,7 +147,10 @@ class RosSide:
         elif name == "service":
             if op["name"] not in self.services:
                 srv = _raw_service(op["type"])
-                handler = lambda request, name=op["name"], srv=srv: self._on_call(name, srv, request)
+
+                def handler(request: genpy.Message, name: str = op["name"], srv: type[Any] = srv) -> genpy.Message:
+                    return self._on_call(name, srv, request)
+
                 self.services[op["name"]] = self.rospy.Service(op["name"], srv, handler)
         elif name == "unservice":
             service = self.services.pop(op["name"], None)
@@ -140,39 +159,40 @@ class RosSide:
         elif name == "reply":
             waiting = self.calls.get(op["call"])
             if waiting is not None:
-                waiting[1] = op
-                waiting[0].set()
+                waiting.reply = op
+                waiting.answered.set()
 
-    def publish(self, payload):
+    def publish(self, payload: bytes) -> None:
         (topic_id,) = _ID.unpack_from(payload)
         entry = self.publishers.get(topic_id)
         if entry is not None:  # None: its advertise failed, and the sim was told
             entry[0].publish(entry[1](payload[_ID.size :]))
 
-    def _on_message(self, msg, topic_id):
+    def _on_message(self, msg: genpy.Message, topic_id: int) -> None:
         header = getattr(msg, "_connection_header", None) or {}
         if header.get("callerid") == self.rospy.get_name():
             return  # what the sim published itself, back through our own subscriber
         self.link.send(DATA, _ID.pack(topic_id) + msg.data)
 
-    def _on_call(self, name, srv, request):
+    def _on_call(self, name: str, srv: type[Any], request: genpy.Message) -> genpy.Message:
         with self.lock:
             self.next_call += 1
             call = self.next_call
-            waiting = self.calls[call] = [threading.Event(), None]
+            waiting = self.calls[call] = _Call()
         self.link.send_control(op="call", call=call, service=name, data=request.data)
         try:
-            while not waiting[0].wait(0.5):
+            while not waiting.answered.wait(0.5):
                 if self.rospy.is_shutdown():
                     raise self.rospy.ServiceException("racecar-sim is shutting down")
         finally:
             self.calls.pop(call, None)
-        reply = waiting[1]
+        reply = waiting.reply
+        assert reply is not None, "a call answered without a reply"
         if reply.get("error"):
             raise self.rospy.ServiceException(reply["error"])
         return srv._response_class(reply["data"])
 
-    def watch_connections(self):
+    def watch_connections(self) -> None:
         """Tell the sim how many subscribers each publisher has, so it serializes only what someone reads."""
         while not self.rospy.is_shutdown():
             for topic_id, (pub, _) in list(self.publishers.items()):
@@ -184,7 +204,7 @@ class RosSide:
             time.sleep(CONNECTION_POLL)
 
 
-def serve(name):
+def serve(name: str) -> None:
     """Run the node until the sim says shutdown or closes the pipe."""
     out = os.fdopen(os.dup(1), "wb")
     os.dup2(2, 1)  # anything rospy prints goes to stderr, never into the frames
@@ -199,6 +219,7 @@ def serve(name):
         kind, payload = link.read()
         if kind is None:
             break
+        assert payload is not None, "the pipe closed within a frame"
         if kind == DATA:
             node.publish(payload)
             continue
@@ -212,17 +233,17 @@ def serve(name):
                 op="error",
                 id=op.get("id"),
                 kind=op["op"],
-                text="%s %s: %s: %s" % (op["op"], op.get("topic") or op.get("name"), type(exc).__name__, exc),
+                text=f"{op['op']} {op.get('topic') or op.get('name')}: {type(exc).__name__}: {exc}",
             )
     rospy.signal_shutdown("racecar-sim closed the bridge")
 
 
 # --- message generation ----------------------------------------------------------------------------------------
-def _external_types(defs, packages):
+def _external_types(defs: str, packages: list[str]) -> set[str]:
     """`pkg/Name` types the definitions use from packages other than theirs (std_msgs, geometry_msgs, ...)."""
     import genmsg.msgs
 
-    found = set()
+    found: set[str] = set()
     for package in packages:
         for kind in ("msg", "srv"):
             folder = os.path.join(defs, package, kind)
@@ -239,9 +260,9 @@ def _external_types(defs, packages):
     return found
 
 
-def _write_dependencies(types, folder):
+def _write_dependencies(types: set[str], folder: str) -> dict[str, list[str]]:
     """The .msg files of types the system has (from its genpy classes' full texts), for genmsg's search path."""
-    search = {}
+    search: dict[str, list[str]] = {}
     for ros_type in types:
         blocks = _real_class(ros_type)._full_text.split("\n" + "=" * 80 + "\n")
         texts = [(ros_type, blocks[0])] + [(b.split("\n", 1)[0][5:].strip(), b.split("\n", 1)[1]) for b in blocks[1:]]
@@ -255,7 +276,7 @@ def _write_dependencies(types, folder):
     return search
 
 
-def generate(defs, out, only=None):
+def generate(defs: str, out: str, only: list[str] | None = None) -> int:
     """Generate `<pkg>/msg` and `<pkg>/srv` Python modules under `out` for each package under `defs` the system
     cannot import (or each in `only`)."""
     import genpy.generate_initpy
@@ -283,7 +304,7 @@ def generate(defs, out, only=None):
     return status
 
 
-def _importable(package):
+def _importable(package: str) -> bool:
     try:
         importlib.import_module(package + ".msg")
         return True
@@ -291,7 +312,7 @@ def _importable(package):
         return False
 
 
-def main(argv=None):
+def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n", 1)[0])
     parser.add_argument("--name", default="racecar_sim", help="the node's name")
     parser.add_argument("--generate", nargs=2, metavar=("DEFS", "OUT"), help="generate message packages and exit")

@@ -8,6 +8,8 @@ folder), rotated at 100 MB with 10 backups as rosout's defaults. Like ros_side.p
 Run as `<ros python> rosout.py __name:=rosout`.
 """
 
+from __future__ import annotations  # the ROS interpreter may be older than the sim's (annotations stay text)
+
 import logging
 import logging.handlers
 import os
@@ -18,7 +20,7 @@ MAX_BACKUP_INDEX = 10  # rosout's max_backup_index default
 LEVELS = {1: "DEBUG", 2: "INFO", 4: "WARN", 8: "ERROR", 16: "FATAL"}
 
 
-def _log_file():
+def _log_file() -> logging.Logger | None:
     """rosout.log in the folder roslaunch gives the run's nodes (None if it cannot be made)."""
     import rospkg
     import rospy
@@ -40,15 +42,15 @@ def _log_file():
     return log
 
 
-def main():
+def main() -> None:
     import rospy
-    from rosgraph_msgs.msg import Log
+    from rosgraph_msgs.msg import Log  # type: ignore[import-not-found]  # the ROS interpreter's, not the sim's
 
     rospy.init_node("rosout", argv=sys.argv, disable_rosout=True, disable_rostime=True)
     aggregate = rospy.Publisher("/rosout_agg", Log, queue_size=100)
     log = _log_file()
 
-    def on_log(msg):
+    def on_log(msg: Log) -> None:
         aggregate.publish(msg)
         if log is not None:
             log.info(

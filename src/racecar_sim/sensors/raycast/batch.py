@@ -1,12 +1,13 @@
 """One planar scan per world for many worlds at once: the compiled 2-D wall cast (kernels.cast_batch) in one
 call, for a batch of copies of one scene that differ only in the sensor's pose.
 
-The answer per beam is the one RayCaster.cast gives (the same kernel and formulas). Where a tilted scan's band reaches past the top or bottom of a box (the car
-pitching, its beams reaching the floor box's top or passing over a low wall), RayCaster recasts those beams
-with MuJoCo; here they stay in the kernel, exact for boxes: a hit on a side counts only at the heights the box
-spans, and the beams may meet its top or bottom face. A world the path cannot answer - a steep scan plane, a
-floor plane in the band, free bodies, circles, bounding cylinders, a partly covering wall that is not a box's
-edge - is listed in `fallback`; the caller casts those with a RayCaster of its own.
+The answer per beam is the one RayCaster.cast gives (the same kernel and formulas). Where a tilted scan's band
+reaches past the top or bottom of a box (the car pitching, its beams reaching the floor box's top or passing over
+a low wall), RayCaster recasts those beams with MuJoCo; here they stay in the kernel, exact for boxes: a hit on a
+side counts only at the heights the box spans, and the beams may meet its top or bottom face. A world the path
+cannot answer - a steep scan plane, a floor plane in the band, free bodies, circles, bounding cylinders, a partly
+covering wall that is not a box's edge - is listed in `fallback`; the caller casts those with a RayCaster of its
+own.
 """
 
 from __future__ import annotations

@@ -35,6 +35,7 @@ from racecar_sim.sensors.raycast.kernels import (
     Y1,
     ZHI,
     ZLO,
+    Floats,
     hit_wall,
     level_band,
     partly_covered,
@@ -80,7 +81,8 @@ def dense_table(segments: np.ndarray, range_min: float, range_max: float) -> np.
 def tile_keys(segments: np.ndarray) -> np.ndarray:
     """The TILE square of each wall's middle, as one integer per wall (equal keys: the same square)."""
     ix, iy = np.floor(segments[6:8] / TILE).astype(np.int64) + (1 << 20)
-    return ix * (1 << 21) + iy
+    keys: np.ndarray = ix * (1 << 21) + iy
+    return keys
 
 
 def _runs(segments: np.ndarray) -> np.ndarray:
@@ -108,7 +110,7 @@ def _runs(segments: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _fast_angle(x, y):
+def _fast_angle(x: float, y: float) -> float:
     """atan2(y, x) to within 2e-5 rad (Abramowitz & Stegun 4.4.49 on the octant), without a library call."""
     ax, ay = abs(x), abs(y)
     big = max(ax, ay)
@@ -125,7 +127,16 @@ def _fast_angle(x, y):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _arc(q0x, q0y, q1x, q1y, cross, angle_min, inverse_step, turn):
+def _arc(
+    q0x: float,
+    q0y: float,
+    q1x: float,
+    q1y: float,
+    cross: float,
+    angle_min: float,
+    inverse_step: float,
+    turn: float,
+) -> tuple[float, float]:
     """Fan positions (lo, hi), in beam steps from the first beam with 0 <= lo < turn + margin, holding every beam
     the segment q0-q1 (beam plane, origin at 0) spans, the exact cast's edge slack included; (0, inf) when its
     short way round is in doubt (an arc near nothing or a half turn: the cheap arctangent cannot tell)."""
@@ -148,7 +159,7 @@ def _arc(q0x, q0y, q1x, q1y, cross, angle_min, inverse_step, turn):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _sector_maxima(ranges, sectors, first, last):
+def _sector_maxima(ranges: Floats, sectors: Floats, first: int, last: int) -> None:
     """sectors[k] for the sectors holding beams first..last: the largest of their ranges."""
     for k in range(first // SECTOR_BEAMS, last // SECTOR_BEAMS + 1):
         top = -np.inf
@@ -158,7 +169,21 @@ def _sector_maxima(ranges, sectors, first, last):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _run_hidden(tx, ty, radius, p00, p01, p10, p11, stretch, angle_min, inverse_step, count, turn, sectors):
+def _run_hidden(
+    tx: float,
+    ty: float,
+    radius: float,
+    p00: float,
+    p01: float,
+    p10: float,
+    p11: float,
+    stretch: float,
+    angle_min: float,
+    inverse_step: float,
+    count: int,
+    turn: float,
+    sectors: Floats,
+) -> bool:
     """Whether every sector the circle (offset tx, ty from the origin, `radius`) may span holds no range above
     the circle's nearest distance (beam plane): then no wall inside it can lower a beam."""
     qx, qy = p00 * tx + p01 * ty, p10 * tx + p11 * ty
@@ -187,7 +212,25 @@ def _run_hidden(tx, ty, radius, p00, p01, p10, p11, stretch, angle_min, inverse_
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _cast(table, ox, oy, oz, p00, p01, p10, p11, lo, hi, angle_min, inverse_step, count, turn, range_min, dirs, ranges):
+def _cast(
+    table: Floats,
+    ox: float,
+    oy: float,
+    oz: float,
+    p00: float,
+    p01: float,
+    p10: float,
+    p11: float,
+    lo: float,
+    hi: float,
+    angle_min: float,
+    inverse_step: float,
+    count: int,
+    turn: float,
+    range_min: float,
+    dirs: Floats,
+    ranges: Floats,
+) -> None:
     """kernels.cast_walls' loop for a level scan of walls that cover its band, dropping hidden runs and walls (the
     module doc); a wall not hidden is cast by kernels.hit_wall, and the maxima of the sectors it may span are
     taken again."""
@@ -278,7 +321,7 @@ def _cast(table, ox, oy, oz, p00, p01, p10, p11, lo, hi, angle_min, inverse_step
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _hidden(sectors, ranges, near2, start, end, count, turn):
+def _hidden(sectors: Floats, ranges: Floats, near2: float, start: float, end: float, count: int, turn: float) -> bool:
     """Whether every beam of the arc start..end (fan positions) holds a range no greater than the square root of
     near2: by sectors, then, for a short arc, beam by beam."""
     hidden = True
@@ -307,20 +350,20 @@ def _hidden(sectors, ranges, near2, start, end, count, turn):
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def cast_level(
-    table,
-    floors,
-    origin,
-    rotation,
-    max_tilt_cos,
-    angle_min,
-    inverse_step,
-    count,
-    turn,
-    range_min,
-    range_max,
-    dirs,
-    ranges,
-):
+    table: Floats,
+    floors: Floats,
+    origin: Floats,
+    rotation: Floats,
+    max_tilt_cos: float,
+    angle_min: float,
+    inverse_step: float,
+    count: int,
+    turn: float,
+    range_min: float,
+    range_max: float,
+    dirs: Floats,
+    ranges: Floats,
+) -> bool:
     """kernels.cast_level on a dense_table: the same ranges and refusals, hidden walls dropped."""
     level, lo, hi = level_band(floors, origin, rotation, max_tilt_cos, range_max)
     if not level:

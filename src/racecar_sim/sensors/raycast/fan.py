@@ -72,8 +72,10 @@ class ScanFrame:
     def directions_3d(self, beams: np.ndarray | slice = slice(None)) -> np.ndarray:
         """World unit directions (n, 3) of the chosen beams."""
         u = self.fan.directions[:, beams]
-        return (self.rotation[:, :2] @ u).T
+        directions: np.ndarray = (self.rotation[:, :2] @ u).T
+        return directions
 
     def horizontal_directions(self) -> np.ndarray:
         """Horizontal parts (2, count) of every beam's world direction (unit length for a level scan)."""
-        return self.projection @ self.fan.directions
+        horizontal: np.ndarray = self.projection @ self.fan.directions
+        return horizontal

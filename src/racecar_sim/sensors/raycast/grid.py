@@ -103,7 +103,8 @@ def _segment_distances(points: np.ndarray, ends: np.ndarray) -> np.ndarray:
     ex, ey = x1 - x0, y1 - y0
     px, py = points[:, :1] - x0, points[:, 1:] - y0
     along = np.clip((px * ex + py * ey) / np.maximum(ex * ex + ey * ey, 1e-300), 0.0, 1.0)
-    return np.hypot(px - along * ex, py - along * ey)
+    distance: np.ndarray = np.hypot(px - along * ex, py - along * ey)
+    return distance
 
 
 def _segment_boxes(segments: np.ndarray) -> np.ndarray:
@@ -232,7 +233,8 @@ class FlatWalls:
         from racecar_sim.sensors.raycast.dense import DENSE_WALLS, dense_order, dense_table
         from racecar_sim.sensors.raycast.kernels import WALL_ROWS
 
-        keys = [key for key, cell in grid.cells.items() if cell.walls_only() is not None]
+        walls_only = {key: table for key, cell in grid.cells.items() if (table := cell.walls_only()) is not None}
+        keys = list(walls_only)
         if not keys:
             return cls(
                 grid.floors,
@@ -257,7 +259,7 @@ class FlatWalls:
                 segments = cell.segments[:, dense_order(cell.segments, cell.centre)]
                 tables.append(dense_table(segments, cell.fan.range_min, cell.fan.range_max))
             else:
-                tables.append(cell.walls_only())
+                tables.append(walls_only[key])
         starts = np.concatenate([[0], np.cumsum([t.shape[1] for t in tables])]).astype(np.int64)
         return cls(
             grid.floors, grid.size, x0, y0, ids, starts, np.ascontiguousarray(np.concatenate(tables, axis=1)), dense

@@ -16,6 +16,7 @@ import math
 
 import numpy as np
 from numba import njit
+from numpy.typing import NDArray
 
 from racecar_sim.sensors.raycast.fan import INDEX_SLACK
 
@@ -23,6 +24,10 @@ from racecar_sim.sensors.raycast.fan import INDEX_SLACK
 X0, Y0, X1, Y1, ZLO, ZHI, MIDX, MIDY, REACH2, CX, CY, CREACH2, CROSS, EX, EY, TWO_SIDED = range(16)
 WALL_ROWS = 16
 _CULL_SLACK = 1.0 + 1e-9  # the reach tests only cull: a wall kept too many changes no range
+# the kernels' arrays: tables, poses, directions and ranges (float64), polygon numbers and columns (intp), flags
+Floats = NDArray[np.float64]
+Indices = NDArray[np.intp]
+Flags = NDArray[np.bool_]
 
 
 def wall_table(segments: np.ndarray, range_min: float, range_max: float) -> np.ndarray:
@@ -54,7 +59,7 @@ def wall_table(segments: np.ndarray, range_min: float, range_max: float) -> np.n
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _wall_is_seen(table, w, ox, oy, lo, hi, tilted):
+def _wall_is_seen(table: Floats, w: int, ox: float, oy: float, lo: float, hi: float, tilted: bool) -> int:
     """0: culled; 1: cast, the wall covers the band; 2: cast, a hit counts only at the heights it spans."""
     dx, dy = table[MIDX, w] - ox, table[MIDY, w] - oy
     if dx * dx + dy * dy > table[REACH2, w]:
@@ -78,26 +83,26 @@ def _wall_is_seen(table, w, ox, oy, lo, hi, tilted):
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def hit_wall(
-    table,
-    w,
-    spans,
-    ox,
-    oy,
-    oz,
-    p00,
-    p01,
-    p10,
-    p11,
-    rz0,
-    rz1,
-    angle_min,
-    inverse_step,
-    count,
-    turn,
-    range_min,
-    dirs,
-    ranges,
-):
+    table: Floats,
+    w: int,
+    spans: bool,
+    ox: float,
+    oy: float,
+    oz: float,
+    p00: float,
+    p01: float,
+    p10: float,
+    p11: float,
+    rz0: float,
+    rz1: float,
+    angle_min: float,
+    inverse_step: float,
+    count: int,
+    turn: float,
+    range_min: float,
+    dirs: Floats,
+    ranges: Floats,
+) -> None:
     """Lower `ranges` to the beams' hits on wall w (spans: only where the hit lies within its heights)."""
     rx0, ry0 = table[X0, w] - ox, table[Y0, w] - oy
     rx1, ry1 = table[X1, w] - ox, table[Y1, w] - oy
@@ -137,8 +142,21 @@ def hit_wall(
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def cast_walls(
-    table, origin, to_plane, rotation, lo, hi, tilted, angle_min, inverse_step, count, turn, range_min, dirs, ranges
-):
+    table: Floats,
+    origin: Floats,
+    to_plane: Floats,
+    rotation: Floats,
+    lo: float,
+    hi: float,
+    tilted: bool,
+    angle_min: float,
+    inverse_step: float,
+    count: int,
+    turn: float,
+    range_min: float,
+    dirs: Floats,
+    ranges: Floats,
+) -> None:
     """Lower `ranges` (count,) to one scan's first hits on the walls of `table` seen from `origin` (3,), in the
     band [lo, hi]. Walls covering only part of the band are cast (with their heights) only if `tilted`."""
     ox, oy, oz = origin[0], origin[1], origin[2]
@@ -171,7 +189,20 @@ def cast_walls(
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _cast_faces(table, polygon, poly_start, poly_edges, marked, origin, rotation, lo, hi, range_min, dirs, ranges):
+def _cast_faces(
+    table: Floats,
+    polygon: Indices,
+    poly_start: Indices,
+    poly_edges: Indices,
+    marked: Flags,
+    origin: Floats,
+    rotation: Floats,
+    lo: float,
+    hi: float,
+    range_min: float,
+    dirs: Floats,
+    ranges: Floats,
+) -> None:
     """Lower `ranges` to the hits on the top and bottom faces of the marked polygons (box footprints, edges
     counter-clockwise): only a face inside the band and facing the origin can be the first hit."""
     ox, oy, oz = origin[0], origin[1], origin[2]
@@ -204,27 +235,27 @@ def _cast_faces(table, polygon, poly_start, poly_edges, marked, origin, rotation
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def cast_batch(
-    table,
-    polygon,
-    poly_start,
-    poly_edges,
-    floors,
-    others,
-    origins,
-    to_plane,
-    rotations,
-    bands,
-    steep,
-    angle_min,
-    inverse_step,
-    count,
-    turn,
-    range_min,
-    range_max,
-    dirs,
-    ranges,
-    fallback,
-):
+    table: Floats,
+    polygon: Indices,
+    poly_start: Indices,
+    poly_edges: Indices,
+    floors: Floats,
+    others: Floats,
+    origins: Floats,
+    to_plane: Floats,
+    rotations: Floats,
+    bands: Floats,
+    steep: Flags,
+    angle_min: float,
+    inverse_step: float,
+    count: int,
+    turn: float,
+    range_min: float,
+    range_max: float,
+    dirs: Floats,
+    ranges: Floats,
+    fallback: Flags,
+) -> None:
     """batch.BatchWallCaster's cast for worlds i (rows of origins, ...): ranges[i] lowered to its scan's hits
     on the walls and box faces, or fallback[i] set where the 2-D cast cannot answer (see batch.py)."""
     marked = np.zeros(len(poly_start) - 1, np.bool_)
@@ -298,20 +329,20 @@ def cast_batch(
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def cast_level(
-    table,
-    floors,
-    origin,
-    rotation,
-    max_tilt_cos,
-    angle_min,
-    inverse_step,
-    count,
-    turn,
-    range_min,
-    range_max,
-    dirs,
-    ranges,
-):
+    table: Floats,
+    floors: Floats,
+    origin: Floats,
+    rotation: Floats,
+    max_tilt_cos: float,
+    angle_min: float,
+    inverse_step: float,
+    count: int,
+    turn: float,
+    range_min: float,
+    range_max: float,
+    dirs: Floats,
+    ranges: Floats,
+) -> bool:
     """RayCaster.cast's common case in one call: a scan of prisms that all cover its height band. Lowers
     `ranges` (count,) to the first hits on the walls of `table`, range_max applied, and returns True; or returns
     False, `ranges` untouched, when the scan needs the general path (a steep scan plane, a floor in the band, a
@@ -353,7 +384,9 @@ def cast_level(
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def level_band(floors, origin, rotation, max_tilt_cos, range_max):
+def level_band(
+    floors: Floats, origin: Floats, rotation: Floats, max_tilt_cos: float, range_max: float
+) -> tuple[bool, float, float]:
     """(level, lo, hi): the height band [lo, hi] of a scan from `origin` with axes `rotation`, and whether the 2-D
     cast answers it alone (not a steep scan plane, no floor in the band)."""
     det = rotation[0, 0] * rotation[1, 1] - rotation[0, 1] * rotation[1, 0]
@@ -367,7 +400,7 @@ def level_band(floors, origin, rotation, max_tilt_cos, range_max):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def partly_covered(table, ox, oy, lo, hi):
+def partly_covered(table: Floats, ox: float, oy: float, lo: float, hi: float) -> bool:
     """Whether a wall of `table` within reach of (ox, oy) covers only part of [lo, hi]."""
     for w in range(table.shape[1]):
         zlo, zhi = table[ZLO, w], table[ZHI, w]

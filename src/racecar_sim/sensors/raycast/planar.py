@@ -14,6 +14,7 @@ operations per scan small rather than the arithmetic.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -49,7 +50,8 @@ class Walls:
 
     def __init__(self, segments: np.ndarray, fan: Fan) -> None:
         self.fan, self.count = fan, segments.shape[1]
-        self.table, self._kernel = None, None
+        self.table: np.ndarray | None = None
+        self._kernel: Callable[..., None] | None = None  # kernels.cast_walls where there are walls
         if self.count:
             from racecar_sim.sensors.raycast import kernels  # numba: loaded by the first world with walls
 
@@ -57,7 +59,7 @@ class Walls:
 
     def cast(self, frame: ScanFrame, ranges: np.ndarray) -> None:
         """Lower `ranges` to the distance of each beam's first hit on these walls (all covering frame's band)."""
-        if self.count == 0:
+        if self._kernel is None:  # no walls
             return
         fan = self.fan
         self._kernel(
@@ -129,4 +131,5 @@ def circle_spans(frame: ScanFrame, circles: np.ndarray) -> list[tuple[int, int]]
 def near_items(table: np.ndarray, frame: ScanFrame, x_row: int, y_row: int, r_row: int) -> np.ndarray:
     """Mask of the items (columns) whose circle (x, y, r rows) comes within range_max of the origin."""
     distance = np.hypot(table[x_row] - frame.origin[0], table[y_row] - frame.origin[1])
-    return distance <= table[r_row] + frame.fan.range_max
+    near: np.ndarray = distance <= table[r_row] + frame.fan.range_max
+    return near
