@@ -30,8 +30,9 @@ _BADQPOS, _BADQVEL, _BADQACC = (int(kind) for kind in _DIVERGENCE_WARNINGS)  # p
 class EventLoop:
     """Sim time, its scheduler, and the stepping between events.
 
-    `after_physics()` (or None) runs after each stretch of physics, before the tasks due then (the fleet's contact
-    check); `stops_for_physics` makes every task a stop (a task nobody hears is otherwise done without one).
+    `after_physics()` (or None) runs after each stretch of physics, before the tasks due then (the crash check);
+    `stop_at_every_task` makes every task a stop (a task nobody hears is otherwise done without one): a fleet's
+    contacts are looked at as often as its nodes run.
     `advice`: what the divergence error tells the user to check (the controller file, the step, the world).
     """
 
@@ -41,6 +42,7 @@ class EventLoop:
         self.step_ns = scene.step_ns
         self.time_ns = 0
         self.after_physics: Callable[[], None] | None = None
+        self.stop_at_every_task = False
         self._advice = advice
         self._divergence: str | None = None
         self._deferred: list[Callable[[], None]] = []
@@ -93,8 +95,8 @@ class EventLoop:
         counted = scene.data
         warnings = counted.warning.number  # a live view of MuJoCo's warning counters (of `counted`)
         while self.time_ns < end and not self._paused:
-            # tasks whose messages nobody would receive run without a stop; with a contact check, every task stops
-            due = scheduler.next_time(end if self.after_physics is None else None)
+            # tasks whose messages nobody would receive run without a stop, unless every task must be one
+            due = scheduler.next_time(None if self.stop_at_every_task else end)
             target = end if due is None else max(min(due, end), self.time_ns)
             if target > self.time_ns:
                 data = scene.data  # a model spawned or deleted in an event replaces it

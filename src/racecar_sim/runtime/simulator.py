@@ -19,20 +19,24 @@ import mujoco
 from racecar_sim.bus import Bus, Subscription
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.rng import check_seed
+from racecar_sim.core.throttle import is_finite_number
 from racecar_sim.core.time import NS_PER_S, to_ns
 from racecar_sim.description import DEFAULT_XACRO
+from racecar_sim.description.vehicle import VehicleGeometry
 from racecar_sim.nodes import Node
 from racecar_sim.physics import check_spawn, load_preset, route_mujoco_warnings
 from racecar_sim.physics.scene import Scene
 from racecar_sim.runtime.car import Car
 from racecar_sim.runtime.clock import CLOCK_RATE, ClockPublisher
-from racecar_sim.runtime.collisions import COLLISIONS, CarCollisions, Collision
+from racecar_sim.runtime.collisions import COLLISIONS, Collision, Crash, Crashes, WatchedCar
 from racecar_sim.runtime.event_loop import EventLoop
 from racecar_sim.runtime.fleet import car_index, checked_fleet, spawn_poses
 from racecar_sim.runtime.gazebo_api import GazeboApi
+from racecar_sim.runtime.laps import Laps
 from racecar_sim.runtime.scheduler import Scheduler
 from racecar_sim.sensors.robot_state import StaticTransforms
 from racecar_sim.worlds import DEFAULT_WALL_HEIGHT, Spawn, World, load_world
+from racecar_sim.worlds.start_line import StartLine, start_line_of
 from racecar_sim.worlds.world import WorldBody
 
 if TYPE_CHECKING:
@@ -40,7 +44,7 @@ if TYPE_CHECKING:
 
     from racecar_sim.recording import McapRecorder
 
-__all__ = ["CLOCK_RATE", "COLLISIONS", "Collision", "Simulator"]
+__all__ = ["CLOCK_RATE", "COLLISIONS", "Collision", "Crash", "Simulator"]
 
 
 class Simulator:
@@ -60,6 +64,9 @@ class Simulator:
 
     `lidar`, `camera` (False: every laser, every camera and depth camera of the description left out) and
     `sensors_off` (more switches, "imu", sensor types or sensor names) choose the sensors (runtime/plugins.py).
+
+    `start_line` (x1, y1, x2, y2 in m): where laps are counted (default: the world's own, worlds/start_line.py); the
+    laps are in `sim.laps` (None for a world with neither a start line nor a centerline).
 
     `near_walls` (default on): a world body of many wall boxes (a map) is held out of MuJoCo's collision model and
     only the boxes within reach of each car or free body are placed in it (physics.near_walls; the same contacts
@@ -85,6 +92,7 @@ class Simulator:
         cars: Sequence[Car] | None = None,
         near_walls: bool = True,
         sensors_off: Sequence[str] = (),
+        start_line: Sequence[float] | None = None,
     ) -> None:
         self.seed = check_seed(seed)
         self.sensor_noise = sensor_noise
@@ -147,10 +155,13 @@ class Simulator:
         self.clock = ClockPublisher(self.bus, self.scheduler)
         for car in self.cars:
             self._start_car(car)
-        self.collisions = CarCollisions(self.bus, lambda: self.loop.time_ns)
+        self.collisions = Crashes(self.bus, lambda: self.loop.time_ns)
         self._watch_collisions(known=False)
         self.gazebo = GazeboApi(self)  # /gazebo/link_states, /gazebo/model_states and the /gazebo/* services
         self.world_nodes: list[Node] = [self.clock, self.collisions, self.gazebo]
+        self.laps = self._lap_counter(start_line)
+        if self.laps is not None:
+            self.world_nodes.append(self.laps)
 
     # --- the parts, under the names the API always had -----------------------------------------------------
     @property
@@ -380,18 +391,53 @@ class Simulator:
         for node in self.world_nodes:
             node.rebind(model, data)
         self._watch_collisions(known=True)
+        if self.laps is not None:
+            self._watch_laps(self.laps)
         for hook in self._rebuild_hooks:
             hook(model, data)
 
+    def _lap_counter(self, given: Sequence[float] | None) -> Laps | None:
+        """The lap counter on the world's start line (or `given`: x1, y1, x2, y2), None for a world without one."""
+        if given is not None:
+            if len(given) != 4 or not all(is_finite_number(v) for v in given):
+                raise ConfigError(f"start line {tuple(given)!r}: give four finite numbers x1, y1, x2, y2 (m)")
+            x1, y1, x2, y2 = (float(v) for v in given)
+            try:
+                line: StartLine | None = StartLine.through(x1, y1, x2, y2, self.world.spawn.yaw)
+            except ValueError:
+                raise ConfigError(f"start line {tuple(given)!r}: its two ends are the same point") from None
+        else:
+            line = start_line_of(self.world)
+        if line is None:
+            return None
+        centerline = self.world.centerline
+        laps = Laps(self.bus, self.scheduler, line, centerline.length if centerline is not None else None)
+        self._watch_laps(laps)
+        return laps
+
+    def _watch_laps(self, laps: Laps) -> None:
+        def pose_of(car: Car) -> Callable[[], tuple[float, float]]:
+            def pose() -> tuple[float, float]:
+                position, _ = car.state.base_pose()
+                return float(position[0]), float(position[1])
+
+            return pose
+
+        laps.watch([(car.model_name, pose_of(car)) for car in self.cars])
+
     def _watch_collisions(self, known: bool) -> None:
-        self.collisions.watch(
-            self.model,
-            self.data,
-            [car.state.body_id for car in self.cars],
-            [car.model_name for car in self.cars],
-            known,
-        )
-        self.loop.after_physics = self.collisions.check if self.collisions.active else None
+        model = self.model
+        watched = [
+            WatchedCar(
+                car.model_name,
+                car.state.body_id,
+                tuple(model.body(car.names.mj(w.link)).id for w in VehicleGeometry.from_robot(car.robot).wheels),
+            )
+            for car in self.cars
+        ]
+        self.collisions.watch(model, self.data, watched, known)
+        self.loop.after_physics = self.collisions.check
+        self.loop.stop_at_every_task = len(self.cars) > 1  # a fleet's contacts at every task, as its nodes run
 
     def _divergence_advice(self) -> str:
         return (

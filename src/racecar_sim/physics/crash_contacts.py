@@ -1,0 +1,61 @@
+"""Crashes in MuJoCo's contact list: a car touching a wall, an obstacle or another car.
+
+A contact of a car's geom with anything not of that car is a crash, except a wheel resting on a surface: a wheel geom
+against a geom that belongs to no car, whose contact normal is within 45 degrees of vertical (the ground, a floor box,
+a ramp). Read at event rate, never per physics step.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import mujoco
+import numpy as np
+import numpy.typing as npt
+
+SUPPORT_NORMAL_Z = 0.7071  # |n_z| above this: a wheel standing on the surface, not driving into it
+
+
+class CrashContacts:
+    """Which car touches what: `touching(data)` lists (car index, other car index or -1, geom id of what was hit)."""
+
+    def __init__(self, model: mujoco.MjModel, roots: Sequence[int], wheel_bodies: Sequence[int]) -> None:
+        self.rebind(model, roots, wheel_bodies)
+
+    def rebind(self, model: mujoco.MjModel, roots: Sequence[int], wheel_bodies: Sequence[int]) -> None:
+        """Map the geoms of a (recompiled) model to the cars, given by their root bodies in order, and their wheels."""
+        car_of_root = np.full(model.nbody, -1, np.int64)
+        for index, body in enumerate(roots):
+            car_of_root[body] = index
+        self.car_of_geom: npt.NDArray[np.int64] = car_of_root[model.body_rootid[model.geom_bodyid]]
+        wheel = np.zeros(model.nbody, bool)
+        wheel[list(wheel_bodies)] = True
+        self._wheel_geom: npt.NDArray[np.bool_] = wheel[model.geom_bodyid]
+
+    def touching(self, data: mujoco.MjData) -> set[tuple[int, int, int]]:
+        """(car, other car or -1, geom of the other side) for every crash contact now; a car-car contact once, with
+        the lower index first."""
+        n = data.ncon
+        if n == 0:
+            return set()
+        contact = data.contact
+        geoms = contact.geom[:n]
+        owner = self.car_of_geom[geoms]
+        first, second = owner[:, 0], owner[:, 1]
+        touching = first != second  # a car and something not of it (the world is -1 on both sides of its own)
+        if not touching.any():
+            return set()
+        wheel = self._wheel_geom[geoms]
+        on_surface = (wheel[:, 0] & (second < 0)) | (wheel[:, 1] & (first < 0))
+        crash = touching & ~(on_surface & (np.abs(contact.frame[:n, 2]) > SUPPORT_NORMAL_Z))
+        found: set[tuple[int, int, int]] = set()
+        for index in np.flatnonzero(crash):
+            a, b = int(first[index]), int(second[index])
+            ga, gb = int(geoms[index, 0]), int(geoms[index, 1])
+            if a >= 0 and b >= 0:
+                found.add((a, b, gb) if a < b else (b, a, ga))
+            elif a >= 0:
+                found.add((a, -1, gb))
+            else:
+                found.add((b, -1, ga))
+        return found
