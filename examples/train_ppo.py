@@ -1,59 +1,59 @@
-"""Train a driving policy with Stable-Baselines3 PPO on the lidar env, on CPU, and plot its learning curve.
+"""Train a driving policy with Stable-Baselines3 PPO on the native batch of lidar envs, on CPU, and plot its
+learning curve.
 
-    pip install -e ".[rl]"          # stable-baselines3 and torch==2.13.0 (the CPU build)
-    python examples/train_ppo.py    # ~3.5 min on 2 cores: runs/ppo/learning_curve.png, episodes.csv, policy.zip
+    pip install -e ".[rl]"          # Stable-Baselines3 and torch (see the README for a CPU-only torch)
+    python examples/train_ppo.py    # a few minutes on 2 cores: runs/ppo/learning_curve.png, episodes.csv, policy.zip
     python examples/train_ppo.py --timesteps 300000 --out runs/ppo-long
+    racecar-sim play runs/ppo/policy.zip --world walker   # the trained policy drives; the usual run folder
 
-The env is racecar_sim/Drive-v0 on walker: the reward is the metres of progress along walker's centerline, minus
-10 on a crash into a wall, which ends the episode; an episode is truncated after --episode-seconds of sim time.
-The agent's command goes through the navigation mux input at 20 Hz, as any driver's would. The policy sees the
-scan min-pooled into --sectors sectors (the nearest wall in each, scaled to [0, 1]), the speed and the steering
-angle (LidarFeatures below): 1081 raw beams would train far slower on a CPU.
+The envs are racecar_sim/Drive-v0 on walker, --envs of them stepped together by the native batch (DriveBatch: one
+call steps every world, on a thread pool) and handed to PPO through racecar_sim.envs.sb3.SB3VecEnv: the reward is
+the metres of progress along walker's centerline, minus 10 on a crash into a wall, which ends the episode; an
+episode is truncated after --episode-seconds of sim time. The agent's command goes through the navigation mux input
+at 20 Hz, as any driver's would. The policy sees the scan min-pooled into --sectors sectors (the nearest wall in
+each, scaled to [0, 1]), the speed and the steering angle (envs.sb3.PooledLidar: spaces.pooled_features, which
+`racecar-sim play` applies too): 1081 raw beams would train far slower on a CPU. A progress bar shows the steps done
+and the mean return of the last 20 episodes.
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
+import sys
 import time
+from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
-import gymnasium as gym
 import numpy as np
 
-import racecar_sim.envs  # noqa: F401  (registers racecar_sim/Drive-v0)
-
 ENV_ID = "racecar_sim/Drive-v0"
-DEFAULT_TIMESTEPS = 120_000  # ~3.5 minutes on a 2-core CPU (~550 steps/s with PPO's updates)
+DEFAULT_TIMESTEPS = 120_000  # a few minutes on a 2-core CPU
+DEFAULT_ENVS = 4  # worlds in the batch, 256 steps of each between updates (1024 in all); in one run each, 4 left
+# walker's 8 m-in-30 s plateau at 60k steps, 8 only at 100k
 SECTORS = 27  # 10 degrees each over the Hokuyo's 270
+RUNNING = 20  # episodes in the progress bar's running mean
 
 
-class LidarFeatures(gym.ObservationWrapper):
-    """The Drive env's observation as one small vector: the scan min-pooled into `sectors` equal sectors and
-    divided by the range limit (1 = nothing within range), the speed over max_speed, the steering angle over
-    max_steering."""
+def make_env(
+    world: str = "walker",
+    episode_seconds: float = 30.0,
+    sectors: int = SECTORS,
+    n_envs: int = DEFAULT_ENVS,
+    seed: int = 0,
+) -> Any:
+    """The batch of `n_envs` lidar envs on `world` (episodes truncated after `episode_seconds`) as an SB3 VecEnv
+    whose policy input is the pooled lidar features, with VecMonitor's episode statistics in the infos. Its first
+    reset seeds world i with seed + i."""
+    from stable_baselines3.common.vec_env import VecMonitor
 
-    def __init__(self, env: gym.Env, sectors: int = SECTORS) -> None:
-        super().__init__(env)
-        scan = env.observation_space["scan"]
-        self.range_max = float(scan.high.max())
-        self.sectors = sectors
-        sizes = [len(part) for part in np.array_split(np.arange(scan.shape[0]), sectors)]
-        self.starts = np.cumsum([0, *sizes[:-1]])  # sectors as np.array_split cuts them
-        drive = env.unwrapped.limits
-        self.scale = np.array([drive.max_speed, drive.max_steering], np.float32)
-        self.observation_space = gym.spaces.Box(-np.inf, np.inf, (sectors + 2,), np.float32)
+    from racecar_sim.envs.batch import DriveBatch
+    from racecar_sim.envs.sb3 import PooledLidar, SB3VecEnv
 
-    def observation(self, observation: dict[str, np.ndarray]) -> np.ndarray:
-        near = np.minimum.reduceat(observation["scan"], self.starts) / self.range_max
-        motion = np.concatenate([observation["speed"], observation["steering"]]) / self.scale
-        return np.concatenate([near, motion]).astype(np.float32)
-
-
-def make_env(world: str = "walker", episode_seconds: float = 30.0, sectors: int = SECTORS) -> gym.Env:
-    """The lidar env on `world`, truncated after `episode_seconds`, with LidarFeatures on top."""
-    return LidarFeatures(gym.make(ENV_ID, world=world, time_limit=episode_seconds), sectors)
+    batch = DriveBatch(n_envs, world=world, time_limit=episode_seconds, seeds=seed)
+    return VecMonitor(PooledLidar(SB3VecEnv(batch), sectors))
 
 
 @dataclass
@@ -64,7 +64,7 @@ class Training:
     lengths: list[int]
     ended_at: list[int]
     seconds: float
-    model: object
+    model: Any
 
     def mean_return(self, first: bool, fraction: float = 0.1) -> float:
         """The mean return of the first (or last) `fraction` of the episodes."""
@@ -78,32 +78,36 @@ def train(
     *,
     world: str = "walker",
     episode_seconds: float = 30.0,
-    n_envs: int = 2,
-    n_steps: int = 512,
+    n_envs: int = DEFAULT_ENVS,
+    n_steps: int | None = None,
     batch_size: int = 128,
     seed: int = 0,
     sectors: int = SECTORS,
-    subprocess: bool = True,
+    progress: bool = True,
     verbose: int = 0,
 ) -> Training:
-    """PPO for `timesteps` env steps over `n_envs` envs (each in its own process with `subprocess`), collecting
-    `n_steps` per env between updates; returns every finished episode's return."""
+    """PPO for `timesteps` env steps over a batch of `n_envs` worlds, collecting `n_steps` per world between updates
+    (default: 1024 in all); returns every finished episode's return. `progress`: a tqdm bar on stderr with the
+    steps done and the running mean return."""
     import torch
     from stable_baselines3 import PPO
     from stable_baselines3.common.callbacks import BaseCallback
-    from stable_baselines3.common.env_util import make_vec_env
-    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+    from tqdm import tqdm
 
-    torch.set_num_threads(1)  # the envs take the other cores; small MLPs gain nothing from more threads
+    torch.set_num_threads(1)  # the batch's threads take the cores; small MLPs gain nothing from more threads
 
     class EpisodeLog(BaseCallback):
-        """Every finished episode's return and length, from the Monitor wrapper's info["episode"]."""
+        """Every finished episode's return and length, from VecMonitor's info["episode"]; the progress bar."""
 
         def __init__(self) -> None:
             super().__init__()
             self.returns: list[float] = []
             self.lengths: list[int] = []
             self.ended_at: list[int] = []
+            self.recent: deque[float] = deque(maxlen=RUNNING)
+            self.bar = tqdm(
+                total=timesteps, unit="step", disable=not progress, file=sys.stderr, dynamic_ncols=True, smoothing=0.1
+            )
 
         def _on_step(self) -> bool:
             for info in self.locals["infos"]:
@@ -111,20 +115,22 @@ def train(
                     self.returns.append(float(info["episode"]["r"]))
                     self.lengths.append(int(info["episode"]["l"]))
                     self.ended_at.append(self.num_timesteps)
+                    self.recent.append(self.returns[-1])
+            self.bar.update(self.num_timesteps - self.bar.n)
+            if self.recent:
+                self.bar.set_postfix_str(
+                    f"episodes {len(self.returns)}, mean return (last {len(self.recent)}) {np.mean(self.recent):.1f}",
+                    refresh=False,
+                )
             return True
 
-    vec_env = make_vec_env(
-        make_env,
-        n_envs=n_envs,
-        seed=seed,
-        env_kwargs={"world": world, "episode_seconds": episode_seconds, "sectors": sectors},
-        vec_env_cls=SubprocVecEnv if subprocess and n_envs > 1 else DummyVecEnv,
-    )
+    vec_env = make_env(world, episode_seconds, sectors, n_envs, seed)
+    log = EpisodeLog()
     try:
         model = PPO(
             "MlpPolicy",
             vec_env,
-            n_steps=n_steps,
+            n_steps=n_steps or max(1, 1024 // n_envs),
             batch_size=batch_size,
             n_epochs=10,
             gamma=0.99,
@@ -137,11 +143,11 @@ def train(
             policy_kwargs={"net_arch": [64, 64]},
             device="cpu",
         )
-        log = EpisodeLog()
         start = time.perf_counter()
         model.learn(total_timesteps=timesteps, callback=log)
         seconds = time.perf_counter() - start
     finally:
+        log.bar.close()
         vec_env.close()
     return Training(log.returns, log.lengths, log.ended_at, seconds, model)
 
@@ -188,10 +194,20 @@ def main(argv: list[str] | None = None) -> int:
     )
     p.add_argument("--world", default="walker", help="a world with a centerline (default walker)")
     p.add_argument("--episode-seconds", type=float, default=30.0, help="sim seconds per episode (default 30)")
-    p.add_argument("--envs", type=int, default=2, help="envs stepped in parallel processes (default 2)")
+    p.add_argument(
+        "--envs", type=int, default=DEFAULT_ENVS, help=f"worlds stepped together in the batch (default {DEFAULT_ENVS})"
+    )
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", default="runs/ppo", help="folder for the curve, the episodes and the policy")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
     args = p.parse_args(argv)
+    try:
+        import stable_baselines3  # noqa: F401
+    except ImportError:
+        print('train_ppo.py needs Stable-Baselines3 and torch: pip install -e ".[rl]"', file=sys.stderr)
+        return 2
+    if args.timesteps < 1 or args.envs < 1 or not args.episode_seconds > 0:
+        p.error("--timesteps and --envs must be at least 1, --episode-seconds positive")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     training = train(
@@ -200,7 +216,7 @@ def main(argv: list[str] | None = None) -> int:
         episode_seconds=args.episode_seconds,
         n_envs=args.envs,
         seed=args.seed,
-        verbose=0,
+        progress=not args.no_progress,
     )
     training.model.save(out / "policy.zip")
     write_episodes(training, out / "episodes.csv")

@@ -53,8 +53,10 @@ def test_same_step_auto_reset():
         assert not truncated.any() and "final_obs" not in infos
     obs, _, terminated, truncated, infos = batch.step(forward)
     assert list(truncated) == [True, False] and not terminated.any()
-    assert list(infos["_final_obs"]) == [True, False]
-    assert infos["final_obs"]["speed"][0, 0] > 0.1  # the last observation, moving
+    assert list(infos["_final_obs"]) == [True, False] and list(infos["_final_info"]) == [True, False]
+    assert infos["final_obs"][0]["speed"][0] > 0.1 and infos["final_obs"][1] is None  # the last observation, moving
+    assert infos["final_info"]["time"][0] == pytest.approx(0.15)  # the last step's info: 3 steps of 50 ms
+    assert infos["time"][0] == 0.0 and infos["time"][1] == pytest.approx(0.15)  # world 0's own entry: its reset's
     assert obs["speed"][0, 0] == 0.0 and batch.steps[0] == 0 and batch.time_ns[0] == 0
     assert obs["speed"][1, 0] > 0.1 and batch.steps[1] == 1
     np.testing.assert_array_equal(batch.qpos[0], batch.template.data.qpos)  # back at the spawn state

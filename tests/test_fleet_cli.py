@@ -108,8 +108,10 @@ def test_three_cars_in_the_tunnel_record_every_cars_topics_and_draw_every_path(t
     with Image.open(tmp_path / "summary.png") as image:
         assert image.size == (round(FIGSIZE[0] * DPI), round(FIGSIZE[1] * DPI))
         rgb = np.asarray(image.convert("RGB")).astype(int)
+    # the map takes the height the panel below it leaves; right of the legend (which shows each colour too)
+    right_of_legend = (0.3, 0.03, WIDE.map[0] + WIDE.map[2] - 0.3, WIDE.map[1] + WIDE.map[3] - 0.03)
     for k in range(3):
-        assert colour_pixels(rgb, fleet_color(k), WIDE.map) > 50, f"car{k + 1}'s path is not on the map"
+        assert colour_pixels(rgb, fleet_color(k), right_of_legend) > 50, f"car{k + 1}'s path is not on the map"
 
 
 def test_car_spacing_sets_the_gap(tmp_path):
@@ -241,7 +243,7 @@ def test_without_cars_the_names_and_summary_are_the_originals(tmp_path):
     assert counts["/scan"] == 40 and counts["/vesc/odom"] == 20
     assert not any(topic.startswith("/car") for topic in counts)
     starts = [line.split()[0] for line in result.stdout.splitlines()]
-    assert starts == ["world", "sim", "distance", "mean", "real-time", "min", "final", "wrote"]
+    assert starts == ["world", "sim", "distance", "mean", "real-time", "min", "laps", "crashes", "final", "wrote"]
     spacing = run_cli("--world", "empty", "--car-spacing", "2", *QUIET, "--duration", "1", "--no-record")
     assert spacing.returncode == 2
     assert spacing.stderr.strip() == "racecar-sim: error: --car-spacing places a fleet: give --cars N too"

@@ -106,6 +106,20 @@ SAMPLES: dict[str, Callable[[np.random.Generator], Message]] = {
     "geometry_msgs/msg/Transform": lambda _: _transform("x", 1.0).transform,
     "geometry_msgs/msg/TransformStamped": lambda _: _transform("laser", 0.265),
     "nav_msgs/msg/Odometry": lambda _: _odometry(),
+    "geometry_msgs/msg/PoseWithCovarianceStamped": lambda rng: msgs.PoseWithCovarianceStamped(
+        _stamped(2_500_000_000, "map"),
+        msgs.PoseWithCovariance(
+            msgs.Pose(msgs.Point(1.5, -2.0, 0.0), msgs.Quaternion(0, 0, 0.6, 0.8)), rng.normal(size=36)
+        ),
+    ),
+    "nav_msgs/msg/MapMetaData": lambda _: msgs.MapMetaData(
+        msgs.Time(3, 4), 0.0625, 7, 5, msgs.Pose(msgs.Point(-10.025, -3.5, 0.0))
+    ),
+    "nav_msgs/msg/OccupancyGrid": lambda rng: msgs.OccupancyGrid(
+        _stamped(0, "map"),
+        msgs.MapMetaData(msgs.Time(0, 0), 0.0625, 7, 5, msgs.Pose(msgs.Point(-1.0, 2.0, 0.0))),
+        rng.choice(np.array([-1, 0, 100], np.int8), 35),
+    ),
     "sensor_msgs/msg/JointState": lambda _: msgs.JointState(
         header=_stamped(99, ""),
         name=["left_rear_wheel_joint", "right_steering_hinge_joint", ""],
@@ -114,6 +128,11 @@ SAMPLES: dict[str, Callable[[np.random.Generator], Message]] = {
         effort=np.zeros(0),
     ),
     "sensor_msgs/msg/LaserScan": _laser_scan,
+    "sensor_msgs/msg/Joy": lambda _: msgs.Joy(
+        _stamped(2_050_000_000, ""),
+        np.array([0.0, 1.0, -0.25, 1e-3, -1.0000305], dtype=np.float32),
+        np.array([0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0], dtype=np.int32),
+    ),
     "sensor_msgs/msg/Image": _image,
     "sensor_msgs/msg/CompressedImage": lambda rng: msgs.sensor_msgs.CompressedImage(
         _stamped(33_000_000, "camera_link"), "bgr8; jpeg compressed bgr8", rng.bytes(1001)

@@ -19,9 +19,14 @@ def test_readme_python_example_runs(tmp_path, monkeypatch, capsys):
     assert (tmp_path / "runs" / "api.mcap").stat().st_size > 10_000
 
 
+def test_readme_driver_example_is_the_shipped_example():
+    code = re.search(r"## Your own driver.*?```python\n(.*?)```", README.read_text(), re.S).group(1)
+    assert code == (README.parent / "examples" / "follow_the_gap.py").read_text()
+
+
 def test_readme_driver_example_laps_the_racecourse(capsys):
     code = re.search(r"## Your own driver.*?```python\n(.*?)```", README.read_text(), re.S).group(1)
-    exec(compile(code, str(README), "exec"), {"__name__": "readme_driver"})
+    exec(compile(code, str(README), "exec"), {"__name__": "__main__"})  # as `python examples/follow_the_gap.py`
     rows = [[float(v) for v in line.split()] for line in capsys.readouterr().out.splitlines()]
     assert len(rows) == 1200 and rows[-1][0] == 60.0  # /vesc/odom at 20 Hz for 60 s
     xy = [(x, y) for _, x, y in rows]

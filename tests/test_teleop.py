@@ -346,6 +346,26 @@ def test_q_quits_and_unbound_bytes_stop_the_car(tmp_path):
 
 
 @posix_only
+def test_the_status_line_shows_the_speed_along_the_heading_and_the_yaw_rate():
+    """Heading 1 rad (x is not the car's forward): `w` at 0.5 m/s reads v +0.50, not the world x part (+0.27)."""
+    child = spawn(f"{CLI} --spawn 0,0,1.0")
+    lines: list[str] = []
+    deadline = time.monotonic() + 2.5
+    while time.monotonic() < deadline:
+        child.send("w")  # auto-repeat of a held key
+        lines += re.findall(r"\rt +[0-9.]+ s \|[^\r]*", pump(child, 0.04))
+    child.send("q")
+    code, _ = finish(child)
+    assert code == 0
+    pattern = r"v ([+-][0-9.]+) m/s \| yaw rate ([+-][0-9.]+) rad/s \| .* yaw ([+-][0-9.]+) \|"
+    shown = [tuple(float(x) for x in re.search(pattern, line).groups()) for line in lines if "yaw rate" in line]
+    speed, yaw_rate, heading = shown[-1]  # after 2.5 s of w: at speed
+    assert speed == pytest.approx(0.5, abs=0.02) and heading == pytest.approx(1.0, abs=0.02)
+    assert yaw_rate == pytest.approx(0.0, abs=0.02)
+    assert 0.5 * math.cos(heading) < 0.3  # what the line showed before: the world-frame x component
+
+
+@posix_only
 def test_duration_ends_the_session():
     child = spawn(f"{CLI} --duration 0.3")
     code, summary = finish(child)

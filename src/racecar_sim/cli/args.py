@@ -7,6 +7,7 @@ import itertools
 import math
 import os
 import re
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypedDict
 
@@ -285,3 +286,182 @@ def check_record_path(record: Path, flag: str = "--record", overwrite: bool = Tr
             f"{flag} {record}: the file exists and a recording is never replaced unless asked: give "
             "--overwrite to replace it, or another file name"
         )
+
+
+def start_line(text: str) -> tuple[float, float, float, float]:
+    """'x1,y1,x2,y2': the two ends of a start line (m), where laps are counted."""
+    parts = text.split(",")
+    if len(parts) != 4:
+        raise argparse.ArgumentTypeError(f"'{text}' is not x1,y1,x2,y2 (the start line's two ends, m)")
+    x1, y1, x2, y2 = (finite_float(p) for p in parts)
+    for value in (x1, y1, x2, y2):
+        if abs(value) > MAX_COORDINATE:
+            raise argparse.ArgumentTypeError(
+                f"'{text}': {value:g} m is beyond the largest world coordinate (±{MAX_COORDINATE:g} m)"
+            )
+    if (x1, y1) == (x2, y2):
+        raise argparse.ArgumentTypeError(f"'{text}': the start line's two ends are the same point")
+    return x1, y1, x2, y2
+
+
+_CAR_PREFIX = re.compile(r"(car[1-9][0-9]*)=(.*)", re.S)
+
+
+@dataclass(frozen=True)
+class PerCar:
+    """A value for every car (`car` None) or for one car of a fleet (`car1=...`)."""
+
+    car: str | None
+    value: str
+
+
+def driver_choice(text: str) -> PerCar:
+    """`--driver`: a built-in driver, `module:Class` or `file.py:Class`, for every car or for one (`car2=...`)."""
+    from racecar_sim.runtime.driving import DRIVERS, is_node_spec  # the drivers load only for a run
+
+    match = _CAR_PREFIX.fullmatch(text)
+    car, spec = (match.group(1), match.group(2)) if match else (None, text)
+    if spec not in DRIVERS and not is_node_spec(spec):
+        raise argparse.ArgumentTypeError(
+            f"'{text}' is not a driver: give {', '.join(DRIVERS)}, package.module:Class or path/to/file.py:Class "
+            "(carK=DRIVER for one car of --cars)"
+        )
+    return PerCar(car, spec)
+
+
+def per_car_file(text: str) -> PerCar:
+    """`--driver-config`: a YAML file for every car, or for one (`car2=FILE`)."""
+    match = _CAR_PREFIX.fullmatch(text)
+    car, path = (match.group(1), match.group(2)) if match else (None, text)
+    if not path:
+        raise argparse.ArgumentTypeError(f"'{text}' names no file")
+    return PerCar(car, path)
+
+
+def per_car(values: list[PerCar] | None, flag: str, cars: list[str], fleet: bool) -> list[str | None]:
+    """The value of a per-car option for each car (None where none is given): a plain value for every car, `carK=`
+    for car K over it. ConfigError (one line) for two plain values, a car twice, `carK=` without a fleet or for a
+    car the fleet does not have."""
+    plain = [v for v in values or [] if v.car is None]
+    if len(plain) > 1:
+        raise ConfigError(
+            f"{flag} {plain[0].value} and {flag} {plain[1].value}: one {flag} is for every car; give carK=VALUE for "
+            "one car of --cars"
+        )
+    chosen: list[str | None] = [plain[0].value if plain else None] * len(cars)
+    named: set[str] = set()
+    for value in values or []:
+        if value.car is None:
+            continue
+        if not fleet:
+            raise ConfigError(f"{flag} {value.car}={value.value}: cars are named only in a fleet: give --cars N too")
+        if value.car in named:
+            raise ConfigError(f"{flag} {value.car}=...: given twice for {value.car}")
+        if value.car not in cars:
+            raise ConfigError(f"{flag} {value.car}={value.value}: the run has {len(cars)} cars ({cars[0]}..{cars[-1]})")
+        named.add(value.car)
+        chosen[cars.index(value.car)] = value.value
+    return chosen
+
+
+def add_driver_arguments(p: argparse.ArgumentParser, default: str = "") -> None:
+    """--driver (repeatable: carK=DRIVER for one car of a fleet) and --driver-config (`default`: what drives without
+    --driver, for the help)."""
+    from racecar_sim.runtime.driving import DRIVERS  # the drivers load only for a command that takes them
+
+    p.add_argument(
+        "--driver",
+        type=driver_choice,
+        action="append",
+        metavar="DRIVER",
+        help=f"{', '.join(DRIVERS)}; or your own node class, package.module:Class or path/to/file.py:Class, built as "
+        "Class(ctx, **settings) (README: Your own driver); carK=DRIVER gives car K of a fleet its own (repeatable)"
+        + (f". {default}" if default else ""),
+    )
+    p.add_argument(
+        "--driver-config",
+        type=per_car_file,
+        action="append",
+        metavar="FILE.yaml",
+        help="the driver's settings from a YAML file: any fields of drivers/data/wall_follow.yaml or "
+        "pure_pursuit.yaml (the others keep the package's defaults), the constant command's speed/steering/rate, "
+        "or your class's keyword arguments; options on the command line win over it; carK=FILE for one car",
+    )
+
+
+def add_output_arguments(p: argparse.ArgumentParser, default_out: str) -> None:
+    """--out, --record, --no-record, --raw-images, --no-video, --no-summary and --overwrite: the run folder
+    (cli/run_folder.py). `default_out`: what --out is without it, for the help."""
+    p.add_argument(
+        "--out",
+        metavar="DIR",
+        help=f"folder for the run's files: run.mcap, summary.png, summary.json, camera.mp4 (default {default_out})",
+    )
+    p.add_argument("--record", metavar="FILE.mcap", help="the MCAP's path (default OUT/run.mcap)")
+    add_overwrite_argument(p)
+    p.add_argument("--no-record", action="store_true", help="no MCAP recording")
+    p.add_argument(
+        "--raw-images",
+        action="store_true",
+        help="record camera images as raw sensor_msgs/Image on the image topic (default: JPEG "
+        "sensor_msgs/CompressedImage on <image topic>/compressed, as image_transport records them)",
+    )
+    p.add_argument("--no-video", action="store_true", help="no camera.mp4")
+    p.add_argument("--no-summary", action="store_true", help="no summary.png and summary.json")
+
+
+def add_start_line_argument(p: argparse.ArgumentParser) -> None:
+    """--start-line x1,y1,x2,y2."""
+    p.add_argument(
+        "--start-line",
+        type=start_line,
+        metavar="X1,Y1,X2,Y2",
+        help="where laps are counted and timed: a segment crossed forward along the spawn heading (default: the "
+        "world's own, e.g. walker's checkered line or a track CSV's first point)",
+    )
+
+
+def add_run_options(
+    p: argparse.ArgumentParser, default_out: str, ros_help: str | None = None, paced_by_default: str = ""
+) -> None:
+    """The options run, teleop, launch (and play) share, for the same things: the run folder (add_output_arguments),
+    --start-line, the sensor switches, --viewer and --foxglove, --realtime and --fast, and the bridges (--ros,
+    --ros-master, --ros2, --topic-map). SHARED_OPTIONS lists them."""
+    from racecar_sim.cli.live import add_live_arguments, add_pacing_arguments
+    from racecar_sim.cli.ros2_env import add_ros2_arguments
+    from racecar_sim.cli.ros_env import add_ros_arguments
+    from racecar_sim.cli.topic_map import add_topic_map_argument
+
+    add_output_arguments(p, default_out)
+    add_start_line_argument(p)
+    add_sensor_arguments(p)
+    add_live_arguments(p)
+    add_pacing_arguments(p, paced_by_default)
+    add_ros_arguments(p, ros_help)
+    add_ros2_arguments(p)
+    add_topic_map_argument(p)
+
+
+# every option add_run_options gives, with a value that parses (the test of the shared options walks this)
+SHARED_OPTIONS: dict[str, tuple[str, ...]] = {
+    "--out": ("DIR",),
+    "--record": ("run.mcap",),
+    "--no-record": (),
+    "--raw-images": (),
+    "--no-video": (),
+    "--no-summary": (),
+    "--overwrite": (),
+    "--start-line": ("1,-1,1,1",),
+    "--no-lidar": (),
+    "--no-camera": (),
+    "--no-sensor": ("imu",),
+    "--no-noise": (),
+    "--viewer": (),
+    "--foxglove": ("8765",),
+    "--realtime": (),
+    "--fast": (),
+    "--ros": (),
+    "--ros-master": ("http://127.0.0.1:11311/",),
+    "--ros2": (),
+    "--topic-map": ("f1tenth",),
+}

@@ -1,4 +1,9 @@
-"""--viewer and --foxglove: the live views that `run` and `teleop` share, and real-time pacing."""
+"""--viewer and --foxglove: the live views that `run` and `teleop` share, and real-time pacing (--realtime, --fast).
+
+With a ROS bridge (--ros, --ros2) a run keeps to the wall clock by default, as Gazebo does: ROS nodes see sim time
+pass as wall time and keep up with it. --fast lets the sim run ahead of the wall clock instead (ROS nodes then see
+sim time jump and drop what their queue_size cannot hold); --realtime paces a run with no bridge.
+"""
 
 from __future__ import annotations
 
@@ -9,6 +14,7 @@ import time
 from typing import TYPE_CHECKING
 
 from racecar_sim.control.teleop import KeyboardTeleop
+from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import TELEOP
 from racecar_sim.msgs import LaserScan
 
@@ -51,6 +57,36 @@ def add_live_arguments(p: argparse.ArgumentParser) -> None:
     )
 
 
+def add_pacing_arguments(p: argparse.ArgumentParser, paced_by_default: str = "") -> None:
+    """--realtime and --fast. `paced_by_default`: when else the command keeps to the wall clock (for the help)."""
+    also = f", or {paced_by_default}" if paced_by_default else ""
+    p.add_argument(
+        "--realtime",
+        action="store_true",
+        help=f"run no faster than real time (the default with --ros or --ros2{also})",
+    )
+    p.add_argument(
+        "--fast",
+        action="store_true",
+        help=f"run as fast as it can, even with --ros or --ros2{also}: ROS nodes see sim time jump and drop "
+        "what their queue_size cannot hold",
+    )
+
+
+def bridged(args: argparse.Namespace) -> bool:
+    """Whether the run has a ROS bridge (--ros or --ros2)."""
+    return bool(getattr(args, "ros", False) or getattr(args, "ros2", False))
+
+
+def paced(args: argparse.Namespace, default: bool = False) -> bool:
+    """Whether the run keeps to the wall clock: --realtime, or a ROS bridge (or `default`) without --fast.
+    ConfigError for both --realtime and --fast."""
+    realtime, fast = getattr(args, "realtime", False), getattr(args, "fast", False)
+    if realtime and fast:
+        raise ConfigError("--realtime and --fast contradict each other: give one of them")
+    return bool(realtime or (not fast and (default or bridged(args))))
+
+
 class LiveViews:
     """The live views a run asked for; `update()` after each slice of sim time keeps them current.
 
@@ -87,7 +123,8 @@ class LiveViews:
         if viewer:
             from racecar_sim.viz.viewer import CarViewer
 
-            self.viewer = CarViewer.open(sim.model, sim.data, [car.names.mj(car.robot.root) for car in sim.cars])
+            roots = [car.names.mj(car.robot.root) for car in sim.cars]
+            self.viewer = CarViewer.open(sim.model, sim.data, roots, "--viewer")
             if self.viewer is not None:
                 self.teleop = self._teleop(0)
                 for index, car in enumerate(sim.cars):

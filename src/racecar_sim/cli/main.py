@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import os
+import signal
 import sys
 import warnings
 from collections.abc import Sequence
@@ -24,7 +26,9 @@ SUBCOMMANDS = {
     "worlds": "worlds",
     "recover": "recover",
     "ros-env": "ros_env",
+    "ros2-env": "ros2_env",
     "sweep": "sweep",
+    "play": "play",
 }
 
 
@@ -65,6 +69,20 @@ def _one_line_warning(
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the subcommand argv names; its exit code. A closed pipe (`racecar-sim describe --urdf | head -5`) ends it
+    quietly, as a command killed by SIGPIPE would (exit code 141)."""
+    try:
+        code = _main(argv)
+        sys.stdout.flush()  # a pipe closed early breaks here, not in the interpreter's exit
+        return code
+    except BrokenPipeError:
+        devnull = os.open(os.devnull, os.O_WRONLY)  # the rest of stdout goes nowhere: no second error at exit
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+        return 128 + signal.SIGPIPE
+
+
+def _main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.WARNING, format="racecar-sim: %(message)s")
     warnings.formatwarning = _one_line_warning
     argv = sys.argv[1:] if argv is None else list(argv)

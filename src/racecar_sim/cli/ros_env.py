@@ -4,10 +4,11 @@
 control_msgs, controller_manager_msgs; generated with genpy on first use) on PYTHONPATH, and points ROS_MASTER_URI
 at the master `run --ros` uses: $ROS_MASTER_URI, else the roscore it starts on http://127.0.0.1:11311/.
 
-Time: with --ros the sim sets /use_sim_time and publishes /clock, so sim-time nodes follow the sim. With
---realtime the sim keeps to the wall clock. Without it the sim runs as fast as it can: a node slower than that sees
-sim time jump between its callbacks, and what it cannot take in time is dropped by its subscriber's queue_size
-(rospy keeps the newest), never slowing the sim down; the sim waits for nobody but the pipe to the bridge.
+Time: with --ros the sim sets /use_sim_time and publishes /clock, so sim-time nodes follow the sim, and it keeps to
+the wall clock, as Gazebo does (`run --ros` goes on until Ctrl-C unless --duration is given). With --fast it runs as
+fast as it can: a node slower than that sees sim time jump between its callbacks, and what it cannot take in time is
+dropped by its subscriber's queue_size (rospy keeps the newest), never slowing the sim down; the sim waits for nobody
+but the pipe to the bridge, and messages reach ROS in batches of up to a few milliseconds of wall time.
 """
 
 from __future__ import annotations
@@ -42,12 +43,13 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     )
 
 
-def add_ros_arguments(parser: argparse.ArgumentParser) -> None:
-    """--ros and --ros-master."""
+def add_ros_arguments(parser: argparse.ArgumentParser, help: str | None = None) -> None:
+    """--ros and --ros-master (`help`: --ros's own, where a command does more with it)."""
     parser.add_argument(
         "--ros",
         action="store_true",
-        help="bridge to ROS 1: every topic published with its ROS 1 type, command topics and the "
+        help=help
+        or "bridge to ROS 1: every topic published with its ROS 1 type, command topics and the "
         "Gazebo / controller manager services offered, /clock and /use_sim_time set (needs "
         "Debian's ROS 1 packages; see `racecar-sim ros-env --help`)",
     )
@@ -72,8 +74,9 @@ def start_ros_bridge(args: argparse.Namespace, sim: Simulator) -> RosBridge | No
     import sys
 
     from racecar_sim.bridges.ros1 import RosBridge
+    from racecar_sim.cli.topic_map import topic_map_of
 
-    bridge = RosBridge(sim, args.ros_master)
+    bridge = RosBridge(sim, args.ros_master, topic_map=topic_map_of(args, sim))
     bridge.start()
     print(
         f'racecar-sim: ROS 1 bridge on {bridge.master_uri} (for your nodes: eval "$(racecar-sim ros-env '

@@ -1,4 +1,5 @@
-"""`racecar-sim teleop`: keyboard_teleop.py in a terminal, driving the simulated car in real time."""
+"""`racecar-sim teleop`: keyboard_teleop.py in a terminal, driving the simulated car in real time; with `--joy`, a
+gamepad through joy_node and joy_teleop.py instead, as racecar-v2-teleop.launch.xml runs them in `<group ns="vesc">`."""
 
 from __future__ import annotations
 
@@ -8,37 +9,44 @@ import math
 import os
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, TextIO
+from typing import TYPE_CHECKING, TextIO, TypeVar
 
 import numpy as np
 
 from racecar_sim.cli.args import (
-    add_overwrite_argument,
     add_ros_path_options,
-    add_sensor_arguments,
+    add_run_options,
     add_world_arguments,
     add_xacro_arguments,
     apply_ros_path_options,
-    check_record_path,
     finite_float,
-    make_folder,
     positive_float,
     seed_value,
     sensor_options,
     xacro_options,
 )
-from racecar_sim.cli.live import LiveViews, RealTimePacer, add_live_arguments
+from racecar_sim.cli.live import LiveViews, RealTimePacer
+from racecar_sim.cli.ros2_env import check_ros2, start_ros2_bridge
+from racecar_sim.cli.ros_env import check_ros, start_ros_bridge
+from racecar_sim.cli.run_folder import RunFolder, output_paths
 from racecar_sim.cli.spawns import check_spawn_option
 from racecar_sim.cli.terminal import RawTerminal, StopSignals, stdin_is_tty
+from racecar_sim.cli.topic_map import check_topic_map
+from racecar_sim.control.joy import JOY, JoyNode
+from racecar_sim.control.joy_teleop import JoyCommand, JoyTeleop, joy_teleop_yaml, load_joy_teleop
 from racecar_sim.control.teleop import TELEOP, KeyboardTeleop, load_teleop_config
-from racecar_sim.core.errors import ConfigError, RecordingError
+from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.transforms import yaw_of
 from racecar_sim.msgs import AckermannDriveStamped, Odometry
 from racecar_sim.runtime import Simulator
 from racecar_sim.worlds import World, load_world
 
-if TYPE_CHECKING:  # mcap loads only when a session records
+if TYPE_CHECKING:  # mcap loads only when a session records, pygame only with --joy
+    from racecar_sim.bridges.ros1 import RosBridge
+    from racecar_sim.bridges.ros2 import Ros2Bridge
+    from racecar_sim.control.joy_device import Gamepad
     from racecar_sim.recording import RunRecording
 
 SLICE = 0.02  # s of sim time between two looks at the keyboard
@@ -47,6 +55,7 @@ SETTLE = 0.05  # s of sim time after the final zero command, so that it reaches 
 QUIT_KEYS = ("q", "Q", "\x03")  # raw mode hands Ctrl-C over as "\x03"
 NOT_A_TTY = "teleop reads keys from a terminal (stdin is not a TTY); use --viewer, or run it in a terminal"
 NO_KEYBOARD = "teleop has no keyboard: stdin is not a TTY and the viewer did not open"
+_B = TypeVar("_B", "RosBridge", "Ros2Bridge")
 
 
 def _non_negative(text: str) -> float:
@@ -85,19 +94,77 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         help="end the session after S sim seconds (default: at q or Ctrl-C)",
     )
     p.add_argument("--seed", type=seed_value, default=0, help="random seed (default 0)")
-    p.add_argument("--record", metavar="FILE.mcap", help="record every topic to an MCAP file")
-    add_overwrite_argument(p)
+    p.add_argument(
+        "--joy",
+        nargs="?",
+        const="",
+        metavar="DEVICE",
+        help="drive with a gamepad instead of the keys, as the real car's joy_node + joy_teleop.py with "
+        "racecar/config/racecar-v2/joy_teleop.yaml (hold button 4, LB: axis 1 speed, axis 3 steering); DEVICE: an "
+        "index, /dev/input/jsN or a name (default: the first gamepad). Needs pip install 'racecar-sim[joy]'",
+    )
     add_xacro_arguments(p)
     add_ros_path_options(p)
-    add_sensor_arguments(p)
-    add_live_arguments(p)
+    add_run_options(p, default_out="none: no files unless --out or --record")
+    for action in p._actions:  # the shared pacing flags, as they apply to a person driving
+        if action.dest == "realtime":
+            action.help = "run no faster than real time: teleop always does, a person drives"
+        elif action.dest == "fast":
+            action.help = "refused: teleop runs in real time, as a person drives (for run and launch)"
+
+
+class Joystick:
+    """`--joy`: the gamepad, joy_node (/vesc/joy) and joy_teleop.py with the racecar package's joy_teleop.yaml."""
+
+    def __init__(self, sim: Simulator, device: Gamepad, config_file: Path) -> None:
+        config, commands = load_joy_teleop(config_file)
+        self.device, self.commands, self.config_file = device, commands, config_file
+        joy = sim.add_node(lambda ctx: JoyNode(ctx.bus, ctx.timers, ctx.now, device, config))
+        teleop = sim.add_node(lambda ctx: JoyTeleop(ctx.bus, commands))
+        assert isinstance(joy, JoyNode) and isinstance(teleop, JoyTeleop)
+        self.joy, self.teleop = joy, teleop
+        self.stopped = False
+
+    def stop(self) -> None:
+        """The gamepad is no longer read: nothing drives after the session's final zero command."""
+        self.joy.close()
+        self.stopped = True
+
+    def state(self) -> str:
+        """The status line's part: the command the held buttons run, or why there is none."""
+        if self.stopped:
+            return "joy: off"
+        if not self.joy.connected:
+            return "joy: no gamepad"
+        if self.teleop.received == 0:
+            return "joy: waiting"
+        return f"joy: {self.teleop.command or 'no command'}"
+
+    def banner(self) -> list[str]:
+        lines = [
+            f"Reading gamepad {self.device.name} and publishing sensor_msgs/Joy on {JOY}; joy_teleop.py with "
+            f"{self.config_file}:",
+        ]
+        lines += [f"  {_describe(c, self.teleop.topics[c.name])}" for c in self.commands]
+        return lines + ["q or CTRL-C to quit", ""]
+
+
+def _describe(command: JoyCommand, topic: str) -> str:
+    held = f"hold buttons {list(command.buttons)}" if command.buttons else "no buttons"
+    if command.is_default:
+        held += " (or any unmapped ones)"
+    if command.values is not None:
+        what = ", ".join(f"{target} = {value}" for target, value in command.values)
+    else:
+        what = ", ".join(f"{m.target} = axis {m.axis} x {m.scale:g}" for m in command.axis_mappings)
+    return f"{held}: {command.name}, {what} on {topic}"
 
 
 class Dashboard:
     """What the status line and the summary show, from /vesc/odom and both muxes."""
 
-    def __init__(self, sim: Simulator, record: str | None, stream: TextIO) -> None:
-        self.sim, self.record, self.stream = sim, record, stream
+    def __init__(self, sim: Simulator, record: str | None, stream: TextIO, joystick: Joystick | None = None) -> None:
+        self.sim, self.record, self.stream, self.joystick = sim, record, stream, joystick
         self.odom: Odometry | None = None
         self.distance = 0.0
         self.steering = 0.0
@@ -127,6 +194,17 @@ class Dashboard:
         p, q = self.odom.pose.pose.position, self.odom.pose.pose.orientation
         return p.x, p.y, yaw_of(np.array((q.w, q.x, q.y, q.z)))
 
+    def velocity(self) -> tuple[float, float]:
+        """Speed along the car's heading (m/s) and yaw rate (rad/s) of the last odometry: the twist is in the world
+        frame with the original's odometry, in the car's with `ros`."""
+        if self.odom is None:
+            return 0.0, 0.0
+        twist = self.odom.twist.twist
+        if self.sim.car.odometry_mode == "ros":
+            return twist.linear.x, twist.angular.z
+        yaw = self.pose()[2]
+        return twist.linear.x * math.cos(yaw) + twist.linear.y * math.sin(yaw), twist.angular.z
+
     def write(self, text: str) -> None:
         """Write to the terminal, which may have gone away (SIGHUP) by now."""
         with contextlib.suppress(OSError, ValueError):
@@ -135,6 +213,9 @@ class Dashboard:
 
     def help(self, speed: float, turn: float, terminal: bool) -> None:
         """The original's banner, once, above the status line."""
+        if self.joystick is not None:
+            self.write("\r\n".join(self.joystick.banner()) + "\r\n")
+            return
         source = "the keyboard" if terminal else "the viewer window's keys"
         lines = [
             f"Reading from {source} and publishing AckermannDriveStamped on {TELEOP}",
@@ -160,11 +241,14 @@ class Dashboard:
             self._rtf = rtf if self._rtf == 0.0 else 0.7 * self._rtf + 0.3 * rtf
         self._last = (now, self.sim.time)
         x, y, yaw = self.pose()
-        speed = self.odom.twist.twist.linear.x if self.odom is not None else 0.0
+        speed, yaw_rate = self.velocity()
         line = (
-            f"t {self.sim.time:7.2f} s | v {speed:+5.2f} m/s | steer {self.steering:+5.2f} rad | "
-            f"x {x:+7.2f} y {y:+7.2f} yaw {yaw:+5.2f} | {self._rtf:4.2f}x | {self.chain.in_control()}"
+            f"t {self.sim.time:7.2f} s | v {speed:+5.2f} m/s | yaw rate {yaw_rate:+5.2f} rad/s | "
+            f"steer {self.steering:+5.2f} rad | x {x:+7.2f} y {y:+7.2f} yaw {yaw:+5.2f} | {self._rtf:4.2f}x | "
+            f"{self.chain.in_control()}"
         )
+        if self.joystick is not None:
+            line += f" | {self.joystick.state()}"
         if self.record:
             line += f" | rec {self.record}"
         with contextlib.suppress(OSError, ValueError):
@@ -200,6 +284,9 @@ def _session(
     dashboard: Dashboard,
     signals: StopSignals,
     duration: float | None,
+    keys_drive: bool = True,
+    bridges: Sequence[Ros2Bridge] = (),
+    ros: RosBridge | None = None,
 ) -> str:
     """Run the sim in real time, SLICE by SLICE, handing keys to teleop; returns why it ended."""
     pacer = RealTimePacer()
@@ -217,36 +304,48 @@ def _session(
         for ch in keys:
             if ch in QUIT_KEYS:
                 return "quit"
-            teleop.key(ch)
+            if keys_drive:  # with --joy the gamepad drives; the keys only quit
+                teleop.key(ch)
         end = sim.time + SLICE if duration is None else min(sim.time + SLICE, duration)
         sim.run_until(end)
+        for bridge in bridges if sim.paused else ():  # sim time stands: the bridge still answers unpause_physics
+            bridge.spin_once(SLICE)
+        if ros is not None:  # what the slice published goes to ROS 1 now; commands from it come in
+            ros.spin_once(SLICE if sim.paused else 0.0)
         views.update()
         dashboard.draw()
         pacer.wait(sim.time)
 
 
-def _recording(args: argparse.Namespace, sim: Simulator) -> RunRecording | None:
-    """--record: every topic to the MCAP (camera images raw, as sim.record() records them), written by a writer
-    process, the file taken exclusively (an existing one only with --overwrite); None without --record."""
-    if not args.record:
+def _gamepad(selector: str | None) -> Gamepad | None:
+    """--joy: the gamepad, opened before the sim is built (None without --joy); no gamepad, or no pygame-ce, is
+    one line and exit code 2."""
+    if selector is None:
         return None
-    from racecar_sim.recording import RunRecording  # mcap loads only when a session records
+    from racecar_sim.control.joy_device import GamepadUnavailable, open_gamepad  # pygame only with --joy
 
-    make_folder("--record", Path(args.record).parent)
     try:
-        return RunRecording(sim.bus, lambda: sim.time_ns, args.record, raw_images=True, overwrite=args.overwrite)
-    except RecordingError as exc:  # taken by another run since the look before the build, or cannot be created
-        raise RecordingError(f"--record {exc}") from None
+        return open_gamepad(selector or None)
+    except GamepadUnavailable as exc:
+        raise ConfigError(f"teleop --joy: {exc}") from None
 
 
 def main(args: argparse.Namespace) -> int:
     """Drive the car from the keyboard until q, Ctrl-C, --duration, or a closed viewer."""
+    check_topic_map(args)
+    if args.fast:
+        raise ConfigError("teleop runs in real time, as a person drives: --fast is for run and launch")
+    check_ros(args)
+    check_ros2(args)
     interactive = stdin_is_tty()
-    if not interactive and not args.viewer:
+    if not interactive and not args.viewer and args.joy is None:
         raise ConfigError(NOT_A_TTY)
-    if args.record:
-        check_record_path(Path(args.record), overwrite=args.overwrite)
+    device = _gamepad(args.joy)
+    out, record = output_paths(args, None)
     apply_ros_path_options(args)
+    joy_config = joy_teleop_yaml() if device is not None else None  # $(find racecar): --package-path first
+    if joy_config is not None:
+        load_joy_teleop(joy_config)  # a broken joy_teleop.yaml is named before the sim is built
     world: str | World = args.world
     if args.spawn is not None:  # checked here, to name the option
         world = load_world(args.world, args.spawn, [Path(p) for p in args.model_path], args.wall_height)
@@ -259,24 +358,55 @@ def main(args: argparse.Namespace) -> int:
             spawn=args.spawn,
             model_path=args.model_path,
             wall_height=args.wall_height,
+            start_line=args.start_line,
             **sensor_options(args),
             **xacro_options(args),
         ) as sim,
     ):
-        recorder = _recording(args, sim)
         teleop = KeyboardTeleop(sim.bus, sim.scheduler, lambda: sim.time_ns, args.speed, args.turn, args.hold)
-        dashboard = Dashboard(sim, args.record, sys.stderr)
-        with recorder or contextlib.nullcontext(), LiveViews(sim, args.viewer, args.foxglove, teleop) as views:
-            if not interactive and views.viewer is None:
+        joystick = Joystick(sim, device, joy_config) if device is not None and joy_config is not None else None
+        folder = RunFolder(args, sim, out, record)
+        recorder = folder.recording
+        dashboard = Dashboard(sim, None if folder.record is None else str(folder.record), sys.stderr, joystick)
+        start = time.perf_counter()
+        with (
+            folder,
+            _closing(start_ros_bridge(args, sim)) as ros,
+            _closing(start_ros2_bridge(args, sim)) as ros2,
+            LiveViews(sim, args.viewer, args.foxglove, teleop) as views,
+        ):
+            if not interactive and views.viewer is None and joystick is None:
                 raise ConfigError(NO_KEYBOARD)
             with RawTerminal(sys.stdin.fileno()) if interactive else contextlib.nullcontext() as terminal:
                 dashboard.help(teleop.speed, teleop.turn, interactive)
                 try:
-                    reason = _session(sim, teleop, views, terminal, dashboard, signals, args.duration)
+                    reason = _session(
+                        sim,
+                        teleop,
+                        views,
+                        terminal,
+                        dashboard,
+                        signals,
+                        args.duration,
+                        keys_drive=joystick is None,
+                        bridges=[ros2] if ros2 is not None else [],
+                        ros=ros,
+                    )
+                    if joystick is not None:
+                        joystick.stop()
                     teleop.stop()
                     sim.run_until(sim.time + SETTLE)
                 finally:
                     dashboard.finish()  # whatever is printed next starts on a line of its own
+        wall = time.perf_counter() - start
     with contextlib.suppress(OSError):  # stdout may be a terminal that hung up
         print(dashboard.summary(reason, recorder), flush=True)
+    with contextlib.suppress(OSError):  # the files are written before the summary is printed
+        driver = "gamepad (joy_teleop)" if joystick is not None else "keyboard (keyboard_teleop)"
+        folder.finish(f"{sim.world.name}: teleop, {driver}, {sim.time:.0f} s sim, seed {sim.seed}", [], wall, [driver])
     return 0 if signals.received is None else 128 + signals.received
+
+
+def _closing(bridge: _B | None) -> contextlib.AbstractContextManager[_B | None]:
+    """A bridge (or None), closed on the way out."""
+    return contextlib.closing(bridge) if bridge is not None else contextlib.nullcontext()

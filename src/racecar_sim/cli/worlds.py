@@ -50,5 +50,5 @@ def main(args: argparse.Namespace) -> int:
         save_world_png(world, out)
     except OSError as exc:
         raise RacecarSimError(f"{out}: cannot write the map ({exc.strerror or exc})") from None
-    print(out)
+    print(out.absolute())  # the file written, wherever the command ran
     return 0

@@ -8,6 +8,11 @@ Both stop (truncated) after max_episode_steps = 1200 control steps (60 s at 20 H
 name or a world file), centerline, control_rate (20 Hz), action ("normalized" | "raw"), max_speed (2 m/s),
 max_steering (0.34 rad), crash_penalty (10), profile, physics, sensor_noise, render_mode ("rgb_array" | "human").
 
+Vector (Gymnasium): `gym.make_vec("racecar_sim/Drive-v0", num_envs=N)` gives the native batch DriveBatch (batch.py;
+vectorization_mode "vector_entry_point", Gymnasium's default for this id), a gymnasium.vector.VectorEnv with SAME_STEP
+autoreset; vectorization_mode="sync" / "async" vectorise DriveEnv instead (DriveCamera-v0 always does).
+Stable-Baselines3: `racecar_sim.envs.sb3.SB3VecEnv(batch)` (imported only there, needs the [rl] extra).
+
 PettingZoo: `racecar_sim.envs.parallel_env(num_cars=2, world="walker", collision="involved", ...)` (also
 `race_env`) gives a RaceEnv (race.py), a ParallelEnv with agents "car1", "car2", ...
 
@@ -40,6 +45,7 @@ from racecar_sim.envs.spaces import (
 )
 
 if TYPE_CHECKING:  # loaded by __getattr__ below when first asked for
+    from racecar_sim.envs.batch import DriveBatch
     from racecar_sim.envs.drive import DriveEnv
     from racecar_sim.envs.race import RaceEnv, parallel_env, race_env
 
@@ -55,6 +61,7 @@ __all__ = [
     "MAX_EPISODE_STEPS",
     "MAX_SPEED",
     "MAX_STEERING",
+    "DriveBatch",
     "DriveEnv",
     "DriveLimits",
     "RaceEnv",
@@ -66,11 +73,16 @@ __all__ = [
 
 
 def _register() -> None:
-    for env_id, kwargs in ((DRIVE_ID, {}), (DRIVE_CAMERA_ID, {"camera": True})):
+    # Drive-v0's vector entry point is the native batch (it has no camera: DriveCamera-v0 vectorises DriveEnv)
+    for env_id, kwargs, vector in (
+        (DRIVE_ID, {}, "racecar_sim.envs.batch:DriveBatch"),
+        (DRIVE_CAMERA_ID, {"camera": True}, None),
+    ):
         if env_id not in registry:
             register(
                 env_id,
                 entry_point="racecar_sim.envs.drive:DriveEnv",
+                vector_entry_point=vector,
                 kwargs=kwargs,
                 max_episode_steps=MAX_EPISODE_STEPS,
             )
@@ -84,6 +96,10 @@ def __getattr__(name: str) -> object:  # the env classes load the simulator: onl
         from racecar_sim.envs.drive import DriveEnv
 
         return DriveEnv
+    if name == "DriveBatch":
+        from racecar_sim.envs.batch import DriveBatch
+
+        return DriveBatch
     if name in ("RaceEnv", "race_env", "parallel_env"):
         from racecar_sim.envs import race
 

@@ -1,5 +1,6 @@
 """What an agent sees and does: the observation and action spaces of the driving envs, and the maps between them
-and the sim's units. Shared by DriveEnv, RaceEnv and the native batch (envs/batch.py).
+and the sim's units. Shared by DriveEnv, RaceEnv, the native batch (envs/batch.py) and the policy driver
+(envs/policy.py), which also takes pooled_features: the scan pooled into a few sectors, a small policy's input.
 
 Observation (a `Dict`, every entry float32 unless said):
   scan      (beams,) the latest LaserScan's ranges in m, +inf (nothing within range_max) replaced by range_max,
@@ -22,6 +23,7 @@ defaults are the original's joystick ranges (racecar/config/racecar-v2/joy_teleo
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -161,3 +163,27 @@ def default_specs(profile: str = "seed") -> tuple[LaserSpec, CameraSpec | None]:
     robot = load_robot(DEFAULT_XACRO, load_profile(profile).xacro_args)
     camera = robot.sensor("camera")
     return laser_spec(robot), CameraSpec.from_sensor(camera) if camera is not None else None
+
+
+def pooled_space(sectors: int) -> spaces.Box:
+    """The observation of pooled_features: a float32 vector of sectors + 2."""
+    return spaces.Box(-np.inf, np.inf, (sectors + 2,), np.float32)
+
+
+def pooled_features(
+    observation: Mapping[str, np.ndarray], sectors: int, range_max: float, limits: DriveLimits = DriveLimits()
+) -> np.ndarray:
+    """A driving observation as one small float32 vector (examples/train_ppo.py's policy input): the scan min-pooled
+    into `sectors` sectors as np.array_split cuts it (the nearest return in each) over `range_max` (1 = nothing in
+    range), then the speed over max_speed and the steering angle over max_steering. Works on one observation
+    ((sectors + 2,)) or a batch ((N, sectors + 2)). ConfigError for a sector count the scan cannot give."""
+    scan = np.asarray(observation[SCAN], np.float32)
+    beams = scan.shape[-1]
+    if not (isinstance(sectors, (int, np.integer)) and 1 <= sectors <= beams):
+        raise ConfigError(f"pooled features: sectors must be a whole number from 1 to the scan's {beams} beams")
+    sizes = [len(part) for part in np.array_split(np.arange(beams), sectors)]
+    starts = np.cumsum([0, *sizes[:-1]])
+    near = np.minimum.reduceat(scan, starts, axis=-1) / np.float32(range_max)
+    scale = np.array([limits.max_speed, limits.max_steering], np.float32)
+    motion = np.concatenate([observation[SPEED], observation[STEERING]], axis=-1) / scale
+    return np.concatenate([near, motion], axis=-1).astype(np.float32)

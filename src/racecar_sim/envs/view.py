@@ -45,7 +45,7 @@ class EnvView:
                 from racecar_sim.viz.viewer import CarViewer
 
                 roots = [car.names.mj(car.robot.root) for car in self.sim.cars]
-                self._viewer = CarViewer.open(self.sim.model, self.sim.data, roots) or False
+                self._viewer = CarViewer.open(self.sim.model, self.sim.data, roots, "render_mode='human'") or False
             if self._viewer:
                 self._viewer.sync(None)
         return None

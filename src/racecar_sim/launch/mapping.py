@@ -5,6 +5,11 @@ namespace's spawn the unnamed car, model `racecar`). Topic names a node resolves
 (the original's absolute /vesc/... in a fleet group) are taken as that car's own. A sim node exists only if the
 launch asks for it; nodes the sim has no equivalent for are started through the ROS bridge with `--ros`, and
 otherwise skipped with a warning (or an error, for a node marked required="true").
+
+The joystick of racecar-v2-teleop.launch.xml (`joy/joy_node` and `racecar/joy_teleop.py`, in `<group ns="vesc">`)
+becomes control/joy.py's JoyNode, reading a gamepad, and control/joy_teleop.py's JoyTeleop, with the parameters the
+launch gives them (joy_node's `~deadzone`..., joy_teleop's `teleop` in its namespace). Without a gamepad the
+JoyNode is left out with a warning, and JoyTeleop still takes sensor_msgs/Joy on the bus (and from ROS with --ros).
 """
 
 from __future__ import annotations
@@ -18,7 +23,10 @@ from typing import Any
 
 import yaml
 
+from racecar_sim.control.joy import JoyNode, JoyNodeConfig
+from racecar_sim.control.joy_teleop import JoyCommand, JoyTeleop, parse_commands
 from racecar_sim.control.mux import load_mux_inputs
+from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import NAVIGATION, ODOM, TELEOP, CarNames
 from racecar_sim.launch.errors import LaunchError
 from racecar_sim.launch.plan import LaunchPlan, NodeSpec
@@ -30,6 +38,7 @@ from racecar_sim.launch.spawn import (
     parse_spawn,
     world_of,
 )
+from racecar_sim.runtime import Simulator
 from racecar_sim.runtime.car import DEFAULT_CONTROLLERS, Car, CarNodes
 
 log = logging.getLogger("racecar_sim.launch")
@@ -38,7 +47,8 @@ MUX_NODELET = "ackermann_cmd_mux/AckermannCmdMuxNodelet"
 ACKERMANN = "ackermann_msgs/AckermannDriveStamped"
 DRIVERS = ("wall_follow", "pure_pursuit", "constant")
 NO_OP = {("gazebo_ros", "gzclient"): "the sim draws no Gazebo GUI (see `racecar-sim live`)"}
-NO_JOYSTICK = {("joy", "joy_node"), ("racecar", "joy_teleop.py"), ("joy_teleop", "joy_teleop.py")}
+JOY_NODE = ("joy", "joy_node")
+JOY_TELEOP = (("racecar", "joy_teleop.py"), ("joy_teleop", "joy_teleop.py"))
 
 
 @dataclass
@@ -55,6 +65,57 @@ class DriverSpec:
 
 
 @dataclass
+class JoySpec:
+    """A `joy/joy_node`: its car, topic and parameters. start() opens the gamepad its ~dev_name / ~dev name."""
+
+    car: str
+    node: NodeSpec
+    topic: str
+    config: JoyNodeConfig
+
+    def start(self, sim: Simulator, ros: bool = False) -> JoyNode | None:
+        """The JoyNode of the car, reading the gamepad; None (a warning) when there is none."""
+        from racecar_sim.control.joy_device import GamepadUnavailable, open_gamepad  # pygame only when asked
+
+        cfg = self.config
+        try:
+            device = open_gamepad(cfg.dev_name or cfg.dev, fallback=cfg.dev if cfg.dev_name else None)
+        except GamepadUnavailable as exc:
+            log.warning(
+                "%s: %s: %s; %s takes sensor_msgs/Joy from the bus%s",
+                self.node.where,
+                self.node.label,
+                exc,
+                self.topic,
+                " and from ROS" if ros else "",
+            )
+            return None
+        log.info("%s: %s reads gamepad %s", self.node.where, self.node.label, device.name)
+        node = sim.add_node(lambda ctx: JoyNode(ctx.bus, ctx.timers, ctx.now, device, cfg, self.topic), car=self.car)
+        assert isinstance(node, JoyNode)
+        return node
+
+
+@dataclass
+class JoyTeleopSpec:
+    """A `racecar/joy_teleop.py`: its car, the Joy topic it reads and its commands with their bus topics."""
+
+    car: str
+    node: NodeSpec
+    joy_topic: str
+    commands: tuple[JoyCommand, ...]
+    topics: dict[str, str]  # command topic_name -> bus topic
+    launch_topics: dict[str, str]  # command topic_name -> the absolute name in the launch
+
+    def start(self, sim: Simulator) -> JoyTeleop:
+        node = sim.add_node(
+            lambda ctx: JoyTeleop(ctx.bus, self.commands, self.joy_topic, self.topics.__getitem__), car=self.car
+        )
+        assert isinstance(node, JoyTeleop)
+        return node
+
+
+@dataclass
 class SimSetup:
     """What the runner builds: the world, the cars (with their nodes), drivers, relays, keyboard teleop inputs,
     the nodes for the ROS bridge, and the parameter tree."""
@@ -65,6 +126,8 @@ class SimSetup:
     drivers: list[DriverSpec] = field(default_factory=list)
     relays: list[tuple[str, str]] = field(default_factory=list)
     teleop_topics: list[str] = field(default_factory=list)
+    joy_nodes: list[JoySpec] = field(default_factory=list)
+    joy_teleops: list[JoyTeleopSpec] = field(default_factory=list)
     ros_nodes: list[NodeSpec] = field(default_factory=list)
     skipped: list[NodeSpec] = field(default_factory=list)
 
@@ -139,6 +202,8 @@ def map_plan(
     setup = SimSetup(plan, world, [])
     for node in plan.nodes:
         _sort_node(plan, node, parts, setup, ros)
+    for spec in setup.joy_teleops:
+        _check_joy_topics(spec, parts[spec.car])
     scratch = scratch or Path(tempfile.mkdtemp(prefix="racecar-sim-launch-"))
     for part in parts.values():
         car = Car(
@@ -178,14 +243,6 @@ def _sort_node(plan: LaunchPlan, node: NodeSpec, parts: dict[str, _Parts], setup
     if key in NO_OP:
         plan.notes.append(f"{node.where}: {node.label}: {NO_OP[key]}")
         return
-    if key in NO_JOYSTICK:
-        log.warning(
-            "%s: %s skipped: there is no joystick in the sim (drive with `racecar-sim teleop` or a "
-            "racecar_control keyboard_teleop.py node)",
-            node.where,
-            node.label,
-        )
-        return
     part = _car_of(node, parts)
     if part is None:
         if _is_sim_node(node):
@@ -203,6 +260,12 @@ def _sort_node(plan: LaunchPlan, node: NodeSpec, parts: dict[str, _Parts], setup
         part.odometry.append(node)
     elif key == ("racecar_control", "keyboard_teleop.py"):
         setup.teleop_topics.append(part.own(node.resolve(TELEOP)))
+    elif key == JOY_NODE:
+        setup.joy_nodes.append(_joy_node(plan, node, part))
+    elif key in JOY_TELEOP:
+        spec = _joy_teleop(plan, node, part)
+        if spec is not None:
+            setup.joy_teleops.append(spec)
     elif key == ("topic_tools", "relay") and node.args:
         source = node.resolve(node.args[0])
         target = node.resolve(node.args[1]) if len(node.args) > 1 else source + "_relay"
@@ -234,6 +297,8 @@ def _is_sim_node(node: NodeSpec) -> bool:
         ("racecar_control", "keyboard_teleop.py"),
         ("topic_tools", "relay"),
         ("nodelet", "nodelet"),
+        JOY_NODE,
+        *JOY_TELEOP,
     }
     return (node.package, node.type) in known or node.package == "racecar_sim"
 
@@ -296,6 +361,59 @@ def _driver(plan: LaunchPlan, node: NodeSpec, part: _Parts) -> DriverSpec:
         part.own(node.resolve("/scan")),
         part.own(node.resolve(ODOM)),
     )
+
+
+# --- the joystick ---------------------------------------------------------------------------------------
+def _joy_node(plan: LaunchPlan, node: NodeSpec, part: _Parts) -> JoySpec:
+    where = f"{node.where}: {node.label}"
+    try:
+        config = JoyNodeConfig.from_params(plan.subtree(node.full_name), where)
+    except ConfigError as exc:
+        raise LaunchError(node.where, " ".join(str(exc).split()), "fix the node's private params") from None
+    return JoySpec(part.names.namespace, node, part.own(node.resolve("joy")), config)
+
+
+def _joy_teleop(plan: LaunchPlan, node: NodeSpec, part: _Parts) -> JoyTeleopSpec | None:
+    """joy_teleop.py reads its commands from the `teleop` parameter of its namespace (None: it has none, and takes
+    its node down, as the original does)."""
+    name = node.resolve("teleop")
+    tree = plan.param(name)
+    if tree is None:
+        if node.required:
+            raise LaunchError(node.where, f"{node.label} has no {name} parameter", "load joy_teleop.yaml first")
+        log.warning(
+            "%s: %s: no %s parameter, node not started (load joy_teleop.yaml with <rosparam> first, as "
+            "joy_teleop.launch.xml does)",
+            node.where,
+            node.label,
+            name,
+        )
+        return None
+    try:
+        commands = parse_commands(tree, name)
+    except ConfigError as exc:
+        raise LaunchError(node.where, " ".join(str(exc).split()), "fix joy_teleop.yaml") from None
+    launch_topics = {c.topic_name: node.resolve(c.topic_name) for c in commands}
+    topics = {written: part.own(absolute) for written, absolute in launch_topics.items()}
+    return JoyTeleopSpec(part.names.namespace, node, part.own(node.resolve("joy")), commands, topics, launch_topics)
+
+
+def _check_joy_topics(spec: JoyTeleopSpec, part: _Parts) -> None:
+    """Warn when a drive command of joy_teleop.py goes where no mux of the car takes it (the original's
+    racecar_control teleop.launch includes joy_teleop.launch.xml outside `<group ns="vesc">`)."""
+    inputs, _ = part.mux_topics
+    taken = inputs | {canonical(s) for s, _, _ in part.relays}
+    drives = [c for c in spec.commands if c.cls.__msgtype__.startswith("ackermann_msgs/")]
+    for topic in dict.fromkeys(spec.launch_topics[c.topic_name] for c in drives):
+        if topic not in taken:
+            log.warning(
+                "%s: %s publishes its drive commands on %s, which no ackermann_cmd_mux of the launch takes: the "
+                "joystick drives nothing (racecar-v2-teleop.launch.xml includes joy_teleop.launch.xml in "
+                '<group ns="vesc">)',
+                spec.node.where,
+                spec.node.label,
+                topic,
+            )
 
 
 # --- one car's nodes ------------------------------------------------------------------------------

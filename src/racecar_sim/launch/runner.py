@@ -35,8 +35,11 @@ class LaunchRun:
         model_path: Sequence[str | Path] = (),
         ros: bool = False,
         master_uri: str | None = None,
+        topic_map: str | None = None,
+        start_line: Sequence[float] | None = None,
     ) -> None:
         self.setup = setup
+        self.topic_map_name = topic_map  # the names on ROS (bridges/topic_map.py; None: the sim's)
         self.sim = Simulator(
             world=setup.world.world,
             cars=setup.cars,
@@ -44,6 +47,7 @@ class LaunchRun:
             physics=physics,
             model_path=list(model_path),
             sensor_noise=sensor_noise,
+            start_line=start_line,
         )
         self.bridge: RosBridge | None = None
         try:
@@ -59,6 +63,8 @@ class LaunchRun:
                 KeyboardTeleop(self.sim.bus, self.sim.scheduler, lambda: self.sim.time_ns, topic=topic)
                 for topic in setup.teleop_topics
             ]
+            self.joy_teleops = [spec.start(self.sim) for spec in setup.joy_teleops]
+            self.joy_nodes = [node for spec in setup.joy_nodes if (node := spec.start(self.sim, ros)) is not None]
             if ros:
                 self._start_ros(master_uri)
         except BaseException:
@@ -83,8 +89,11 @@ class LaunchRun:
 
     def _start_ros(self, master_uri: str | None) -> None:
         from racecar_sim.bridges.ros1 import RosBridge  # only a --ros run needs ROS 1
+        from racecar_sim.bridges.topic_map import make_topic_map
 
-        self.bridge = RosBridge(self.sim, master_uri)
+        self.bridge = RosBridge(
+            self.sim, master_uri, topic_map=make_topic_map(self.topic_map_name or "identity", self.sim)
+        )
         self.bridge.start()
         self.bridge.set_params(self.setup.plan.params)
         for node in self.setup.ros_nodes:

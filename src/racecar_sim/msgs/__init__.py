@@ -16,6 +16,7 @@ from racecar_sim.msgs.geometry_msgs import (
     Pose,
     PoseStamped,
     PoseWithCovariance,
+    PoseWithCovarianceStamped,
     Quaternion,
     Transform,
     TransformStamped,
@@ -24,7 +25,7 @@ from racecar_sim.msgs.geometry_msgs import (
     Vector3,
 )
 from racecar_sim.msgs.idl import schema_text
-from racecar_sim.msgs.nav_msgs import Odometry
+from racecar_sim.msgs.nav_msgs import MapMetaData, OccupancyGrid, Odometry
 from racecar_sim.msgs.registry import message_class, msgtype_of
 from racecar_sim.msgs.rosgraph_msgs import Clock
 from racecar_sim.msgs.sensor_msgs import (
@@ -32,6 +33,7 @@ from racecar_sim.msgs.sensor_msgs import (
     Image,
     Imu,
     JointState,
+    Joy,
     LaserScan,
     PointCloud2,
     PointField,
@@ -55,10 +57,13 @@ __all__ = [
     "Int8",
     "JointControllerState",
     "JointState",
+    "Joy",
     "LaserScan",
     "LinkStates",
+    "MapMetaData",
     "ModelState",
     "ModelStates",
+    "OccupancyGrid",
     "Odometry",
     "Point",
     "PointCloud2",
@@ -66,6 +71,7 @@ __all__ = [
     "Pose",
     "PoseStamped",
     "PoseWithCovariance",
+    "PoseWithCovarianceStamped",
     "Quaternion",
     "RegionOfInterest",
     "String",

@@ -81,6 +81,16 @@ class PoseStamped(Message):
 
 
 @dataclass(eq=False, repr=False, slots=True)
+class PoseWithCovarianceStamped(Message):
+    """Pose with covariance and a header (RViz's 2D Pose Estimate on /initialpose)."""
+
+    __msgtype__: ClassVar[str] = "geometry_msgs/msg/PoseWithCovarianceStamped"
+
+    header: Header = field(default_factory=Header)
+    pose: PoseWithCovariance = field(default_factory=PoseWithCovariance)
+
+
+@dataclass(eq=False, repr=False, slots=True)
 class Twist(Message):
     """Linear (m/s) and angular (rad/s) velocity."""
 

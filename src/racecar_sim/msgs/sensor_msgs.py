@@ -1,5 +1,5 @@
 """ROS 2 ``sensor_msgs`` messages: JointState, LaserScan, Image, CompressedImage, CameraInfo, RegionOfInterest, Imu,
-PointField, PointCloud2."""
+PointField, PointCloud2, Joy."""
 
 from __future__ import annotations
 
@@ -33,6 +33,17 @@ class JointState(Message):
     position: npt.NDArray[np.float64] = field(default_factory=_f64)
     velocity: npt.NDArray[np.float64] = field(default_factory=_f64)
     effort: npt.NDArray[np.float64] = field(default_factory=_f64)
+
+
+@dataclass(eq=False, repr=False, slots=True)
+class Joy(Message):
+    """A joystick's axes (-1 to 1; joy_node: stick up and stick left positive) and buttons (0 or 1)."""
+
+    __msgtype__: ClassVar[str] = "sensor_msgs/msg/Joy"
+
+    header: Header = field(default_factory=Header)
+    axes: npt.NDArray[np.float32] = field(default_factory=_f32)
+    buttons: npt.NDArray[np.int32] = field(default_factory=lambda: np.zeros(0, dtype=np.int32))
 
 
 @dataclass(eq=False, repr=False, slots=True)

@@ -3,9 +3,13 @@
 A fleet's run (trajectories given as {car name: path}, two or more) draws each car's path in its own colour
 (FLEET_COLORS, a legend entry naming the car) instead of by speed; the scan and camera frame are the first car's.
 
+Race marks, where given: the start line (dashed), a cross where each crash started with its sim time, and a diamond
+where each lap ended with its number and time (`crashes`, `laps`: {car name: marks with time, x, y, what}).
+
 A fixed size (FIGSIZE at DPI: 1600x1000 px). The map frames the whole world (every geom but the ground planes), the
 path and the last scan; the camera frame, the legend and the summary text sit right of it (SIDE), or under it when
-the view is long and flat (WIDE, e.g. the tunnel). Agg only, no pyplot state.
+the view is long and flat (WIDE, e.g. the tunnel), where the map takes all the height the panel leaves.
+Agg only, no pyplot state.
 """
 
 from __future__ import annotations
@@ -13,10 +17,12 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
 from matplotlib import colormaps
+from matplotlib.artist import Artist
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.cm import ScalarMappable
@@ -51,6 +57,9 @@ class Layout:
 SIDE = Layout((0.045, 0.065, 0.625, 0.855), (0.677, 0.065, 0.011, 0.855), (0.735, 0.92), "down", 0.25, 0.36)
 WIDE = Layout((0.045, 0.45, 0.885, 0.47), (0.94, 0.45, 0.011, 0.47), (0.045, 0.36), "right", 0.3, 0.3)
 WIDE_BELOW = 0.55  # routes flatter than this (height over width) get the WIDE layout
+WIDE_BOTTOM = 0.03  # figure fraction under the WIDE layout's panel
+AXIS_ROOM = 0.075  # figure fraction under the map for its x tick labels and label
+TEXT_RIGHT = 0.985  # figure x the summary text (its box's padding included) stays left of
 
 TRAJECTORY_RATE = 20.0  # Hz, the rows of `trajectory`
 TIME_MARK_EVERY = 10.0  # s between the time labels along the path
@@ -67,9 +76,30 @@ MIN_VIEW_MARGIN = 1.5  # m
 MIN_VIEW = 6.0  # m, the smallest side shown (a car that stood still)
 # Above draw_world's layers (walls at 2.1, the spawn at 5).
 Z_RAYS, Z_HALO, Z_PATH, Z_SCAN, Z_MARKS = 2.5, 3.0, 3.1, 3.5, 6.0
+Z_RACE = 6.5  # crash and lap marks, over the time marks
+CRASH_COLOR = "#d62728"
+LAP_COLOR = "#ffd700"
+START_LINE_COLOR = "black"
+MAX_LABELS = 12  # labelled marks of each kind per car; more are drawn unlabelled
+LABEL_SPACING = 0.03  # of the map's width: a mark nearer than this to a labelled one is drawn unlabelled
+
+
+class Mark(Protocol):
+    """A crash or a lap end: sim time (s), where the car was (m), and what (the thing hit, or the lap's number and
+    time)."""
+
+    @property
+    def time(self) -> float: ...
+    @property
+    def x(self) -> float: ...
+    @property
+    def y(self) -> float: ...
+    @property
+    def what(self) -> str: ...
 
 
 Trajectories = np.ndarray | Mapping[str, np.ndarray]
+Marks = Mapping[str, Sequence[Mark]]
 
 
 def save_summary(
@@ -83,6 +113,9 @@ def save_summary(
     title: str = "",
     lines: Sequence[str] = (),
     rate: float = TRAJECTORY_RATE,
+    crashes: Marks | None = None,
+    laps: Marks | None = None,
+    start_line: tuple[tuple[float, float], tuple[float, float]] | None = None,
 ) -> Path:
     """Write the run's summary PNG (1600x1000 px) and return its path; see summary_figure for the arguments."""
     fig, _ = summary_figure(
@@ -94,6 +127,9 @@ def save_summary(
         title=title,
         lines=lines,
         rate=rate,
+        crashes=crashes,
+        laps=laps,
+        start_line=start_line,
     )
     path = Path(path)
     fig.savefig(path, format="png", dpi=DPI)
@@ -110,6 +146,9 @@ def summary_figure(
     title: str = "",
     lines: Sequence[str] = (),
     rate: float = TRAJECTORY_RATE,
+    crashes: Marks | None = None,
+    laps: Marks | None = None,
+    start_line: tuple[tuple[float, float], tuple[float, float]] | None = None,
 ) -> tuple[Figure, Axes]:
     """The summary figure (not attached to pyplot) and its map Axes.
 
@@ -118,6 +157,7 @@ def summary_figure(
     {car name: (N, 3)}, each car drawn in its own colour (one entry is drawn as the single car's path).
     scan_origin: (x, y) of the laser; scan_points: (M, 2) world end points of the finite beams.
     camera_bgr: (H, W, 3) uint8 BGR image. lines: summary text, one item a line. Scan and camera may be None.
+    crashes, laps: {car name: marks} (the single car's under any name); start_line: its two ends (x, y).
     """
     paths = (
         {name: _checked(path) for name, path in trajectory.items()}
@@ -133,6 +173,8 @@ def summary_figure(
     prints = footprints(world)
     lo, hi = _view_bounds(np.vstack([finite_points(prints), _view_points(traj, origin, points, world)]))
     layout = WIDE if (hi[1] - lo[1]) < WIDE_BELOW * (hi[0] - lo[0]) else SIDE
+    if fleet and layout is SIDE:  # no speed colourbar: the panel (a wider table) starts where it would be
+        layout = Layout(**{**vars(SIDE), "panel": (SIDE.colorbar[0] + 0.01, SIDE.panel[1])})
     fig = Figure(figsize=FIGSIZE, dpi=DPI)
     canvas = FigureCanvasAgg(fig)
     fig.suptitle(title or world.name, x=0.045, y=TITLE_Y, ha="left", fontsize=16, fontweight="bold")
@@ -147,14 +189,32 @@ def summary_figure(
     handles: list[Line2D] = []
     if origin is not None and len(points):
         handles.append(_draw_scan(ax, origin, points, next(iter(paths)) if fleet else ""))
+    colorbar_axes = None
     if fleet:
         handles = _draw_fleet(ax, paths) + handles
     else:
         norm = Normalize(0.0, max(float(traj[:, 2].max()) if len(traj) else 0.0, 0.1))
         handles = _draw_trajectory(ax, traj, norm, rate) + handles
-        colorbar = fig.colorbar(ScalarMappable(norm=norm, cmap=SPEED_CMAP), cax=fig.add_axes(layout.colorbar))
+        colorbar_axes = fig.add_axes(layout.colorbar)
+        colorbar = fig.colorbar(ScalarMappable(norm=norm, cmap=SPEED_CMAP), cax=colorbar_axes)
         colorbar.set_label("speed (m/s)")
-    _fill_panel(fig, canvas, layout, image, handles, lines, f"{next(iter(paths))}'s " if fleet else "")
+    handles += _draw_race(ax, crashes or {}, laps or {}, start_line, fleet)
+    owner = f"{next(iter(paths))}'s " if fleet else ""
+    if layout.flow == "right":  # the panel at the bottom as tall as it needs to be, the map above it in the rest
+        _, lowest = _fill_panel(fig, canvas, layout, image, handles, lines, owner, remove=True)
+        panel_top = WIDE_BOTTOM + (layout.panel[1] - lowest)
+        _fill_panel(
+            fig, canvas, Layout(**{**vars(layout), "panel": (layout.panel[0], panel_top)}), image, handles, lines, owner
+        )
+        left, _, width, _ = layout.map
+        bottom = panel_top + AXIS_ROOM
+        height = layout.map[1] + layout.map[3] - bottom
+        ax.set_position((left, bottom, width, height))
+        if colorbar_axes is not None:
+            colorbar_axes.set_position((layout.colorbar[0], bottom, layout.colorbar[2], height))
+        _set_view(ax, lo, hi)
+    else:
+        _fill_panel(fig, canvas, layout, image, handles, lines, owner)
     return fig, ax
 
 
@@ -180,16 +240,21 @@ def _fill_panel(
     handles: list[Line2D],
     lines: Sequence[str],
     owner: str = "",
-) -> None:
+    remove: bool = False,
+) -> tuple[list[Artist], float]:
     """The camera frame, the legend and the text box, one after the other from the panel's corner (`canvas`: the
-    figure's)."""
+    figure's). Returns what it drew and the lowest figure y it reached; `remove`: take it all off again (a
+    measurement)."""
     renderer = canvas.get_renderer()
     x, top = layout.panel
     to_figure = fig.transFigure.inverted()
+    drawn: list[Artist] = []
+    lowest = top
 
     def advance(extent: Bbox) -> None:  # move past an item drawn at (x, top)
-        nonlocal x, top
+        nonlocal x, top, lowest
         box = extent.transformed(to_figure)
+        lowest = min(lowest, box.y0)
         if layout.flow == "down":
             top = box.y0 - GAP
         else:
@@ -203,6 +268,7 @@ def _fill_panel(
         title_room = 0.03
         cam = fig.add_axes((x, top - title_room - height, width, height))
         _draw_camera(cam, image, f"{owner}camera, last frame")
+        drawn.append(cam)
         extent = cam.get_tightbbox(renderer)
         assert extent is not None, "a visible axes has a bounding box"
         advance(extent)
@@ -217,9 +283,10 @@ def _fill_panel(
             borderaxespad=0.0,
             borderpad=0.0,
         )
+        drawn.append(legend)
         advance(legend.get_window_extent(renderer))
     if lines:
-        fig.text(
+        text = fig.text(
             x + 0.006,
             top - 0.01,
             "\n".join(lines),
@@ -230,6 +297,17 @@ def _fill_panel(
             linespacing=1.5,
             bbox={"boxstyle": "round,pad=0.6", "facecolor": (0.96, 0.96, 0.96), "edgecolor": (0.7, 0.7, 0.7)},
         )
+        drawn.append(text)
+        for _ in range(3):  # long lines (a crash's wall name, a fleet's table): a smaller font, inside the figure
+            box = text.get_window_extent(renderer).transformed(to_figure)
+            if box.x1 <= TEXT_RIGHT:
+                break
+            text.set_fontsize(text.get_fontsize() * (TEXT_RIGHT - box.x0) / (box.x1 - box.x0) * 0.98)
+        lowest = min(lowest, text.get_window_extent(renderer).transformed(to_figure).y0 - 0.012)  # the box's pad
+    if remove:
+        for artist in drawn:
+            artist.remove()
+    return drawn, lowest
 
 
 def _view_points(traj: np.ndarray, origin: np.ndarray | None, points: np.ndarray, world: World) -> np.ndarray:
@@ -382,6 +460,62 @@ def _draw_fleet(ax: Axes, paths: Mapping[str, np.ndarray]) -> list[Line2D]:
         label="end",
     )
     return handles + [start, end]
+
+
+def _draw_race(
+    ax: Axes,
+    crashes: Marks,
+    laps: Marks,
+    start_line: tuple[tuple[float, float], tuple[float, float]] | None,
+    fleet: bool,
+) -> list[Line2D]:
+    """The start line, a cross at each crash (labelled with its sim time, and in a fleet the car) and a diamond at
+    each lap's end (its number and lap time); their legend entries."""
+    handles: list[Line2D] = []
+    if start_line is not None:
+        (ax_, ay), (bx, by) = start_line
+        ax.plot([ax_, bx], [ay, by], color="white", linewidth=4.0, zorder=Z_MARKS - 0.1, solid_capstyle="butt")
+        ax.plot([ax_, bx], [ay, by], color=START_LINE_COLOR, linewidth=2.0, linestyle=(0, (3, 2)), zorder=Z_MARKS)
+        handles.append(Line2D([], [], color=START_LINE_COLOR, linewidth=2.0, linestyle=(0, (3, 2)), label="start line"))
+    style = {"boxstyle": "round,pad=0.15", "facecolor": "white", "alpha": 0.8, "linewidth": 0}
+    crash_style = {"marker": "X", "color": CRASH_COLOR, "markeredgecolor": "white", "markeredgewidth": 1.2}
+    lap_style = {"marker": "D", "color": LAP_COLOR, "markeredgecolor": "black", "markeredgewidth": 1.0}
+    near = LABEL_SPACING * float(np.ptp(ax.get_xlim()))  # a label this close to another one is left out
+    labelled: list[tuple[float, float]] = []
+
+    def label(mark: Mark, text: str, offset: tuple[float, float], color: str) -> None:
+        if any(abs(mark.x - x) < near and abs(mark.y - y) < near for x, y in labelled):
+            return
+        labelled.append((mark.x, mark.y))
+        ax.annotate(
+            text,
+            (mark.x, mark.y),
+            xytext=offset,
+            textcoords="offset points",
+            fontsize=8,
+            color=color,
+            zorder=Z_RACE,
+            bbox=style,
+        )
+
+    for marks, mark_style, size, legend in (
+        (laps, lap_style, 9, "lap ended (lap time)"),
+        (crashes, crash_style, 12, "crash (sim time)"),
+    ):
+        if not any(marks.values()):
+            continue
+        for car, kept in marks.items():
+            prefix = f"{car} " if fleet else ""
+            for k, mark in enumerate(kept):
+                ax.plot(mark.x, mark.y, linestyle="", markersize=size, zorder=Z_RACE, **mark_style)  # type: ignore[arg-type]
+                if k >= MAX_LABELS:
+                    continue
+                if marks is laps:
+                    label(mark, f"{prefix}lap {mark.what}", (6, -12), "black")
+                else:
+                    label(mark, f"{prefix}crash {mark.time:.2f} s", (7, 6), CRASH_COLOR)
+        handles.append(Line2D([], [], linestyle="", markersize=size - 1, label=legend, **mark_style))  # type: ignore[arg-type]
+    return handles
 
 
 def _cmap_color(norm: Normalize, value: float) -> tuple[float, float, float, float]:

@@ -4,7 +4,8 @@ physics (at event rate, never per physics step; physics/crash_contacts.py says w
 Each crash is announced once, when it starts, on /racecar_sim/collisions (std_msgs/String: "carA carB" for two cars,
 "carA <model>::<link>" for a wall or an obstacle) and kept in `crashes` for the run's summary; two cars starting to
 touch also go to the hooks given to Simulator.on_collision. A car scraping along a wall is one crash: a new wall
-crash of that car starts only after WALL_GAP of sim time without touching any.
+crash of that car starts only after WALL_GAP of sim time without touching any. So is a car pushing another (their
+contact flickers as they bounce): a new crash of the pair starts only after WALL_GAP without their touching.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from racecar_sim.nodes import NodeBase
 from racecar_sim.physics.crash_contacts import CrashContacts
 
 COLLISIONS = "/racecar_sim/collisions"  # std_msgs/String "carA carB", or "carA <what it hit>"
-WALL_GAP = 1.0  # s without touching a wall before a car's next wall crash counts as a new one
+WALL_GAP = 1.0  # s without touching a wall (or the same other car) before the car's next crash into it counts
 MAX_KEPT = 10_000  # crashes kept for the summary (a long run that keeps crashing must not grow without bound)
 
 
@@ -65,7 +66,7 @@ class Crashes(NodeBase):
         self._cars: list[WatchedCar] = []
         self._data: mujoco.MjData | None = None
         self._model: mujoco.MjModel | None = None
-        self._pairs: set[tuple[int, int]] = set()
+        self._last_pair: dict[tuple[int, int], int] = {}  # (car, car) -> sim time they last touched
         self._last_wall: dict[int, int] = {}  # car -> sim time it last touched a wall
         self._gap = to_ns(WALL_GAP)
 
@@ -79,12 +80,12 @@ class Crashes(NodeBase):
             self._contacts = CrashContacts(model, roots, wheels)
         else:
             self._contacts.rebind(model, roots, wheels)
-        self._pairs, self._last_wall = set(), {}
+        self._last_pair, self._last_wall = {}, {}
         if known:
             now = self.now()
             for a, b, _ in self._contacts.touching(data):
                 if b >= 0:
-                    self._pairs.add((a, b))
+                    self._last_pair[(a, b)] = now
                 else:
                     self._last_wall[a] = now
 
@@ -100,12 +101,14 @@ class Crashes(NodeBase):
                 pairs.add((a, b))
             elif a not in walls:
                 walls[a] = geom
-        for a, b in sorted(pairs - self._pairs):
-            names = (self._cars[a].name, self._cars[b].name)
-            self._announce(Crash(now, names[0], names[1], "car"), " ".join(names))
-            for hook in self.hooks:
-                hook(Collision(now, names))
-        self._pairs = pairs
+        for a, b in sorted(pairs):
+            last = self._last_pair.get((a, b))
+            if last is None or now - last > self._gap:
+                names = (self._cars[a].name, self._cars[b].name)
+                self._announce(Crash(now, names[0], names[1], "car"), " ".join(names))
+                for hook in self.hooks:
+                    hook(Collision(now, names))
+            self._last_pair[(a, b)] = now
         for car, geom in walls.items():
             last = self._last_wall.get(car)
             if last is None or now - last > self._gap:
@@ -135,5 +138,5 @@ class Crashes(NodeBase):
         return [c for c in self.crashes if c.car == car or (c.kind == "car" and c.what == car)]
 
     def reset(self, seed: int) -> None:
-        self._pairs, self._last_wall = set(), {}
+        self._last_pair, self._last_wall = {}, {}
         self.crashes, self.count = [], 0

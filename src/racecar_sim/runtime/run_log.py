@@ -1,4 +1,5 @@
-"""What a run did, from its topics: the path, the speeds, the closest wall, the last scan and camera frame.
+"""What a run did, from its topics: the path, the speeds, the closest wall, the last scan and camera frame (RunLog),
+and where each crash and each lap happened (RaceLog).
 
 Its memory does not grow with the run: the figures (distance, mean speed, min clearance) are kept as running
 totals, and the path for the plot is kept at most TRAJECTORY_ROWS rows long (a longer run keeps every other row).
@@ -7,12 +8,19 @@ totals, and the path for the plot is kept at most TRAJECTORY_ROWS rows long (a l
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from racecar_sim.bus import BusPort
 from racecar_sim.drivers.odom import planar_pose
-from racecar_sim.msgs import Image, LaserScan, Odometry
+from racecar_sim.msgs import Image, LaserScan, Odometry, String
+from racecar_sim.runtime.collisions import COLLISIONS, MAX_KEPT
+from racecar_sim.runtime.laps import LAP
+
+if TYPE_CHECKING:
+    from racecar_sim.runtime.simulator import Simulator
 
 TRAJECTORY_ROWS = 1 << 14  # the most path rows kept per car (819 s at 20 Hz, 384 KB); then every other one is dropped
 ODOMETRY_RATE = 20.0  # Hz, the rows of `trajectory` until it is thinned out
@@ -116,3 +124,67 @@ class RunLog:
 def image_array(msg: Image) -> np.ndarray:
     """A bgr8 / rgb8 Image's pixels as an H x W x 3 uint8 array (BGR order)."""
     return msg.bgr_pixels()
+
+
+@dataclass(frozen=True)
+class RaceMark:
+    """Where a car was when one of its crashes started or one of its laps ended: sim time (s), x, y (m), and what:
+    the thing or car it hit, or the lap's number and time ("2: 64.10 s")."""
+
+    time: float
+    x: float
+    y: float
+    what: str
+
+
+class RaceLog:
+    """The places of the run's crashes (/racecar_sim/collisions) and lap ends (/racecar_sim/lap), per car (model
+    name), for the summary's plot: each car's position at the moment the crash was announced or the lap counted.
+
+    The figures themselves (times, counts, what was hit) are `sim.collisions` and `sim.laps`'; this adds the places.
+    At most MAX_KEPT marks of each kind are kept per car.
+    """
+
+    def __init__(self, sim: Simulator) -> None:
+        self.sim = sim
+        self.crashes: dict[str, list[RaceMark]] = {}
+        self.laps: dict[str, list[RaceMark]] = {}
+        sim.subscribe(COLLISIONS, self._on_crash)
+        sim.subscribe(LAP, self._on_lap)
+
+    def _mark(self, marks: dict[str, list[RaceMark]], car: str, what: str) -> None:
+        kept = marks.setdefault(car, [])
+        if len(kept) >= MAX_KEPT:
+            return
+        try:
+            position, _ = self.sim.car_named(car).state.base_pose()
+        except Exception:  # a car deleted since (a Gazebo delete_model): no place to mark
+            return
+        kept.append(RaceMark(self.sim.time, float(position[0]), float(position[1]), what))
+
+    def _on_crash(self, msg: String) -> None:
+        car, _, what = msg.data.partition(" ")
+        self._mark(self.crashes, car, what)
+        if what in {c.model_name for c in self.sim.cars}:  # two cars: a mark on each one's path
+            self._mark(self.crashes, what, car)
+
+    def _on_lap(self, msg: String) -> None:
+        car, count, last, *_ = msg.data.split(" ")
+        self._mark(self.laps, car, f"{count}: {float(last):.2f} s")
+
+
+def race_results(sim: Simulator, car: str) -> dict[str, Any]:
+    """One car's race figures: laps (None where the world has no start line), each lap's time, the best lap (s), and
+    its crashes (sim time, what it hit: a wall's model::link or the other car, kind "wall" or "car")."""
+    record = sim.laps.records.get(car) if sim.laps is not None else None
+    crashes = []
+    for crash in sim.collisions.crashes_of(car):
+        other = crash.what if crash.car == car else crash.car
+        crashes.append({"time": crash.time_ns / 1e9, "what": other, "kind": crash.kind})
+    return {
+        "laps": None if sim.laps is None else (record.count if record is not None else 0),
+        "lap_times": [] if record is None else record.times,
+        "best_lap": None if record is None else record.best,
+        "crash_count": len(crashes),
+        "crashes": crashes,
+    }

@@ -1,41 +1,29 @@
-"""How often one car crashed in an episode: envs.crash's contact test, sampled at its rate and counted."""
+"""An episode's crashes and laps for its results row, from the Simulator's own crash watch (`sim.collisions`: walls,
+obstacles and cars, each crash once, with its sim time and what was hit) and lap counter (`sim.laps`), the figures
+`racecar-sim run` prints and writes to summary.json."""
 
 from __future__ import annotations
 
-import mujoco
+import math
+from typing import Any
 
-from racecar_sim.description.vehicle import VehicleGeometry
-from racecar_sim.runtime import Car
-
-CHECK_RATE = 100.0  # Hz, envs.crash's: on the /clock ticks, so no physics step is split for it
-SEPARATION_NS = 500_000_000  # a car pressed on a wall bounces on and off it: one crash until 0.5 s without a touch
+from racecar_sim.runtime import Simulator
+from racecar_sim.runtime.run_log import race_results
 
 
-class CrashCounter:
-    """Counts the crashes of `car`: touches of a wall, an obstacle or another car, as the Gymnasium env ends an
-    episode on (envs.crash.CrashMonitor), at least 0.5 s apart (one pressed against a wall flickers on and off).
-
-    Call `update(data, now_ns)` at a fixed rate (CHECK_RATE); `count` is the number of crashes,
-    `first_ns` the sim time of the first.
-    """
-
-    def __init__(self, model: mujoco.MjModel, car: Car) -> None:
-        from racecar_sim.envs.crash import CrashMonitor  # gymnasium loads only when an episode runs
-
-        geometry = VehicleGeometry.from_robot(car.robot)
-        self._monitor = CrashMonitor.for_cars(model, [(car.names, car.robot.root, geometry)])
-        self._last_ns: int | None = None
-        self.count = 0
-        self.first_ns: int | None = None
-
-    def update(self, data: mujoco.MjData, now_ns: int) -> None:
-        """Sample the contacts now; a crash counts once, however long it lasts."""
-        self._monitor.clear()
-        self._monitor.check(data)
-        if not self._monitor.crashed(0):
-            return
-        if self._last_ns is None or now_ns - self._last_ns >= SEPARATION_NS:
-            self.count += 1
-            if self.first_ns is None:
-                self.first_ns = now_ns
-        self._last_ns = now_ns
+def race_measures(sim: Simulator | None) -> dict[str, Any]:
+    """The first car's `collisions` (how many crashes), `first_collision_time` (s, NaN without one), `laps` (None in
+    a world without a start line), `best_lap` (s, NaN without a lap), and the lists behind them (`lap_times`,
+    `crashes`: sim time, what was hit, kind) for summary.json."""
+    if sim is None:
+        return {"collisions": 0, "first_collision_time": math.nan, "laps": None, "best_lap": math.nan}
+    results = race_results(sim, sim.car.model_name)
+    crashes = results["crashes"]
+    return {
+        "collisions": results["crash_count"],
+        "first_collision_time": crashes[0]["time"] if crashes else math.nan,
+        "laps": results["laps"],
+        "best_lap": results["best_lap"] if results["best_lap"] is not None else math.nan,
+        "lap_times": results["lap_times"],
+        "crashes": crashes,
+    }

@@ -14,8 +14,8 @@ from racecar_sim.core.errors import RacecarSimError
 from racecar_sim.core.names import ODOM
 from racecar_sim.runtime import Simulator
 from racecar_sim.runtime.driving import attach_driver
-from racecar_sim.runtime.run_log import RunLog
-from racecar_sim.sweep.collisions import CHECK_RATE, CrashCounter
+from racecar_sim.runtime.run_log import RaceLog, RunLog
+from racecar_sim.sweep.collisions import race_measures
 from racecar_sim.sweep.spec import Episode
 
 MCAP = "run.mcap"
@@ -41,7 +41,7 @@ def run_episode(episode: Episode, folder: str | Path) -> dict[str, Any]:
         "duration": settings.duration,
     }
     start = time.perf_counter()
-    sim = runlog = contacts = None
+    sim = runlog = race = None
     error = ""
     try:
         sim = Simulator(
@@ -62,8 +62,7 @@ def run_episode(episode: Episode, folder: str | Path) -> dict[str, Any]:
             sim.car.camera.spec.image_topic if sim.car.camera and settings.summary_png else None,
             odom_topic=ODOM,
         )
-        contacts = CrashCounter(sim.model, sim.car)
-        sim.scheduler.every(CHECK_RATE, lambda now: contacts.update(sim.data, now), "sweep crash count")
+        race = RaceLog(sim)  # where the crashes and laps happened, for summary.png
         start = time.perf_counter()  # the episode's own time: building the world is not the sim's speed
         sim.run_until(settings.duration)
     except RacecarSimError as exc:
@@ -76,17 +75,15 @@ def run_episode(episode: Episode, folder: str | Path) -> dict[str, Any]:
         wall = time.perf_counter() - start
         if sim is not None:
             sim.close()  # the MCAP's footer
-    row.update(_measures(sim, runlog, contacts, wall))
+    row.update(_measures(sim, runlog, wall))
     row["error"] = error
     (folder / SUMMARY_JSON).write_text(json.dumps(_json_safe(row), indent=2) + "\n")
     if settings.summary_png and sim is not None and runlog is not None:
-        _summary_png(episode, sim, runlog, row, folder / SUMMARY_PNG)
+        _summary_png(episode, sim, runlog, race, row, folder / SUMMARY_PNG)
     return row
 
 
-def _measures(
-    sim: Simulator | None, runlog: RunLog | None, contacts: CrashCounter | None, wall: float
-) -> dict[str, Any]:
+def _measures(sim: Simulator | None, runlog: RunLog | None, wall: float) -> dict[str, Any]:
     sim_time = sim.time if sim is not None else 0.0
     x = y = yaw = math.nan
     if runlog is not None and runlog.last_pose is not None:
@@ -99,15 +96,16 @@ def _measures(
         "distance": runlog.distance if runlog is not None else 0.0,
         "mean_speed": runlog.mean_speed if runlog is not None else 0.0,
         "min_clearance": clearance,
-        "collisions": contacts.count if contacts is not None else 0,
-        "first_collision_time": contacts.first_ns / 1e9 if contacts is not None and contacts.first_ns else math.nan,
+        **race_measures(sim),  # collisions, first_collision_time, laps, best_lap (and their lists)
         "final_x": x,
         "final_y": y,
         "final_yaw": yaw,
     }
 
 
-def _summary_png(episode: Episode, sim: Simulator, runlog: RunLog, row: dict[str, Any], path: Path) -> None:
+def _summary_png(
+    episode: Episode, sim: Simulator, runlog: RunLog, race: RaceLog | None, row: dict[str, Any], path: Path
+) -> None:
     from racecar_sim.plots.summary import save_summary  # matplotlib loads only when a summary is drawn
 
     origin = ends = None
@@ -118,6 +116,7 @@ def _summary_png(episode: Episode, sim: Simulator, runlog: RunLog, row: dict[str
         f"distance         {row['distance']:.1f} m",
         f"mean speed       {row['mean_speed']:.2f} m/s",
         f"collisions       {row['collisions']}",
+        *([f"laps             {row['laps']} (best {row['best_lap']:.2f} s)"] if row["laps"] else []),
         f"real-time factor {row['real_time_factor']:.1f}x",
     ]
     if not math.isnan(row["min_clearance"]):
@@ -132,6 +131,9 @@ def _summary_png(episode: Episode, sim: Simulator, runlog: RunLog, row: dict[str
         title=f"{sim.world.name}: {episode.driver} ({params or 'defaults'}), {sim.time:.0f} s sim, seed {episode.seed}",
         lines=lines,
         rate=runlog.trajectory_rate,
+        crashes=race.crashes if race is not None else None,
+        laps=race.laps if race is not None else None,
+        start_line=None if sim.laps is None else (sim.laps.line.a, sim.laps.line.b),
     )
 
 

@@ -24,6 +24,8 @@ MEASURES = [
     "min_clearance",
     "collisions",
     "first_collision_time",
+    "laps",
+    "best_lap",
     "final_x",
     "final_y",
     "final_yaw",

@@ -80,14 +80,18 @@ class CarViewer:
         return self.roots[self.following]
 
     @classmethod
-    def open(cls, model: mujoco.MjModel, data: mujoco.MjData, root_body: str | Sequence[str]) -> CarViewer | None:
-        """The window, or None (with one warning line naming why) when there is no usable display."""
+    def open(
+        cls, model: mujoco.MjModel, data: mujoco.MjData, root_body: str | Sequence[str], asked_by: str = "the viewer"
+    ) -> CarViewer | None:
+        """The window, or None (with one warning line naming why) when there is no usable display. `asked_by`: what
+        asked for it, as the user wrote it (`--viewer` on the CLI, `render_mode='human'` from Python), for the
+        warning."""
         viewer = cls(model, data, root_body)
         problem = _display_problem()
         if problem is None:
             viewer.handle, viewer._thread, problem = _launch(viewer.model, viewer.data, viewer._on_key)
         if problem is not None:
-            log.warning("--viewer: %s; continuing headless", problem)
+            log.warning("%s: %s; continuing headless", asked_by, problem)
             return None
         viewer._setup_scene()
         return viewer

@@ -5,14 +5,14 @@ serialized to ROS 1 bytes here (wire.py) and published as it is by the ROS side;
 to is not serialized (latched ones always are), and sensors nobody reads skip their work (Bus.tap wants).
 Inbound, the ROS side subscribes to every topic a sim node takes commands on and forwards the bytes; they wait
 in a thread-safe inbox until the sim drains it, DRAIN_RATE times per sim second (and in spin_once()), when they
-are deserialized and published on the bus; ROS service calls are answered there too, through bus.call.
+are deserialized and published on the bus; ROS service calls are answered there too, through bus.call. The inbox,
+the drains and the no-echo rule are the shape every bridge shares (bridges/base.py).
 """
 
 from __future__ import annotations
 
 import logging
 import pickle
-import queue
 import subprocess
 import sys
 import threading
@@ -21,20 +21,23 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from racecar_sim.bridges.base import DRAIN_RATE, BusBridge
 from racecar_sim.bridges.ros1 import catalog, nodes, wire
+from racecar_sim.bridges.ros1.batch import FrameBatch
 from racecar_sim.bridges.ros1.environment import ROS_SIDE
 from racecar_sim.bridges.ros1.link import DATA, ID, RosSideLink
+from racecar_sim.bridges.topic_map import IDENTITY, TopicMap
 from racecar_sim.core.errors import ConfigError
 
 if TYPE_CHECKING:
     from racecar_sim.runtime import Simulator
 
+__all__ = ["DRAIN_RATE", "NODE_NAME", "RosBridge"]
 log = logging.getLogger("racecar_sim.ros1")
-DRAIN_RATE = 200.0  # Hz of sim time: a command from ROS reaches the bus at most 5 ms of sim time late
-SYNC_EVERY = 10  # drains between checks for new services and listened topics (20 Hz of sim time)
 READY_TIMEOUT = 60.0  # s for the ROS side to register with the master
 NODE_NAME = "racecar_sim"
-QUEUE_SIZE = 10  # rospy publisher queue per subscriber connection: a slower node drops the oldest
+QUEUE_SIZE = 20  # rospy publisher queue per subscriber connection: a slower node drops the oldest
+LATEST_ONLY = frozenset({"/clock"})  # in a batch, the newest replaces the one waiting (batch.py: nodes keep the newest)
 
 
 @dataclass
@@ -53,7 +56,7 @@ class _Inbound:
     cls: type
 
 
-class RosBridge:
+class RosBridge(BusBridge):
     """The sim on a ROS 1 master: topics, command subscriptions, services, /clock, /use_sim_time, and real ROS
     nodes started beside it.
 
@@ -61,26 +64,31 @@ class RosBridge:
     RosUnavailable (one line: what to install) when there is no interpreter with rospy.
     """
 
-    def __init__(self, sim: Simulator, master_uri: str | None = None, node_name: str = NODE_NAME) -> None:
-        self.sim = sim
+    task_name = "ros1_bridge"
+    log = log
+
+    def __init__(
+        self,
+        sim: Simulator,
+        master_uri: str | None = None,
+        node_name: str = NODE_NAME,
+        topic_map: TopicMap = IDENTITY,
+    ) -> None:
+        super().__init__(sim)
         self.node_name = node_name
+        self.topic_map = topic_map  # the names on ROS (bridges/topic_map.py); the bus keeps the sim's
         self._ros = nodes.RosNodes(master_uri)
         self.python, self.master_uri, self.env = self._ros.python, self._ros.master_uri, self._ros.env
         self.nodes = self._ros.processes
-        self._inbox: queue.SimpleQueue[tuple[Any, ...]] = queue.SimpleQueue()
         self._out: dict[str, _Outbound] = {}
         self._by_id: dict[int, _Outbound] = {}
         self._in: dict[int, _Inbound] = {}
         self._subscribed: set[str] = set()
         self._services: dict[str, str] = {}
-        self._injected: Any = None
         self._ready = threading.Event()
-        self._drains = 0
+        # messages out, in batches; no more of one topic than half a rospy publisher queue
+        self._batch = FrameBatch(lambda kind, *parts: self._side.send(kind, *parts), QUEUE_SIZE // 2)
         self._link: RosSideLink | None = None
-        self._remove_tap: Any = None
-        self._task: Any = None
-        self.sent = 0  # messages published to ROS
-        self.received = 0  # messages from ROS published on the bus
 
     # --- life cycle ----------------------------------------------------------------------------------------------
     def start(self) -> None:
@@ -97,11 +105,7 @@ class RosBridge:
                     f"--ros: the ROS side ({ROS_SIDE.name} under {self.python}) did not start"
                     f"{f' (exit code {code})' if code is not None else ''}; see its messages above"
                 )
-        self._remove_tap = self.sim.bus.tap(self._on_bus, wants=self._wants)
-        for topic, msg in self.sim.bus.latched_messages().items():
-            self._on_bus(topic, msg)
-        self._sync()
-        self._task = self.sim.scheduler.every(DRAIN_RATE, self._on_tick, "ros1_bridge")
+        self._attach()
 
     def set_params(self, params: Mapping[str, Any]) -> None:
         """Put parameters (absolute names -> values) on the ROS parameter server."""
@@ -127,14 +131,10 @@ class RosBridge:
 
     def close(self) -> None:
         """Stop the started nodes, the ROS side, and the roscore this bridge started."""
-        if self._task is not None:
-            self._task.cancel()
-            self._task = None
-        if self._remove_tap is not None:
-            self._remove_tap()
-            self._remove_tap = None
+        self._detach()
         self._ros.stop_nodes()
         if self._link is not None:
+            self._batch.flush()
             self._link.close()
             self._link = None
         self._ros.master.close()
@@ -158,25 +158,27 @@ class RosBridge:
         out = self._out.get(topic)
         return out is None or (out.ok and (out.latched or out.connections > 0))
 
-    def _on_bus(self, topic: str, msg: Any) -> None:
-        if msg is self._injected:
-            return  # it came from ROS: no echo
+    def _send(self, topic: str, msg: Any) -> None:
         out = self._out.get(topic) or self._advertise(topic, type(msg))
         if not out.ok or not (out.latched or out.connections > 0):
             return
         out.seq += 1
         try:
-            data = wire.serialize(msg, out.seq)
+            data = wire.serialize(self.topic_map.to_ros(topic, msg), out.seq)
         except (TypeError, ValueError, AttributeError, KeyError) as exc:
             out.ok = False
             log.warning("not bridging %s to ROS: %s", topic, exc)
             return
-        self._side.send(DATA, ID.pack(out.id), data)
+        self._batch.add(out.id, data)
         self.sent += 1
 
     def _advertise(self, topic: str, cls: type) -> _Outbound:
         out = _Outbound(len(self._by_id) + 1, cls, self.sim.bus.is_latched(topic))
         self._out[topic] = self._by_id[out.id] = out
+        ros_topic = self.topic_map.ros_name(topic)
+        if ros_topic is None:  # not bridged under this topic map
+            out.ok = False
+            return out
         try:
             ros_type = wire.ros1_name(wire.type_of(cls))
             wire.encoder(cls)
@@ -185,8 +187,10 @@ class RosBridge:
             log.warning("not bridging %s to ROS: %s", topic, exc)
             return out
         self._side.send_control(
-            op="advertise", id=out.id, topic=topic, type=ros_type, latch=out.latched, queue_size=QUEUE_SIZE
+            op="advertise", id=out.id, topic=ros_topic, type=ros_type, latch=out.latched, queue_size=QUEUE_SIZE
         )
+        if topic in LATEST_ONLY:
+            self._batch.latest_only.add(out.id)
         return out
 
     # --- ROS -> sim ----------------------------------------------------------------------------------------------
@@ -210,24 +214,16 @@ class RosBridge:
                 self._by_id[op["id"]].ok = False
             print(f"racecar-sim: warning: ROS bridge: {op['text']}", file=sys.stderr)
 
-    def _on_tick(self, now_ns: int) -> None:
-        self._drains += 1
-        if self._drains % SYNC_EVERY == 0:
-            self._sync()
-        self.spin_once()
+    def _flush(self) -> None:
+        """At every drain: send the batch when due."""
+        self._batch.flush_due()
 
     def spin_once(self, timeout: float = 0.0) -> int:
-        """Publish on the bus what came from ROS and answer ROS service calls; waits up to `timeout` s for the
-        first item (a paused sim's loop calls it so that /gazebo/unpause_physics is answered). Returns the count."""
-        handled = 0
-        try:
-            item = self._inbox.get(timeout=timeout) if timeout > 0 else self._inbox.get_nowait()
-            while True:
-                self._handle(item)
-                handled += 1
-                item = self._inbox.get_nowait()
-        except queue.Empty:
-            return handled
+        """Send ROS what waits in the batch, publish on the bus what came from ROS and answer ROS service calls;
+        waits up to `timeout` s for the first item (a paused sim's loop calls it so that /gazebo/unpause_physics is
+        answered). A run loop calls it after each slice of sim time. Returns the count."""
+        self._batch.flush()
+        return super().spin_once(timeout)
 
     def _handle(self, item: tuple[Any, ...]) -> None:
         if item[0] == "msg":
@@ -239,19 +235,13 @@ class RosBridge:
             except ValueError as exc:
                 log.warning("dropped a message on %s from ROS: %s", inbound.topic, exc)
                 return
-            self._injected = msg
-            try:
-                self.sim.bus.publish(inbound.topic, msg)
-            except TypeError as exc:
-                log.warning("dropped a message on %s from ROS: %s", inbound.topic, exc)
-            finally:
-                self._injected = None
-            self.received += 1
+            self._inject(inbound.topic, self.topic_map.from_ros(inbound.topic, msg))
         else:
             self._answer(item[1])
 
     def _answer(self, op: dict[str, Any]) -> None:
         name = op["service"]
+        self._batch.flush()  # what was published before the answer reaches ROS before it
         try:
             request_cls, _ = wire.service_classes(self._services[name])
             response = self.sim.bus.call(name, wire.deserialize(op["data"], request_cls))
@@ -262,6 +252,7 @@ class RosBridge:
     # --- what to subscribe to and offer -------------------------------------------------------------------------
     def _sync(self) -> None:
         """Subscribe on ROS to topics the sim's nodes newly take commands on; follow services offered and gone."""
+        self._synced = time.perf_counter()
         for topic, declared in self.sim.bus.listened().items():
             if topic in self._subscribed:
                 continue
@@ -269,9 +260,12 @@ class RosBridge:
             if cls is None:  # the sim's own data (/scan for a driver), not a command taken from outside
                 continue
             self._subscribed.add(topic)
+            ros_topic = self.topic_map.ros_name(topic)
+            if ros_topic is None:
+                continue
             sub_id = len(self._in) + 1
             self._in[sub_id] = _Inbound(topic, cls)
-            self._side.send_control(op="subscribe", id=sub_id, topic=topic, type=wire.ros1_name(wire.type_of(cls)))
+            self._side.send_control(op="subscribe", id=sub_id, topic=ros_topic, type=wire.ros1_name(wire.type_of(cls)))
         offered = {name: catalog.service_type(name) for name in self.sim.bus.services()}
         for name in set(self._services) - set(offered):
             del self._services[name]

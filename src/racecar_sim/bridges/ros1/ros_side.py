@@ -8,6 +8,7 @@ generates Python message packages from the `.msg`/`.srv` folders under DEFS into
 Frames, both ways: a little-endian uint32 length of what follows, one byte of kind, the payload.
   CONTROL (0): a pickled dict with an "op" (protocol 4).
   DATA (1): a uint32 id (the topic's, given by the sim's advertise or subscribe) and the ROS 1 message bytes.
+  BATCH (2, sim -> ROS): DATA frames back to back, each with its length and kind (one pipe write for many).
 Sim -> ROS ops: advertise {id, topic, type, latch}, subscribe {id, topic, type}, service {name, type},
   unservice {name}, reply {call, data | error}, shutdown.
 ROS -> sim ops: ready {name}, connections {id, count}, call {call, service, data}, error {text}.
@@ -25,16 +26,21 @@ import struct
 import sys
 import threading
 import time
+from collections.abc import Callable
 from typing import IO, TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # the ROS interpreter's packages (no type information: Any to mypy)
     import genpy
     import rospy
 
-CONTROL, DATA = 0, 1
+CONTROL, DATA, BATCH = 0, 1, 2
 _HEAD = struct.Struct("<IB")
 _ID = struct.Struct("<I")
+_U32 = struct.Struct("<I")  # the length before each message on a TCPROS connection
+_SUB = struct.Struct("<IBI")  # a DATA frame's head inside a BATCH: length of what follows, kind, topic id
 CONNECTION_POLL = 0.05  # s between checks of how many ROS subscribers each publisher has
+PIPE_SIZE = 1 << 20  # bytes the pipe from the sim holds (Linux's default is 64 KiB): the sim waits less on this node
+_F_SETPIPE_SZ = 1031  # fcntl.F_SETPIPE_SZ (named in fcntl from Python 3.10)
 
 
 def _real_class(ros_type: str, kind: str = "msg") -> type[Any]:
@@ -63,6 +69,53 @@ def _raw_class(real: type[Any]) -> type[Any]:
             return self
 
     return Raw
+
+
+_PUBLISHER_IMPL = ("publock", "closed", "is_latch", "latch", "connections", "seq", "message_data_sent")
+
+
+def _sender(pub: rospy.Publisher, cls: type[Any]) -> Callable[[bytes], None]:
+    """A function that publishes one message's bytes on `pub`.
+
+    rospy's Publisher.publish checks its arguments, serializes the message into a buffer with the length before it
+    and copies the buffer out, once per message; the bytes here are serialized already. So where the publisher is
+    the rospy this was written for (Noetic's, final), the message goes straight to each subscriber's connection as
+    _PublisherImpl.publish puts it there (length-prefixed; the latch kept, the count kept, a failed connection
+    closed); elsewhere through Publisher.publish.
+    """
+    impl = getattr(pub, "impl", None)
+    if impl is None or not all(hasattr(impl, name) for name in _PUBLISHER_IMPL):
+        return lambda data: pub.publish(cls(data))
+    pack = _U32.pack
+
+    def send(data: bytes) -> None:
+        failed = []
+        lock = impl.publock
+        if lock is None:  # closed (rospy drops the lock then)
+            return
+        with lock:
+            if impl.closed:
+                return
+            if impl.is_latch:
+                impl.latch = cls(data)
+            connections = impl.connections
+            if not connections:
+                return
+            impl.seq += 1
+            framed = pack(len(data)) + data
+            for connection in connections:
+                try:
+                    connection.write_data(framed)
+                except Exception:  # as rospy: a connection that fails is closed, the others go on
+                    failed.append(connection)
+            impl.message_data_sent += len(framed)
+        for connection in failed:
+            try:
+                connection.close()  # it removes itself from the publisher
+            except Exception:
+                pass
+
+    return send
 
 
 def _raw_service(ros_type: str) -> type[Any]:
@@ -125,7 +178,9 @@ class RosSide:
         import rospy
 
         self.rospy, self.link = rospy, link
+        self.name = rospy.get_name()
         self.publishers: dict[int, tuple[rospy.Publisher, type[genpy.Message]]] = {}
+        self.senders: dict[int, Callable[[bytes], None]] = {}  # id -> publish these message bytes
         self.counts: dict[int, int] = {}  # id -> connections last reported
         self.subscribers: list[rospy.Subscriber] = []
         self.subscribed: set[str] = set()  # resolved names of the topics subscribed to
@@ -140,6 +195,7 @@ class RosSide:
             cls = _raw_class(_real_class(op["type"]))
             pub = self.rospy.Publisher(op["topic"], cls, latch=op["latch"], queue_size=op.get("queue_size", 10))
             self.publishers[op["id"]] = (pub, cls)
+            self.senders[op["id"]] = _sender(pub, cls)
         elif name == "subscribe":
             cls = _raw_class(_real_class(op["type"]))
             self.subscribers.append(self.rospy.Subscriber(op["topic"], cls, self._on_message, op["id"]))
@@ -168,6 +224,16 @@ class RosSide:
         if entry is not None:  # None: its advertise failed, and the sim was told
             entry[0].publish(entry[1](payload[_ID.size :]))
 
+    def publish_batch(self, payload: bytes) -> None:
+        """Each DATA frame of a BATCH payload, in order."""
+        senders, unpack, head, pos, end = self.senders, _SUB.unpack_from, _SUB.size, 0, len(payload)
+        while pos < end:
+            size, _, topic_id = unpack(payload, pos)
+            send = senders.get(topic_id)
+            if send is not None:  # None: its advertise failed, and the sim was told
+                send(payload[pos + head : pos + 4 + size])
+            pos += 4 + size
+
     def _on_message(self, msg: genpy.Message, topic_id: int) -> None:
         header = getattr(msg, "_connection_header", None) or {}
         if header.get("callerid") == self.rospy.get_name():
@@ -192,26 +258,114 @@ class RosSide:
             raise self.rospy.ServiceException(reply["error"])
         return srv._response_class(reply["data"])
 
+    def readers(self, pub: rospy.Publisher) -> int:
+        """Subscribers of `pub` other than this node (its own subscriber to a topic it also publishes)."""
+        try:
+            connections = list(pub.impl.connections)
+        except AttributeError:  # not the rospy this was written for: count as before
+            return max(0, pub.get_num_connections() - (pub.resolved_name in self.subscribed))
+        return sum(1 for c in connections if getattr(c, "endpoint_id", None) != self.name)
+
     def watch_connections(self) -> None:
         """Tell the sim how many subscribers each publisher has, so it serializes only what someone reads."""
         while not self.rospy.is_shutdown():
             for topic_id, (pub, _) in list(self.publishers.items()):
-                # our own subscriber to a topic we also publish is no reader
-                count = max(0, pub.get_num_connections() - (pub.resolved_name in self.subscribed))
+                count = self.readers(pub)
                 if self.counts.get(topic_id) != count:
                     self.counts[topic_id] = count
                     self.link.send_control(op="connections", id=topic_id, count=count)
             time.sleep(CONNECTION_POLL)
 
 
+def _no_sim_time() -> None:
+    """This node keeps the wall clock even where /use_sim_time is set: it needs no time of its own, and on sim time
+    rospy would subscribe it to the very /clock it publishes (a reader of every /clock message, and a connection
+    that made /clock look listened to with nobody else there)."""
+    try:
+        from rospy.impl import simtime
+    except ImportError:
+        return
+    if hasattr(simtime, "_is_use_simtime"):
+        simtime._is_use_simtime = lambda: False
+
+
+class _Wakes:
+    """The sender threads to wake once the batch being published is out (see _batched_connections)."""
+
+    thread: int | None = None  # the thread publishing a batch; None between batches
+    pending: list[threading.Condition] = []
+
+    @classmethod
+    def publishing(cls) -> None:
+        cls.thread = threading.get_ident()
+
+    @classmethod
+    def wake(cls) -> None:
+        cls.thread = None
+        pending, cls.pending = cls.pending, []
+        for condition in pending:
+            with condition:
+                condition.notify()
+
+
+def _batched_connections() -> None:
+    """rospy's publisher queue per subscriber (QueuedConnection), made for batches. Its write_data ended each message
+    with time.sleep(0), handing the GIL to the connection's sender thread, and woke that thread for each message: per
+    message of a batch, thread switches and waits to get the GIL back. Where it is the rospy this was written for
+    (Noetic's, final), write_data here queues the message; a sender waiting on an empty queue is woken at once, or,
+    when the message is one of a batch this node publishes, once the whole batch is queued (_Wakes). The senders run
+    while this node waits for the next batch (serve() yields once per batch). The queue keeps rospy's rule: full at
+    queue_size, it drops the oldest."""
+    try:
+        from rospy.impl.tcpros_pubsub import QueuedConnection
+    except ImportError:
+        return
+    original = QueuedConnection.write_data
+
+    def write_data(self: Any, data: bytes) -> bool:
+        try:
+            lock, limit, wake = self._lock, self._queue_size, self._cond_data_available
+        except AttributeError:  # another rospy: its own way
+            return bool(original(self, data))
+        with lock:
+            if self._error:
+                error, self._error = self._error, None
+                raise error
+            queue = self._queue
+            if limit > 0 and len(queue) >= limit:
+                del queue[0]
+            queue.append(data)
+            if len(queue) == 1:  # the sender waits only on an empty queue
+                if _Wakes.thread == threading.get_ident():
+                    _Wakes.pending.append(wake)
+                else:
+                    wake.notify()
+        return True
+
+    QueuedConnection.write_data = write_data
+
+
+def _widen_pipe(fd: int) -> None:
+    """Let the pipe on `fd` hold PIPE_SIZE bytes where the system allows it (Linux; up to fs.pipe-max-size)."""
+    try:
+        import fcntl
+
+        fcntl.fcntl(fd, getattr(fcntl, "F_SETPIPE_SZ", _F_SETPIPE_SZ), PIPE_SIZE)
+    except (ImportError, OSError):
+        pass  # another system, or a smaller limit: the default size works, with more waits
+
+
 def serve(name: str) -> None:
     """Run the node until the sim says shutdown or closes the pipe."""
     out = os.fdopen(os.dup(1), "wb")
     os.dup2(2, 1)  # anything rospy prints goes to stderr, never into the frames
+    _widen_pipe(0)
     link = Link(os.fdopen(0, "rb", buffering=0), out)
     import rospy
 
+    _no_sim_time()
     rospy.init_node(name, anonymous=False, disable_signals=True)
+    _batched_connections()
     node = RosSide(link)
     link.send_control(op="ready", name=rospy.get_name())
     threading.Thread(target=node.watch_connections, daemon=True).start()
@@ -220,6 +374,14 @@ def serve(name: str) -> None:
         if kind is None:
             break
         assert payload is not None, "the pipe closed within a frame"
+        if kind == BATCH:
+            _Wakes.publishing()
+            try:
+                node.publish_batch(payload)
+            finally:
+                _Wakes.wake()
+            time.sleep(0)  # the sender threads' turn (see _batched_connections)
+            continue
         if kind == DATA:
             node.publish(payload)
             continue

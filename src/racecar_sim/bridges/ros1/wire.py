@@ -184,6 +184,11 @@ def _scalar_run(run: list[tuple[str | None, str, bool]]) -> Op:
         if len(run) == 1:
             return lambda msg, seq, out: out.append(packer.pack(getter(msg)))
         return lambda msg, seq, out: out.append(packer.pack(*getter(msg)))
+    if run[0][2] and len(paths) == len(run) - 1 and paths:  # a header: its seq, then fields of the message
+        rest = attrgetter(*paths)
+        if len(paths) == 1:
+            return lambda msg, seq, out: out.append(packer.pack(seq, rest(msg)))
+        return lambda msg, seq, out: out.append(packer.pack(seq, *rest(msg)))
     getters = [
         (lambda msg, seq: seq)
         if is_seq
@@ -234,8 +239,12 @@ def _field_op(msgtype: str, path: str, f: FieldSpec) -> Op:
         items = get(msg)
         _check(msgtype, path, len(items), f.size)
         out.append(prefix(len(items)))
-        for item in items:
-            encoder(type(item))(item, 0, out)
+        last, encode = None, None
+        for item in items:  # the items of an array share their class: its encoder looked up once
+            if type(item) is not last:
+                last = type(item)
+                encode = encoder(last)
+            encode(item, 0, out)  # type: ignore[misc]
 
     return put_messages
 
@@ -244,10 +253,19 @@ def _no_count(count: int) -> bytes:
     return b""  # a fixed-size array has no length on the wire
 
 
+_STRINGS: dict[str, bytes] = {}  # short strings (frame ids, names) with their length before them, as on the wire
+_STRINGS_MAX = 4096  # strings kept
+_STRING_CACHED = 256  # characters at most of a string kept
+
+
 def _put_str(value: str, out: list[Any]) -> None:
-    data = value.encode()
-    out.append(_U32.pack(len(data)))
-    out.append(data)
+    framed = _STRINGS.get(value)
+    if framed is None:
+        data = value.encode()
+        framed = _U32.pack(len(data)) + data
+        if len(value) <= _STRING_CACHED and len(_STRINGS) < _STRINGS_MAX and type(value) is str:
+            _STRINGS[value] = framed
+    out.append(framed)
 
 
 def _as_bytes(value: Any) -> Any:
