@@ -58,22 +58,26 @@ def record_and_kill(path: Path, at: float = KILL_AT) -> None:
 
 
 def intact_rows(path: Path) -> tuple[list[Row], bool]:
-    """The messages a streaming reader gets from `path` in file order, and whether it failed before a footer.
+    """The messages a streaming reader gets from `path` in file order, and whether the file ends before a footer (a
+    record cut in the middle, or a file that stops between two records: a kill while the writer was idle).
 
     Independent of racecar_sim.recording.recover: mcap's own StreamReader, stopped by the truncated tail.
     """
     topics: dict[int, str] = {}
     rows: list[Row] = []
+    footer = False
     with path.open("rb") as f:
         try:
             for record in StreamReader(f, validate_crcs=True).records:
-                if type(record).__name__ == "Channel":
+                kind = type(record).__name__
+                if kind == "Channel":
                     topics[record.id] = record.topic
-                elif type(record).__name__ == "Message":
+                elif kind == "Message":
                     rows.append((topics[record.channel_id], record.log_time, record.data))
+                footer = kind == "Footer"
         except Exception:  # whatever the cut makes the reader raise
             return rows, True
-    return rows, False
+    return rows, not footer
 
 
 def rosbags_rows(path: Path) -> list[Row]:
