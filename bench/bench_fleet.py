@@ -1,48 +1,172 @@
-"""A fleet in one world: `python bench/bench_fleet.py [--cars 1 2 4 8] [--duration 20] [--repeat 3]`.
+"""Fleets against bare MuJoCo: `python bench/bench_fleet.py [--cars 1 2 4 8] [--worlds empty tunnel] [--track-cars 30]
+[--duration 10] [--rounds 3] [--quick]`.
 
-Real-time factor of the full pipeline with the lidar on and the camera off (a subscriber on every car's /scan,
-since a sensor works only while someone listens) for 1, 2, 4 and 8 cars in the `empty` world, side by side
---gap m apart, each driving its own 1 m/s, 0.2 rad circle (1.6 m radius: the circles never touch) from its own
-ConstantCommand node; measured in one run, the best of --repeat, as a table with the ratio to one car and the
-car-seconds simulated per wall second. Then the cost of `sim.reset()` for the whole stack (physics, every node's
-reset hook, the scheduler), averaged over --resets calls made after a little driving, for 1 and 4 cars.
+Per fleet: the pipeline - physics, every node of every car, the lidar on and the camera off, a subscriber on every
+/scan (a sensor works only while someone listens), each car driven by its own driver node - and bare MuJoCo `mj_step`
+of the same N-car model replaying the pipeline's own actuator controls chunk by chunk (MuJoCo is deterministic: the
+very same trajectory, contacts included), interleaved round by round; both are timed after the first 0.5 sim s (the
+one-time costs of a first scan: loading the compiled kernels, slicing the world). The fleets:
+  - empty:  N cars side by side, 4 m apart, each a ConstantCommand 1 m/s, 0.2 rad circle (the circles never touch);
+  - tunnel: N cars in a row 1.5 m apart, as `racecar-sim run --world tunnel --cars N` places them, wall-follow each;
+  - track:  --track-cars (default 30) cars in a row round a generated oval track CSV (98 m of centerline, 2.4 m
+            wide), as `racecar-sim run --world TRACK.csv --cars N` places them, pure-pursuit each on the centerline.
+Printed per fleet: the real-time factor, bare MuJoCo's on the same model, the median of the per-round ratios
+(pipeline / bare), and car-seconds simulated per wall second (the real-time factor times N). Then the cost of
+`sim.reset()` for the whole stack (physics, every node's reset hook, the scheduler), averaged over --resets calls
+made after a little driving, for 1 and 4 cars in `empty`.
+
+Uses only APIs present before issue 25 (Simulator, Car, Spawn, attach_driver, starting_row, ConstantCommand,
+load_world), so `PYTHONPATH=/path/to/old/src python bench/bench_fleet.py` gives the before figures from the same
+script (`racecar-sim bench --speed --compare OLD/src` runs it both ways).
 """
 
 from __future__ import annotations
 
 import argparse
+import math
+import statistics
+import tempfile
 import time
+from collections.abc import Callable
+from pathlib import Path
 
+import mujoco
+import numpy as np
+
+import racecar_sim
 from racecar_sim import Car, Simulator, Spawn
 from racecar_sim.core.names import NAVIGATION
 from racecar_sim.drivers import ConstantCommand
+from racecar_sim.runtime.driving import attach_driver
+from racecar_sim.worlds import load_world
+from racecar_sim.worlds.row import starting_row
 
-GAP = 4.0  # m between neighbours: more than the 3.2 m circles they drive
+GAP = 4.0  # m between neighbours in `empty`: more than the 3.2 m circles they drive
+WARM_UP = 0.5  # sim s run before the timing starts
+TRACK_STRAIGHT, TRACK_RADIUS, TRACK_HALF_WIDTH = 30.0, 6.0, 1.2  # m: the oval's straights, bends, half its width
+
+Make = Callable[[], Simulator]
 
 
-def fleet(world: str, count: int, gap: float) -> Simulator:
-    """`count` cars side by side along y, lidar on, camera off, each driving a circle, every scan listened to."""
-    cars = [Car(f"car{k + 1}", spawn=Spawn(0.0, k * gap, 0.05, 0.0), camera=False) for k in range(count)]
-    sim = Simulator(world=world, cars=cars)
+def oval_track(path: Path, straight: float = TRACK_STRAIGHT, radius: float = TRACK_RADIUS) -> Path:
+    """Write an oval race-track CSV (x, y, w_right, w_left; the F1TENTH format) at `path`: two straights joined by
+    half circles, counter-clockwise, a point every 0.5 m; the first point mid-way along the lower straight."""
+    step = 0.5
+    points = []
+    for x in np.arange(0.0, straight / 2, step):  # the lower straight, from its middle
+        points.append((x, -radius))
+    for a in np.arange(-math.pi / 2, math.pi / 2, step / radius):  # the right bend
+        points.append((straight / 2 + radius * math.cos(a), radius * math.sin(a)))
+    for x in np.arange(straight / 2, -straight / 2, -step):  # the upper straight
+        points.append((x, radius))
+    for a in np.arange(math.pi / 2, 3 * math.pi / 2, step / radius):  # the left bend
+        points.append((-straight / 2 + radius * math.cos(a), radius * math.sin(a)))
+    for x in np.arange(-straight / 2, 0.0, step):  # back to the start
+        points.append((x, -radius))
+    lines = ["# x_m,y_m,w_tr_right_m,w_tr_left_m"]
+    lines += [f"{x:.4f},{y:.4f},{TRACK_HALF_WIDTH},{TRACK_HALF_WIDTH}" for x, y in points]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def listened(sim: Simulator) -> Simulator:
+    """Every car's /scan listened to (as a recording or a driver does)."""
     for car in sim.cars:
         sim.subscribe(car.lidar.topic, lambda msg: None)
-        ConstantCommand(sim.bus, sim.scheduler, 1.0, 0.2, topic=car.topic(NAVIGATION))
     return sim
 
 
-def fleet_rtf(world: str, count: int, gap: float, duration: float) -> float:
-    """Sim seconds per wall second of `count` cars driving for `duration` sim seconds (building excluded)."""
-    sim = fleet(world, count, gap)
-    start = time.perf_counter()
-    sim.run_until(duration)
-    wall = time.perf_counter() - start
+def empty_fleet(count: int) -> Simulator:
+    """`count` cars side by side along y in `empty`, each driving its circle."""
+    cars = [Car(f"car{k + 1}", spawn=Spawn(0.0, k * GAP, 0.05, 0.0), camera=False) for k in range(count)]
+    sim = Simulator(world="empty", cars=cars)
+    for car in sim.cars:
+        ConstantCommand(sim.bus, sim.scheduler, 1.0, 0.2, topic=car.topic(NAVIGATION))
+    return listened(sim)
+
+
+def row_fleet(world: str, count: int, driver: str) -> Simulator:
+    """`count` cars in a row in `world` as `racecar-sim run --cars` places them, each with its own `driver`."""
+    spawns = starting_row(load_world(world), count)
+    sim = Simulator(world=world, cars=[Car(f"car{k + 1}", spawn=s, camera=False) for k, s in enumerate(spawns)])
+    for car in sim.cars:
+        attach_driver(sim, car, driver, {})
+    return listened(sim)
+
+
+def recorded_controls(make: Make, duration: float) -> list[tuple[int, np.ndarray]]:
+    """The (steps, actuator controls) of every mj_step call of one pipeline run of `duration` sim seconds."""
+    controls: list[tuple[int, np.ndarray]] = []
+    step = mujoco.mj_step
+
+    def recorded(model: mujoco.MjModel, data: mujoco.MjData, nstep: int = 1) -> None:
+        controls.append((nstep, data.ctrl.copy()))
+        step(model, data, nstep=nstep)
+
+    sim = make()
+    mujoco.mj_step = recorded
+    try:
+        sim.run_until(duration)
+    finally:
+        mujoco.mj_step = step
     sim.close()
-    return duration / wall
+    return controls
 
 
-def reset_cost(world: str, count: int, gap: float, resets: int) -> float:
-    """Mean wall seconds of one sim.reset() of `count` cars, each after 0.1 s of driving (not timed)."""
-    sim = fleet(world, count, gap)
+def pipeline_seconds(make: Make, duration: float) -> tuple[float, int, int, mujoco.MjModel]:
+    """Wall seconds of `duration` sim seconds of a freshly built pipeline after WARM_UP sim seconds (building and the
+    first scans' one-time costs excluded: loading the compiled kernels, slicing the world), the steps before and
+    after the timing started, and its model."""
+    sim = make()
+    sim.run_until(WARM_UP)
+    warm_steps = sim.time_ns // sim.step_ns
+    start = time.perf_counter()
+    sim.run_until(WARM_UP + duration)
+    wall = time.perf_counter() - start
+    steps, model = sim.time_ns // sim.step_ns, sim.model
+    sim.close()
+    return wall, warm_steps, steps, model
+
+
+def bare_seconds(model: mujoco.MjModel, controls: list[tuple[int, np.ndarray]], warm_steps: int) -> float:
+    """Wall seconds of bare mj_step replaying a pipeline run: the same steps in the same chunks under the same
+    controls, no Python in between; the first `warm_steps` not timed."""
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    step = mujoco.mj_step
+    done, k = 0, 0
+    while done < warm_steps:
+        nstep, ctrl = controls[k]
+        data.ctrl[:] = ctrl
+        step(model, data, nstep=nstep)
+        done, k = done + nstep, k + 1
+    if done != warm_steps:
+        raise RuntimeError(f"the replay's chunks do not end at the warm-up's {warm_steps} steps")
+    start = time.perf_counter()
+    for nstep, ctrl in controls[k:]:
+        data.ctrl[:] = ctrl
+        step(model, data, nstep=nstep)
+    return time.perf_counter() - start
+
+
+def measure(make: Make, duration: float, rounds: int) -> dict[str, float]:
+    """Median pipeline and bare real-time factors and the median per-round ratio, over interleaved rounds."""
+    controls = recorded_controls(make, WARM_UP + duration)
+    pipe, bare, ratio = [], [], []
+    for _ in range(rounds):
+        wall, warm_steps, steps, model = pipeline_seconds(make, duration)
+        if steps != sum(n for n, _ in controls):
+            raise RuntimeError(f"the pipeline stepped {steps} times, the replay {sum(n for n, _ in controls)}")
+        bare_wall = bare_seconds(model, controls, warm_steps)
+        pipe.append(duration / wall)
+        bare.append(duration / bare_wall)
+        ratio.append(bare_wall / wall)
+    return {"rtf": statistics.median(pipe), "bare": statistics.median(bare), "ratio": statistics.median(ratio)}
+
+
+def reset_cost(count: int, resets: int) -> float:
+    """Mean wall seconds of one sim.reset() of `count` cars in `empty`, each after 0.1 s of driving (not timed)."""
+    sim = empty_fleet(count)
     total = 0.0
     for _ in range(resets):
         sim.run_for(0.1)
@@ -55,30 +179,42 @@ def reset_cost(world: str, count: int, gap: float, resets: int) -> float:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--world", default="empty")
     p.add_argument("--cars", type=int, nargs="+", default=[1, 2, 4, 8], help="fleet sizes (default 1 2 4 8)")
-    p.add_argument("--gap", type=float, default=GAP, help=f"m between neighbours (default {GAP:g})")
-    p.add_argument("--duration", type=float, default=20.0, help="sim seconds per measurement (default 20)")
-    p.add_argument("--repeat", type=int, default=3, help="measurements per fleet size; the best is kept (default 3)")
+    p.add_argument("--worlds", nargs="*", default=["empty", "tunnel"], choices=("empty", "tunnel"))
+    p.add_argument("--track-cars", type=int, default=30, help="cars on the generated oval track (0: none; default 30)")
+    p.add_argument("--duration", type=float, default=10.0, help="sim seconds per run (default 10)")
+    p.add_argument("--rounds", type=int, default=3, help="interleaved pipeline/bare rounds (default 3)")
     p.add_argument("--resets", type=int, default=500, help="reset() calls averaged (default 500)")
-    p.add_argument("--reset-cars", type=int, nargs="+", default=[1, 4], help="fleet sizes for the reset cost")
+    p.add_argument("--reset-cars", type=int, nargs="*", default=[1, 4], help="fleet sizes for the reset cost")
+    p.add_argument("--quick", action="store_true", help="1 and 2 cars, 4 on the track, 1 s, 1 round: a check it runs")
     args = p.parse_args()
-
+    if args.quick:
+        args.cars, args.track_cars, args.duration, args.rounds, args.resets = [1, 2], 4, 1.0, 1, 20
     print(
-        f"world {args.world}, lidar on, camera off, each car a 1 m/s circle; {args.duration:g} sim s, "
-        f"best of {args.repeat}"
+        f"racecar_sim from {Path(racecar_sim.__file__).parent}; lidar on, camera off, every /scan listened to; "
+        f"{args.duration:g} sim s, median of {args.rounds} interleaved rounds against bare mj_step of the same model"
     )
-    print(f"{'cars':>4}  {'real-time factor':>16}  {'vs 1 car':>8}  {'car-s per wall s':>16}")
-    base = None
-    for count in args.cars:
-        rtf = max(fleet_rtf(args.world, count, args.gap, args.duration) for _ in range(args.repeat))
-        if count == 1:
-            base = rtf
-        ratio = f"{rtf / base:8.2f}" if base else f"{'-':>8}"
-        print(f"{count:>4}  {rtf:>15.1f}x  {ratio}  {rtf * count:>16.1f}")
-    print(f"sim.reset(), lidar on, camera off, mean of {args.resets} calls")
+    print(f"{'world':<8}{'cars':>5}{'real-time factor':>18}{'bare MuJoCo':>13}{'ratio':>7}{'car-s per wall s':>18}")
+    with tempfile.TemporaryDirectory() as folder:
+        cases: list[tuple[str, int, Make]] = []
+        for world in args.worlds:
+            for count in args.cars:
+                if world == "empty":
+                    cases.append((world, count, lambda n=count: empty_fleet(n)))
+                else:
+                    cases.append((world, count, lambda n=count, w=world: row_fleet(w, n, "wall-follow")))
+        if args.track_cars:
+            track = str(oval_track(Path(folder) / "oval.csv"))
+            cases.append(("track", args.track_cars, lambda: row_fleet(track, args.track_cars, "pure-pursuit")))
+        for world, count, make in cases:
+            r = measure(make, args.duration, args.rounds)
+            print(
+                f"{world:<8}{count:>5}{r['rtf']:>17.1f}x{r['bare']:>12.1f}x{r['ratio']:>7.2f}{r['rtf'] * count:>18.1f}",
+                flush=True,
+            )
+    print(f"sim.reset() in empty, lidar on, camera off, mean of {args.resets} calls")
     for count in args.reset_cars:
-        cost = reset_cost(args.world, count, args.gap, args.resets)
+        cost = reset_cost(count, args.resets)
         print(f"{count:>4} car{'s' if count > 1 else ' '}  {cost * 1e6:8.0f} µs")
 
 

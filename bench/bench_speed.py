@@ -8,6 +8,7 @@ its own run (interleaved rounds, medians):
   3. start-up                                    bench_startup.py   process start to the first physics step
   4. real maps                                   bench_maps.py      a basement-like map against the empty world
   5. scaling                                     bench_scaling.py   against beams, static geoms and cars
+  6. fleets (1-8 cars, 30 on a track)            bench_fleet.py     against bare MuJoCo stepping the same N-car model
 --compare SRC measures the code in SRC too (PYTHONPATH=SRC: an older checkout's src), for before/after figures
 from the same run. --quick: shorter runs (a check that everything runs, not figures to quote).
 """
@@ -33,6 +34,12 @@ def sections(quick: bool) -> list[tuple[str, str, list[str], bool]]:
         ("3. start-up", "bench_startup.py", ["--repeats", "2" if quick else "5"], True),
         ("4. real maps against the empty world", "bench_maps.py", ["--duration", short, "--rounds", rounds], False),
         ("5. scaling: beams, static geoms, cars", "bench_scaling.py", ["--duration", short, "--rounds", rounds], False),
+        (
+            "6. fleets against bare MuJoCo",
+            "bench_fleet.py",
+            ["--quick"] if quick else ["--duration", short, "--rounds", rounds, "--reset-cars"],
+            False,
+        ),
     ]
 
 

@@ -24,7 +24,7 @@ def test_speed_benches_run_and_print_their_tables():
     )
     assert result.returncode == 0, result.stderr[-3000:]
     out = result.stdout
-    for header in ("1. main job", "2. lidar pipeline", "3. start-up", "4. real maps", "5. scaling"):
+    for header in ("1. main job", "2. lidar pipeline", "3. start-up", "4. real maps", "5. scaling", "6. fleets"):
         assert f"=== {header}" in out
     for line in (
         "main job (camera, noise, MCAP, video)",
@@ -35,6 +35,8 @@ def test_speed_benches_run_and_print_their_tables():
         "basement-like (generated)",
         "lidar beams (tunnel)",
         "cars in empty",
+        "world    cars  real-time factor  bare MuJoCo  ratio  car-s per wall s",
+        "track       4",
     ):
         assert line in out, line
 

@@ -488,3 +488,47 @@ def test_one_call_scan_is_the_step_by_step_scan_bit_for_bit(world):
             lidar.caster.level_walls = step_by_step.__get__(lidar.caster)
         np.testing.assert_array_equal(fused, expected)
     assert one_call >= 30  # the level scans at least took the one-call path
+
+
+@pytest.mark.parametrize("world", ["walker", "tunnel"])
+def test_a_fleet_scan_casts_the_other_cars_in_the_one_call_path_as_mujoco_does(world):
+    """With other cars in the world each lidar's scan still takes the one compiled call (laser_kernel.level_scan:
+    walls in 2-D, the other cars' boxes and wheels beam by beam with MuJoCo's formulas) and publishes what the
+    step-by-step path publishes (RayCaster.cast: the other cars cast by mj_multiRay in 3-D), at random poses of three
+    cars close together, level and pitched or rolled a little, and the other cars are in the scan."""
+    from racecar_sim import Car, Spawn
+
+    spawns = {"walker": (-18.0, -11.0), "tunnel": (-31.0, -1.0)}[world]
+    x, y = spawns
+    cars = [Car(f"car{k + 1}", spawn=Spawn(x + 1.5 * k, y, 0.05, 0.0), camera=False) for k in range(3)]
+    sim = Simulator(world=world, cars=cars)
+    rng = np.random.default_rng(3)
+    base = sim.data.qpos.copy()
+    one_call = seen = 0
+    for k in range(40):
+        sim.data.qpos[:] = base
+        centre = sim.data.qpos[sim.cars[0].lidar.mount.qpos_adr : sim.cars[0].lidar.mount.qpos_adr + 2].copy()
+        for car in sim.cars[1:]:  # the others within a few metres of the first, at any heading
+            adr = car.lidar.mount.qpos_adr
+            sim.data.qpos[adr : adr + 2] = centre + rng.uniform(-2.5, 2.5, 2)
+        for car in sim.cars:
+            adr = car.lidar.mount.qpos_adr
+            tilt = rng.normal(0, 0.02, 2) if k % 2 else (0.0, 0.0)
+            sim.data.qpos[adr + 3 : adr + 7] = quat_from_rpy((*tilt, rng.uniform(-np.pi, np.pi)))
+        for car in sim.cars:
+            lidar = car.lidar
+            before = lidar.one_call_scans
+            fused = lidar.scan(k * 25_000_000)
+            one_call += lidar.one_call_scans - before
+            walls_only = lidar.caster.level_walls
+            lidar.caster.level_walls = lambda: None
+            try:
+                expected = lidar.scan(k * 25_000_000)
+            finally:
+                lidar.caster.level_walls = walls_only
+            assert np.array_equal(np.isinf(fused), np.isinf(expected)), f"pose {k}, {car.name}"
+            finite = np.isfinite(expected)
+            np.testing.assert_allclose(fused[finite], expected[finite], rtol=0, atol=1e-5, err_msg=f"pose {k}")
+            seen += lidar.caster.last_3d_beams > 0  # the general path met another car
+    assert one_call >= 60, one_call  # level or a little tilted, the scans took the one compiled call
+    assert seen >= 40, seen  # and the other cars were in them

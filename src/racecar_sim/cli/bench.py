@@ -39,7 +39,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.add_argument(
         "--speed",
         action="store_true",
-        help="instead: every speed figure (main job, lidar pipeline, start-up, maps, scaling) by the source "
+        help="instead: every speed figure (main job, lidar pipeline, start-up, maps, scaling, fleets) by the source "
         "checkout's bench/bench_speed.py",
     )
     p.add_argument(

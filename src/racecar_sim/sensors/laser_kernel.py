@@ -3,9 +3,9 @@
 The same operations, in the same order, as LidarPublisher's numpy code (true range + (unit noise x stddev +
 mean), clamped to [range_min, range_max], +inf where nothing was hit), so either gives the same bits.
 
-level_scan and dense_level_scan compile the casts of raycast/kernels.py and raycast/dense.py into themselves, and
-numba's cache (cache=True) knows only each function's own file: after changing kernels.py or dense.py in a
-checkout, delete src/**/__pycache__/*.nbi (an install starts afresh).
+level_scan and dense_level_scan compile the casts of raycast/kernels.py, raycast/dense.py and raycast/solids.py
+into themselves, and numba's cache (cache=True) knows only each function's own file: after changing kernels.py,
+dense.py or solids.py in a checkout, delete src/**/__pycache__/*.nbi (an install starts afresh).
 """
 
 from __future__ import annotations
@@ -17,7 +17,8 @@ from numba import njit
 from numpy.typing import NDArray
 
 from racecar_sim.sensors.raycast import dense
-from racecar_sim.sensors.raycast.kernels import Floats, cast_level
+from racecar_sim.sensors.raycast.kernels import Floats, Indices, cast_level, level_band
+from racecar_sim.sensors.raycast.solids import cast_solids
 
 Noise = NDArray[np.floating]  # a NoiseTable's values
 
@@ -75,6 +76,7 @@ def level_scan(
     x0: int,
     y0: int,
     ids: NDArray[np.int64],
+    outside: int,
     starts: NDArray[np.int64],
     table: Floats,
     floors: Floats,
@@ -94,12 +96,20 @@ def level_scan(
     noisy: bool,
     ranges: Floats,
     out: NDArray[np.float32],
+    xpos: Floats,
+    xmat: Floats,
+    solid_ids: Indices,
+    solid_types: Indices,
+    solid_sizes: Floats,
+    solid_rbound: Floats,
 ) -> bool:
-    """A whole published scan in one call, for a laser on a free body (LaserMount) in a world of walls: the ray
-    origin and axes from the body's pose in qpos (LaserMount.pose's operations, in its order), the origin's grid
-    cell (FlatWalls), kernels.cast_level into `ranges`, published_scan into `out`. Returns False, `out` untouched,
-    where that path cannot answer (a cell with more than walls, or cast_level's refusals)."""
-    k, origin, axes = _laser_cell(qpos, adr, local_origin, local_axes, size, x0, y0, ids)
+    """A whole published scan in one call, for a laser on a free body (LaserMount) in a world of walls and moving
+    solids (other cars): the ray origin and axes from the body's pose in qpos (LaserMount.pose's operations, in its
+    order), the origin's grid cell (FlatWalls; `outside`: the cell of every point outside `ids`), kernels.cast_level
+    into `ranges`, then solids.cast_solids on the geoms `solid_ids` at their poses xpos, xmat (an MjData posed at
+    the live qpos), published_scan into `out`. Returns False, `out` untouched, where that path cannot answer (a cell
+    with more than walls, or cast_level's refusals)."""
+    k, origin, axes = _laser_cell(qpos, adr, local_origin, local_axes, size, x0, y0, ids, outside)
     ranges[:] = np.inf
     if k < 0 or not cast_level(
         table[:, starts[k] : starts[k + 1]],
@@ -117,6 +127,27 @@ def level_scan(
         ranges,
     ):
         return False
+    if solid_ids.shape[0]:
+        _solids(
+            xpos,
+            xmat,
+            solid_ids,
+            solid_types,
+            solid_sizes,
+            solid_rbound,
+            floors,
+            origin,
+            axes,
+            max_tilt_cos,
+            angle_min,
+            inverse_step,
+            count,
+            turn,
+            range_min,
+            range_max,
+            dirs,
+            ranges,
+        )
     published_scan(ranges, values, first, second, stddev, mean, noisy, range_min, range_max, out)
     return True
 
@@ -131,6 +162,7 @@ def dense_level_scan(
     x0: int,
     y0: int,
     ids: NDArray[np.int64],
+    outside: int,
     starts: NDArray[np.int64],
     table: Floats,
     floors: Floats,
@@ -150,9 +182,15 @@ def dense_level_scan(
     noisy: bool,
     ranges: Floats,
     out: NDArray[np.float32],
+    xpos: Floats,
+    xmat: Floats,
+    solid_ids: Indices,
+    solid_types: Indices,
+    solid_sizes: Floats,
+    solid_rbound: Floats,
 ) -> bool:
     """level_scan in a world of dense cells (a map; FlatWalls.dense): raycast.dense's cast on its tables."""
-    k, origin, axes = _laser_cell(qpos, adr, local_origin, local_axes, size, x0, y0, ids)
+    k, origin, axes = _laser_cell(qpos, adr, local_origin, local_axes, size, x0, y0, ids, outside)
     ranges[:] = np.inf
     if k < 0 or not dense.cast_level(
         table[:, starts[k] : starts[k + 1]],
@@ -170,6 +208,27 @@ def dense_level_scan(
         ranges,
     ):
         return False
+    if solid_ids.shape[0]:
+        _solids(
+            xpos,
+            xmat,
+            solid_ids,
+            solid_types,
+            solid_sizes,
+            solid_rbound,
+            floors,
+            origin,
+            axes,
+            max_tilt_cos,
+            angle_min,
+            inverse_step,
+            count,
+            turn,
+            range_min,
+            range_max,
+            dirs,
+            ranges,
+        )
     published_scan(ranges, values, first, second, stddev, mean, noisy, range_min, range_max, out)
     return True
 
@@ -184,6 +243,7 @@ def _laser_cell(
     x0: int,
     y0: int,
     ids: NDArray[np.int64],
+    outside: int,
 ) -> tuple[int, Floats, Floats]:
     """(cell number, ray origin, sensor axes) of the laser on the free body at qpos[adr:]; cell -1 where FlatWalls
     has no walls-only cell."""
@@ -202,5 +262,64 @@ def _laser_cell(
             axes[i, j] = r[i, 0] * local_axes[0, j] + r[i, 1] * local_axes[1, j] + r[i, 2] * local_axes[2, j]
     ix, iy = math.floor(origin[0] / size) - x0, math.floor(origin[1] / size) - y0
     if ix < 0 or iy < 0 or ix >= ids.shape[0] or iy >= ids.shape[1]:
-        return -1, origin, axes
+        return outside, origin, axes
     return ids[ix, iy], origin, axes
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _solids(
+    xpos: Floats,
+    xmat: Floats,
+    ids: Indices,
+    types: Indices,
+    sizes: Floats,
+    rbound: Floats,
+    floors: Floats,
+    origin: Floats,
+    rotation: Floats,
+    max_tilt_cos: float,
+    angle_min: float,
+    inverse_step: float,
+    count: int,
+    turn: float,
+    range_min: float,
+    range_max: float,
+    dirs: Floats,
+    ranges: Floats,
+) -> None:
+    """solids.cast_solids for a level scan (one cast_level answered): its band, plane map and stretch here."""
+    _, lo, hi = level_band(floors, origin, rotation, max_tilt_cos, range_max)
+    e1x, e2x, e1y, e2y = rotation[0, 0], rotation[0, 1], rotation[1, 0], rotation[1, 1]
+    det = e1x * e2y - e2x * e1y
+    p00, p01, p10, p11 = e2y / det, -e2x / det, -e1y / det, e1x / det
+    squares = p00 * p00 + p01 * p01 + p10 * p10 + p11 * p11
+    inverse_det = 1.0 / det
+    stretch = math.sqrt(0.5 * (squares + math.sqrt(max(squares * squares - 4.0 * inverse_det * inverse_det, 0.0))))
+    cast_solids(
+        xpos,
+        xmat,
+        ids,
+        types,
+        sizes,
+        rbound,
+        origin,
+        rotation,
+        p00,
+        p01,
+        p10,
+        p11,
+        stretch,
+        lo,
+        hi,
+        angle_min,
+        inverse_step,
+        count,
+        turn,
+        range_min,
+        range_max,
+        dirs,
+        ranges,
+    )
+    for b in range(count):  # upright boxes are cast as walls are: hits past range_max are none
+        if ranges[b] > range_max:
+            ranges[b] = np.inf

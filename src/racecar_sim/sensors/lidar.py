@@ -24,9 +24,12 @@ from racecar_sim.physics import COLLISION_GROUP
 from racecar_sim.sensors.laser_mount import LaserMount
 from racecar_sim.sensors.laser_spec import LaserSpec
 from racecar_sim.sensors.raycast import Fan, RayCaster
+from racecar_sim.sensors.raycast.scene import Solids
+from racecar_sim.sensors.shared_pose import SharedPose
 
 NOISE_STREAM = "scan"
 ORIGINAL_TOPIC = "/scan"  # the laser on it keeps the original noise stream, `scan` (runs stay bit-identical)
+_NO_SOLIDS = Solids(np.zeros(0, np.intp), np.zeros(0, np.intp), np.zeros((0, 3)), np.zeros(0))
 
 
 def laser_spec(robot: Robot, names: CarNames = CarNames()) -> LaserSpec:
@@ -72,15 +75,19 @@ class LidarPublisher(NodeBase):
         self._site = self._site_id(model)
         self._offset = np.array(spec.pose.xyz, dtype=float)
         self._turn = quat_to_matrix(quat_from_rpy(spec.pose.rpy))
-        # Scans are cast in a private MjData posed from the live qpos: after mj_step the live positions
-        # describe the start of the last step, and the simulation's own data stays untouched.
-        self._pose = mujoco.MjData(model)
+        # Scans are cast in an MjData posed from the live qpos: after mj_step the live positions describe the start
+        # of the last step, and the simulation's own data stays untouched. Every lidar of the simulation shares it
+        # (posed once per tick for the whole fleet).
+        self._shared = SharedPose.of(model, data)
+        self._pose = self._shared.pose
         self.mount = LaserMount.of(model, self._site, self._offset, self._turn)
         self.fan = Fan(spec.min_angle, spec.angle_increment, spec.samples, spec.range_min, spec.range_max)
         self.caster = RayCaster(
             model, self._pose, self.fan, model.body(self._root).id, COLLISION_GROUP, pose_bodies=self._pose_bodies
         )
         self.scans_cast = 0
+        self.one_call_scans = 0  # scans answered by the one compiled call (laser_kernel.level_scan)
+        self.beams_3d = 0  # beams cast in 3-D by MuJoCo, over every scan
         self._task = ctx.timers.every(spec.update_rate, self._tick, "hokuyo")
 
     def _site_id(self, model: mujoco.MjModel) -> int:
@@ -94,7 +101,8 @@ class LidarPublisher(NodeBase):
         slices the new world again."""
         self.model, self.data = model, data
         self._site = self._site_id(model)
-        self._pose = mujoco.MjData(model)
+        self._shared = SharedPose.of(model, data)
+        self._pose = self._shared.pose
         self.mount = LaserMount.of(model, self._site, self._offset, self._turn)
         self.caster.rebind(model, self._pose, model.body(self._root).id)
 
@@ -128,18 +136,16 @@ class LidarPublisher(NodeBase):
         return self._pose.site_xpos[self._site] + site_rotation @ self._offset, site_rotation @ self._turn
 
     def _pose_bodies(self) -> None:
-        """Pose every body of the private MjData the caster reads at the live qpos (only when a cast needs body
-        poses: free bodies, 3-D casts)."""
-        pose = self._pose
-        pose.qpos[:] = self.data.qpos
-        pose.mocap_pos[:] = self.data.mocap_pos
-        pose.mocap_quat[:] = self.data.mocap_quat
-        mujoco.mj_kinematics(self.model, pose)
+        """Pose every body of the shared MjData the caster reads at the live qpos (only when a cast needs body
+        poses: moving geoms, 3-D casts; once per tick for every lidar of the simulation)."""
+        self._shared.update(self.data)
 
     def true_ranges(self) -> np.ndarray:
         """Noise-free distances (float64, m) from the ray origin: inf where nothing is within range."""
         self.scans_cast += 1
-        return self.caster.cast(*self.ray_origin(), mode=self.mode)
+        ranges = self.caster.cast(*self.ray_origin(), mode=self.mode)
+        self.beams_3d += self.caster.last_3d_beams
+        return ranges
 
     def scan(self, stamp_ns: int) -> np.ndarray:
         """The ranges (float32) of a scan taken now and stamped `stamp_ns`, with that stamp's noise."""
@@ -154,6 +160,10 @@ class LidarPublisher(NodeBase):
             first, second = self.noise_table.offsets(self.seed, stamp_ns)
             out = np.empty(fan.count, np.float32)
             scan = dense_level_scan if walls.dense else level_scan  # a map's dense cells: hidden walls dropped
+            solids = self.caster.solids or _NO_SOLIDS
+            if len(solids):  # the other cars where they are now
+                self._pose_bodies()
+            pose = self._pose
             if scan(
                 self.data.qpos,
                 mount.qpos_adr,
@@ -163,6 +173,7 @@ class LidarPublisher(NodeBase):
                 walls.x0,
                 walls.y0,
                 walls.ids,
+                walls.outside,
                 walls.starts,
                 walls.table,
                 walls.floors,
@@ -182,8 +193,15 @@ class LidarPublisher(NodeBase):
                 self.noise,
                 self._ranges,
                 out,
+                pose.geom_xpos,
+                pose.geom_xmat,
+                solids.ids,
+                solids.types,
+                solids.sizes,
+                solids.rbound,
             ):
                 self.scans_cast += 1
+                self.one_call_scans += 1
                 self.caster.last_3d_beams = 0
                 return out
         ranges = self.true_ranges()

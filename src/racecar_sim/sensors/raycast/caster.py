@@ -10,6 +10,7 @@ costs tens of microseconds; the answer is the same as the 3-D cast's either way.
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Callable
 
 import mujoco
@@ -27,6 +28,7 @@ from racecar_sim.sensors.raycast.planar import (
 )
 from racecar_sim.sensors.raycast.scene import (
     Footprints,
+    Solids,
     boxes_footprints,
     geom_footprint,
     is_static,
@@ -72,15 +74,16 @@ class RayCaster:
         own = np.isin(model.geom_bodyid[geoms], subtree_bodies(model, own_body))
         static = np.array([is_static(model, g) for g in geoms], bool)
         walls = WallBoxes.of(model)  # a map's walls, held out of the model's geoms (physics.near_walls)
-        self.static = static_footprints(model, geoms[static & ~own])
-        if walls is not None:
-            self.static = Footprints.join([self.static, boxes_footprints(walls.pos, walls.rotations(), walls.half)])
-        self.grid = Grid(self.static, fan, cell_size)
-        self.compiled = self.grid.has_items  # walls to cast: the compiled kernels (numba) are in use
+        self.static, self.grid = _sliced(model, geoms[static & ~own], walls, fan, cell_size)
         moving = geoms[~static & ~own]
         bounded = np.isin(model.geom_type[moving], _ALWAYS_BOUNDED)
         self.moving_bounded, self.moving_other = moving[bounded], moving[~bounded]
         self._has_moving = len(moving) > 0
+        # the moving geoms (other cars, pushable boxes) as solids the compiled scan casts exactly; None if one of
+        # them is of a kind it does not cast (a mesh): scans near them then take the general path
+        self.solids = Solids.of(model, moving)
+        # walls or solids to cast: the compiled kernels (numba) are in use
+        self.compiled = self.grid.has_items or bool(self.solids)
         self.rays3d = MujocoRays(model, data, group, geoms[own], walls)
         self.last_3d_beams = 0
 
@@ -147,9 +150,10 @@ class RayCaster:
 
     def level_walls(self) -> FlatWalls | None:
         """What a compiled caller needs to cast cast()'s common case itself (kernels.cast_level on the walls of the
-        origin's cell; anything it refuses goes to cast()): the walls-only cells, or None when no scan of this world
-        can take that path (free bodies to see, a geom that is nowhere a prism, no walls, cells strewn too far)."""
-        if self._has_moving or self.static.not_prism_like or not self.compiled:
+        origin's cell, then solids.cast_solids on `solids`, the moving geoms; anything it refuses goes to cast()):
+        the walls-only cells, or None when no scan of this world can take that path (a moving geom that is not a
+        solid, a geom that is nowhere a prism, neither walls nor solids, cells strewn too far)."""
+        if (self._has_moving and self.solids is None) or self.static.not_prism_like or not self.compiled:
             return None
         return self.grid.flat_walls()
 
@@ -175,6 +179,27 @@ class RayCaster:
                 for g in ids[maybe].tolist()
             ]
         return parts[0] if len(parts) == 1 else Footprints.join(parts)
+
+
+# the static world sliced, per model: every caster of one model with one fan shares it (a fleet's lidars)
+_SLICED: weakref.WeakKeyDictionary[mujoco.MjModel, dict[tuple[object, ...], tuple[Footprints, Grid]]] = (
+    weakref.WeakKeyDictionary()
+)
+
+
+def _sliced(
+    model: mujoco.MjModel, geoms: np.ndarray, walls: WallBoxes | None, fan: Fan, cell_size: float | None
+) -> tuple[Footprints, Grid]:
+    """The footprints of the static `geoms` (and a map's `walls`) and their grid, built once per model, geoms, fan
+    and cell size (the static world is the same for every car: a fleet slices it once)."""
+    key = (geoms.tobytes(), fan, cell_size)
+    found = _SLICED.setdefault(model, {})
+    if key not in found:
+        static = static_footprints(model, geoms)
+        if walls is not None:
+            static = Footprints.join([static, boxes_footprints(walls.pos, walls.rotations(), walls.half)])
+        found[key] = (static, Grid(static, fan, cell_size))
+    return found[key]
 
 
 def _needs_3d(frame: ScanFrame, footprints: Footprints) -> bool:

@@ -54,6 +54,17 @@ class Cell:
         self._covering: dict[int, tuple[Walls, np.ndarray]] = {}
         self._walls_only: np.ndarray | None = None
 
+    def level_table(self) -> np.ndarray | None:
+        """walls_only(), or an empty table (no walls at all) where the cell holds nothing; None where it holds
+        circles or bounding cylinders."""
+        if self.segments.shape[1]:
+            return self.walls_only()
+        if self.circles.shape[1] or self.bounds.shape[1]:
+            return None
+        from racecar_sim.sensors.raycast.kernels import WALL_ROWS
+
+        return np.zeros((WALL_ROWS, 0))
+
     def walls_only(self) -> np.ndarray | None:
         """The kernels' table of this cell's walls if walls are all it holds (no circles, no bounding cylinders),
         for kernels.cast_level; else None."""
@@ -214,9 +225,10 @@ class Grid:
 @dataclass(frozen=True)
 class FlatWalls:
     """A Grid's walls-only cells for compiled code: cell (ix, iy) (floor(x / size), floor(y / size)) has number
-    ids[ix - x0, iy - y0], -1 where it is missing or holds more than walls; its walls are table[:, starts[k]:starts[k
-    + 1]]: kernels.wall_table rows, or, if `dense` (a cell of dense.DENSE_WALLS walls or more: a map), dense.py's
-    dense_table rows. `floors`: the heights of the world's horizontal planes."""
+    ids[ix - x0, iy - y0], or `outside` where (ix, iy) lies outside `ids`; -1 where the cell holds more than walls
+    (a cell the grid has no items for is its `empty` cell: the long walls, or none). Cell k's walls are
+    table[:, starts[k]:starts[k + 1]]: kernels.wall_table rows, or, if `dense` (a cell of dense.DENSE_WALLS walls or
+    more: a map), dense.py's dense_table rows. `floors`: the heights of the world's horizontal planes."""
 
     floors: np.ndarray
     size: float
@@ -226,41 +238,44 @@ class FlatWalls:
     starts: np.ndarray
     table: np.ndarray
     dense: bool = False
+    outside: int = -1
 
     @classmethod
     def of(cls, grid: Grid) -> FlatWalls | bool:
         """The grid's walls-only cells; False if their look-up table would hold more than FLAT_CELLS cells."""
         from racecar_sim.sensors.raycast.dense import DENSE_WALLS, dense_order, dense_table
-        from racecar_sim.sensors.raycast.kernels import WALL_ROWS
 
-        walls_only = {key: table for key, cell in grid.cells.items() if (table := cell.walls_only()) is not None}
-        keys = list(walls_only)
-        if not keys:
-            return cls(
-                grid.floors,
-                grid.size,
-                0,
-                0,
-                np.full((1, 1), -1, np.int64),
-                np.zeros(1, np.int64),
-                np.zeros((WALL_ROWS, 0)),
-            )
-        x0, y0 = min(k[0] for k in keys), min(k[1] for k in keys)
-        shape = (max(k[0] for k in keys) - x0 + 1, max(k[1] for k in keys) - y0 + 1)
+        cells = {key: cell for key, cell in grid.cells.items() if cell.level_table() is not None}
+        empty = grid.empty if grid.empty.level_table() is not None else None
+        keys = list(cells)
+        if keys:
+            x0, y0 = min(k[0] for k in keys), min(k[1] for k in keys)
+            shape = (max(k[0] for k in keys) - x0 + 1, max(k[1] for k in keys) - y0 + 1)
+        else:
+            x0, y0, shape = 0, 0, (1, 1)
         if shape[0] * shape[1] > FLAT_CELLS:
             return False
-        ids = np.full(shape, -1, np.int64)
-        dense = max(grid.cells[key].segments.shape[1] for key in keys) >= DENSE_WALLS
+        listed = [cells[key] for key in keys] + ([empty] if empty is not None else [])
+        dense = max((cell.segments.shape[1] for cell in listed), default=0) >= DENSE_WALLS
         tables = []
-        for number, key in enumerate(keys):
-            ids[key[0] - x0, key[1] - y0] = number
-            cell = grid.cells[key]
+        for cell in listed:
             if dense:
                 segments = cell.segments[:, dense_order(cell.segments, cell.centre)]
                 tables.append(dense_table(segments, cell.fan.range_min, cell.fan.range_max))
             else:
-                tables.append(walls_only[key])
+                table = cell.level_table()
+                assert table is not None  # `listed` holds only such cells
+                tables.append(table)
+        outside = len(keys) if empty is not None else -1
+        ids = np.full(shape, outside, np.int64)
+        for key in grid.cells:  # cells with more than walls: refused
+            if key not in cells and 0 <= key[0] - x0 < shape[0] and 0 <= key[1] - y0 < shape[1]:
+                ids[key[0] - x0, key[1] - y0] = -1
+        for number, key in enumerate(keys):
+            ids[key[0] - x0, key[1] - y0] = number
         starts = np.concatenate([[0], np.cumsum([t.shape[1] for t in tables])]).astype(np.int64)
-        return cls(
-            grid.floors, grid.size, x0, y0, ids, starts, np.ascontiguousarray(np.concatenate(tables, axis=1)), dense
-        )
+        from racecar_sim.sensors.raycast.kernels import WALL_ROWS
+
+        rows = tables[0].shape[0] if tables else WALL_ROWS
+        table = np.concatenate(tables, axis=1) if tables else np.zeros((rows, 0))
+        return cls(grid.floors, grid.size, x0, y0, ids, starts, np.ascontiguousarray(table), dense, outside)

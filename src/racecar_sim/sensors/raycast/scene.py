@@ -24,6 +24,15 @@ import numpy as np
 
 G = mujoco.mjtGeom
 SEGMENT_ROWS, CIRCLE_ROWS = 13, 5
+# the geom types solids.cast_solids casts exactly (moving geoms: other cars, pushable boxes)
+SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX = (
+    int(G.mjGEOM_SPHERE),
+    int(G.mjGEOM_CAPSULE),
+    int(G.mjGEOM_ELLIPSOID),
+    int(G.mjGEOM_CYLINDER),
+    int(G.mjGEOM_BOX),
+)
+KINDS = (SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX)
 VERTICAL_TOL = 1e-6  # sine of the largest tilt still taken as vertical: float32 mesh noise (a 2.5 m wall moves 2.5 µm)
 
 
@@ -57,6 +66,35 @@ class Footprints:
             np.concatenate([np.zeros(0)] + [p.floors for p in parts]),
             [name for p in parts for name in p.not_prism_like],
         )
+
+
+@dataclass(frozen=True)
+class Solids:
+    """Geoms cast exactly by solids.cast_solids (beam by beam, with MuJoCo's formulas): their ids in the model, types,
+    sizes (n, 3) and bounding radii."""
+
+    ids: np.ndarray  # intp
+    types: np.ndarray  # intp
+    sizes: np.ndarray  # (n, 3) float64
+    rbound: np.ndarray  # float64
+
+    @classmethod
+    def of(cls, model: mujoco.MjModel, geoms: np.ndarray) -> Solids | None:
+        """The geoms as solids, or None when one of them is of a type solids.cast_solids does not cast (a mesh, a
+        plane, a height field)."""
+        geoms = np.asarray(geoms, np.intp)
+        types = model.geom_type[geoms].astype(np.intp)
+        if not np.isin(types, KINDS).all():
+            return None
+        return cls(
+            np.ascontiguousarray(geoms),
+            np.ascontiguousarray(types),
+            np.ascontiguousarray(model.geom_size[geoms], dtype=np.float64).reshape(-1, 3),
+            np.ascontiguousarray(model.geom_rbound[geoms], dtype=np.float64),
+        )
+
+    def __len__(self) -> int:
+        return len(self.ids)
 
 
 def seen_geoms(model: mujoco.MjModel, group: int) -> np.ndarray:
