@@ -22,7 +22,8 @@ import textwrap
 import time
 
 from racecar_sim import Simulator
-from racecar_sim.bridges.ros2 import Ros2Bridge, ros2_environment
+from racecar_sim.bridges.ros2 import Ros2Bridge, Ros2Unavailable, ros2_environment
+from racecar_sim.bridges.ros2.environment import ros2_python
 from racecar_sim.drivers import ConstantCommand
 
 TOPICS = {  # what a typical ROS 2 node of the car reads
@@ -109,6 +110,10 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.quick:
         args.duration, args.rounds = 0.5, 1
+    try:
+        ros2_python()
+    except Ros2Unavailable as exc:
+        parser.exit(2, f"{parser.prog}: {exc}\n")
     base = sim_with_driver()
     for topic in TOPICS:
         base.subscribe(topic, lambda msg: None)

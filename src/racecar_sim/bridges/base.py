@@ -12,9 +12,14 @@ everything else.
 from __future__ import annotations
 
 import logging
+import pickle
 import queue
+import sys
+import threading
 import time
 from typing import TYPE_CHECKING, Any
+
+from racecar_sim.bridges.link import DATA, ID
 
 if TYPE_CHECKING:
     from racecar_sim.runtime import Simulator
@@ -29,6 +34,7 @@ class BusBridge:
     topics anyone reads on their side (`_wants`) and follow what the sim listens to and offers (`_sync`)."""
 
     task_name = "bridge"
+    side_name = "ROS"  # in warnings: "ROS bridge: ..."
     log = logging.getLogger("racecar_sim.bridge")
 
     def __init__(self, sim: Simulator) -> None:
@@ -41,6 +47,8 @@ class BusBridge:
         self._task: Any = None
         self.sent = 0  # messages sent to the other side
         self.received = 0  # messages from the other side published on the bus
+        self._by_id: dict[int, Any] = {}  # outbound topics by their id on the link: .connections, .ok
+        self._ready = threading.Event()  # the other side said it is ready
 
     # --- to override ---------------------------------------------------------------------------------------------
     def _wants(self, topic: str) -> bool:
@@ -61,6 +69,36 @@ class BusBridge:
 
     def _flush(self) -> None:
         """Send what waits for the other side (a batch); nothing by default."""
+
+    def _on_ready(self, op: dict[str, Any]) -> None:
+        """The other side's `ready` op (reader thread); nothing more by default."""
+
+    def _on_failure(self, op: dict[str, Any]) -> bool:
+        """An `error` op that stops the bridge (reader thread): True if it was one (kept for the sim's thread)."""
+        return False
+
+    # --- frames from the other side (bridges/link.py), on the reader thread ---------------------------------------
+    def _on_frame(self, kind: int, payload: bytes) -> None:
+        """Keep what the sim must handle for its own thread (messages, service calls); note connection counts and
+        readiness at once; warn of the other side's errors (an advertise that failed stops that topic)."""
+        if kind == DATA:
+            (sub_id,) = ID.unpack_from(payload)
+            self._inbox.put(("msg", sub_id, payload[ID.size :]))
+            return
+        op = pickle.loads(payload)
+        if op["op"] == "connections":
+            out = self._by_id.get(op["id"])
+            if out is not None:
+                out.connections = op["count"]
+        elif op["op"] == "ready":
+            self._on_ready(op)
+            self._ready.set()
+        elif op["op"] == "call":
+            self._inbox.put(("call", op))
+        elif op["op"] == "error" and not self._on_failure(op):
+            if op.get("kind") == "advertise" and op.get("id") in self._by_id:
+                self._by_id[op["id"]].ok = False
+            print(f"racecar-sim: warning: {self.side_name} bridge: {op['text']}", file=sys.stderr)
 
     # --- the shared machinery ---------------------------------------------------------------------------------
     def _attach(self) -> None:

@@ -12,10 +12,7 @@ the drains and the no-echo rule are the shape every bridge shares (bridges/base.
 from __future__ import annotations
 
 import logging
-import pickle
 import subprocess
-import sys
-import threading
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -25,7 +22,7 @@ from racecar_sim.bridges.base import DRAIN_RATE, BusBridge
 from racecar_sim.bridges.ros1 import catalog, nodes, wire
 from racecar_sim.bridges.ros1.batch import FrameBatch
 from racecar_sim.bridges.ros1.environment import ROS_SIDE
-from racecar_sim.bridges.ros1.link import DATA, ID, RosSideLink
+from racecar_sim.bridges.ros1.link import RosSideLink
 from racecar_sim.bridges.topic_map import IDENTITY, TopicMap
 from racecar_sim.core.errors import ConfigError
 
@@ -85,7 +82,6 @@ class RosBridge(BusBridge):
         self._in: dict[int, _Inbound] = {}
         self._subscribed: set[str] = set()
         self._services: dict[str, str] = {}
-        self._ready = threading.Event()
         # messages out, in batches; no more of one topic than half a rospy publisher queue
         self._batch = FrameBatch(lambda kind, *parts: self._side.send(kind, *parts), QUEUE_SIZE // 2)
         self._link: RosSideLink | None = None
@@ -193,27 +189,7 @@ class RosBridge(BusBridge):
             self._batch.latest_only.add(out.id)
         return out
 
-    # --- ROS -> sim ----------------------------------------------------------------------------------------------
-    def _on_frame(self, kind: int, payload: bytes) -> None:
-        """Reader thread: keep what the sim must handle for its own thread; note connection counts at once."""
-        if kind == DATA:
-            (sub_id,) = ID.unpack_from(payload)
-            self._inbox.put(("msg", sub_id, payload[ID.size :]))
-            return
-        op = pickle.loads(payload)
-        if op["op"] == "connections":
-            out = self._by_id.get(op["id"])
-            if out is not None:
-                out.connections = op["count"]
-        elif op["op"] == "ready":
-            self._ready.set()
-        elif op["op"] == "call":
-            self._inbox.put(("call", op))
-        elif op["op"] == "error":
-            if op.get("kind") == "advertise" and op.get("id") in self._by_id:
-                self._by_id[op["id"]].ok = False
-            print(f"racecar-sim: warning: ROS bridge: {op['text']}", file=sys.stderr)
-
+    # --- ROS -> sim (frames: BusBridge._on_frame) -----------------------------------------------------------------
     def _flush(self) -> None:
         """At every drain: send the batch when due."""
         self._batch.flush_due()

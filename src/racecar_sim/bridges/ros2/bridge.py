@@ -12,15 +12,13 @@ and frames at this edge only.
 
 from __future__ import annotations
 
-import pickle
 import sys
-import threading
 import time
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from racecar_sim.bridges.base import DRAIN_RATE, BusBridge
-from racecar_sim.bridges.link import DATA, ID, SideLink
+from racecar_sim.bridges.link import SideLink
 from racecar_sim.bridges.ros2 import qos, services, types
 from racecar_sim.bridges.ros2.environment import ROS_SIDE, RosPython, domain_id, ros2_environment, ros2_python
 from racecar_sim.bridges.topic_map import IDENTITY, TopicMap
@@ -64,6 +62,7 @@ class Ros2Bridge(BusBridge):
     `topic_map`: the names on ROS (default: the sim's own). The generated types are built on first use.
     """
 
+    side_name = "ROS 2"
     task_name = "ros2_bridge"
 
     def __init__(
@@ -86,7 +85,6 @@ class Ros2Bridge(BusBridge):
         self._subscribed: set[str] = set()
         self._services: dict[str, services.Service] = {}
         self._warned: set[str] = set()
-        self._ready = threading.Event()
         self._failure: str | None = None
         self._link: SideLink | None = None
         self._flushed = 0.0  # perf_counter() at the last batch sent
@@ -192,30 +190,15 @@ class Ros2Bridge(BusBridge):
         self._side.send_control(op="advertise", id=out.id, topic=ros_topic, type=msgtype, qos=profile)
         return out
 
-    # --- ROS -> sim ----------------------------------------------------------------------------------------------
-    def _on_frame(self, kind: int, payload: bytes) -> None:
-        """Reader thread: keep what the sim must handle for its own thread; note connection counts at once."""
-        if kind == DATA:
-            (sub_id,) = ID.unpack_from(payload)
-            self._inbox.put(("msg", sub_id, payload[ID.size :]))
-            return
-        op = pickle.loads(payload)
-        if op["op"] == "connections":
-            out = self._by_id.get(op["id"])
-            if out is not None:
-                out.connections = op["count"]
-        elif op["op"] == "ready":
-            self.fully_qualified_name = op.get("name", self.fully_qualified_name)
-            self._ready.set()
-        elif op["op"] == "call":
-            self._inbox.put(("call", op))
-        elif op["op"] == "error":
-            if op.get("kind") == "domain":  # the sim's thread raises it (start(), or the next drain)
-                self._failure = op["text"]
-                return
-            if op.get("kind") == "advertise" and op.get("id") in self._by_id:
-                self._by_id[op["id"]].ok = False
-            print(f"racecar-sim: warning: ROS 2 bridge: {op['text']}", file=sys.stderr)
+    # --- ROS -> sim (frames: BusBridge._on_frame) -----------------------------------------------------------------
+    def _on_ready(self, op: dict[str, Any]) -> None:
+        self.fully_qualified_name = op.get("name", self.fully_qualified_name)
+
+    def _on_failure(self, op: dict[str, Any]) -> bool:
+        if op.get("kind") != "domain":
+            return False
+        self._failure = op["text"]  # the sim's thread raises it (start(), or the next drain)
+        return True
 
     def _handle(self, item: tuple[Any, ...]) -> None:
         if item[0] == "msg":
