@@ -3,7 +3,7 @@
 The same operations, in the same order, as LidarPublisher's numpy code (true range + (unit noise x stddev +
 mean), clamped to [range_min, range_max], +inf where nothing was hit), so either gives the same bits.
 
-level_scan and dense_level_scan compile the casts of raycast/kernels.py, raycast/dense.py and raycast/solids.py
+level_scan compiles the casts of raycast/kernels.py, raycast/dense.py and raycast/solids.py
 into themselves, and numba's cache (cache=True) knows only each function's own file: after changing kernels.py,
 dense.py or solids.py in a checkout, delete src/**/__pycache__/*.nbi (an install starts afresh).
 """
@@ -102,111 +102,22 @@ def level_scan(
     solid_types: Indices,
     solid_sizes: Floats,
     solid_rbound: Floats,
+    dense_cells: bool,
 ) -> bool:
     """A whole published scan in one call, for a laser on a free body (LaserMount) in a world of walls and moving
     solids (other cars): the ray origin and axes from the body's pose in qpos (LaserMount.pose's operations, in its
     order), the origin's grid cell (FlatWalls; `outside`: the cell of every point outside `ids`), kernels.cast_level
-    into `ranges`, then solids.cast_solids on the geoms `solid_ids` at their poses xpos, xmat (an MjData posed at
-    the live qpos), published_scan into `out`. Returns False, `out` untouched, where that path cannot answer (a cell
-    with more than walls, or cast_level's refusals)."""
+    into `ranges` (raycast.dense's cast on its tables where `dense_cells`: a map, FlatWalls.dense), then
+    solids.cast_solids on the geoms `solid_ids` at their poses xpos, xmat (an MjData posed at the live qpos),
+    published_scan into `out`. Returns False, `out` untouched, where that path cannot answer (a cell with more than
+    walls, or cast_level's refusals)."""
     k, origin, axes = _laser_cell(qpos, adr, local_origin, local_axes, size, x0, y0, ids, outside)
     ranges[:] = np.inf
-    if k < 0 or not cast_level(
-        table[:, starts[k] : starts[k + 1]],
-        floors,
-        origin,
-        axes,
-        max_tilt_cos,
-        angle_min,
-        inverse_step,
-        count,
-        turn,
-        range_min,
-        range_max,
-        dirs,
-        ranges,
-    ):
+    if k < 0:
         return False
-    if solid_ids.shape[0]:
-        _solids(
-            xpos,
-            xmat,
-            solid_ids,
-            solid_types,
-            solid_sizes,
-            solid_rbound,
-            floors,
-            origin,
-            axes,
-            max_tilt_cos,
-            angle_min,
-            inverse_step,
-            count,
-            turn,
-            range_min,
-            range_max,
-            dirs,
-            ranges,
-        )
-    published_scan(ranges, values, first, second, stddev, mean, noisy, range_min, range_max, out)
-    return True
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def dense_level_scan(
-    qpos: Floats,
-    adr: int,
-    local_origin: Floats,
-    local_axes: Floats,
-    size: float,
-    x0: int,
-    y0: int,
-    ids: NDArray[np.int64],
-    outside: int,
-    starts: NDArray[np.int64],
-    table: Floats,
-    floors: Floats,
-    max_tilt_cos: float,
-    angle_min: float,
-    inverse_step: float,
-    count: int,
-    turn: float,
-    range_min: float,
-    range_max: float,
-    dirs: Floats,
-    values: Noise,
-    first: int,
-    second: int,
-    stddev: float,
-    mean: float,
-    noisy: bool,
-    ranges: Floats,
-    out: NDArray[np.float32],
-    xpos: Floats,
-    xmat: Floats,
-    solid_ids: Indices,
-    solid_types: Indices,
-    solid_sizes: Floats,
-    solid_rbound: Floats,
-) -> bool:
-    """level_scan in a world of dense cells (a map; FlatWalls.dense): raycast.dense's cast on its tables."""
-    k, origin, axes = _laser_cell(qpos, adr, local_origin, local_axes, size, x0, y0, ids, outside)
-    ranges[:] = np.inf
-    if k < 0 or not dense.cast_level(
-        table[:, starts[k] : starts[k + 1]],
-        floors,
-        origin,
-        axes,
-        max_tilt_cos,
-        angle_min,
-        inverse_step,
-        count,
-        turn,
-        range_min,
-        range_max,
-        dirs,
-        ranges,
-    ):
+    cell = table[:, starts[k] : starts[k + 1]]
+    walls = (cell, floors, origin, axes, max_tilt_cos, angle_min, inverse_step, count, turn, range_min, range_max)
+    if not (dense.cast_level(*walls, dirs, ranges) if dense_cells else cast_level(*walls, dirs, ranges)):
         return False
     if solid_ids.shape[0]:
         _solids(

@@ -153,18 +153,17 @@ class LidarPublisher(NodeBase):
         mount = self.mount
         # the common case in one compiled call (laser_kernel.level_scan), else the steps below
         if mount is not None and self.mode == "auto" and (walls := self.caster.level_walls()) is not None:
-            from racecar_sim.sensors.laser_kernel import dense_level_scan, level_scan
+            from racecar_sim.sensors.laser_kernel import level_scan
             from racecar_sim.sensors.raycast.fan import MAX_TILT_COS
 
             fan = self.fan
             first, second = self.noise_table.offsets(self.seed, stamp_ns)
             out = np.empty(fan.count, np.float32)
-            scan = dense_level_scan if walls.dense else level_scan  # a map's dense cells: hidden walls dropped
             solids = self.caster.solids or _NO_SOLIDS
             if len(solids):  # the other cars where they are now
                 self._pose_bodies()
             pose = self._pose
-            if scan(
+            if level_scan(
                 self.data.qpos,
                 mount.qpos_adr,
                 mount.local_origin,
@@ -199,6 +198,7 @@ class LidarPublisher(NodeBase):
                 solids.types,
                 solids.sizes,
                 solids.rbound,
+                walls.dense,  # a map's dense cells: hidden walls dropped
             ):
                 self.scans_cast += 1
                 self.one_call_scans += 1
