@@ -547,3 +547,25 @@ def test_render_ahead_publishes_the_same_frames_one_period_later():
         assert t_sync == stamp  # published at the time it shows
         assert t_ahead == later  # at the next frame's tick
         np.testing.assert_array_equal(frame_ahead, frame)
+
+
+@needs_gl
+def test_a_fleets_cameras_draw_with_one_gl_context_and_the_same_frames():
+    """Every camera of one model draws with the same MjrContext (meshes, textures, framebuffer made once); each
+    camera's frame is the one it draws alone, and the context lives on until the last camera is closed."""
+    from racecar_sim import Car
+    from racecar_sim.worlds import load_world, starting_row
+
+    world = load_world("walker", None, [], 1.0)
+    cars = [Car(f"car{k + 1}", spawn=spawn, lidar=False) for k, spawn in enumerate(starting_row(world, 2))]
+    sim = Simulator(world=world, cars=cars, seed=1)
+    first, second = (car.camera for car in sim.cars)
+    assert first is not None and second is not None
+    assert first.renderer.target.context is second.renderer.target.context
+    sim.run_until(0.1)
+    both = [first.capture(100_000_000), second.capture(100_000_000)]
+    first.close()  # the context stays for the second camera
+    assert second.renderer.target.context is not None
+    np.testing.assert_array_equal(second.capture(100_000_000), both[1])
+    assert not np.array_equal(both[0], both[1]), "each camera shows its own view"
+    sim.close()

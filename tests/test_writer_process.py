@@ -111,6 +111,50 @@ def test_an_image_both_recorded_and_filmed_crosses_once_and_the_video_is_the_in_
     assert len(decoded[0]) == 10 and all(np.array_equal(a, b) for a, b in zip(*decoded))
 
 
+def big_image(i: int) -> Image:
+    """A 640x480 frame (large enough to cross in shared memory): frame(i) scaled up 10 times."""
+    pixels = np.ascontiguousarray(frame(i).repeat(10, axis=0).repeat(10, axis=1))
+    return Image(Header.at(i * 33_000_000, "camera_link"), 480, 640, "bgr8", 0, 640 * 3, pixels.reshape(-1))
+
+
+def record_and_film(tmp_path: Path, process: bool, images: list[Image]) -> bytes:
+    """The MCAP bytes of a recording of `images` (JPEG, by a writer process or in place), filmed to camera.mp4 by the
+    same process, or to in_place.mp4 by a VideoWriter."""
+    bus, clock = Bus(), [0]
+    rec = RunRecording(bus, lambda: clock[0], tmp_path / f"run_{process}.mcap", image_topics=[IMAGE], process=process)
+    if process:
+        video = ProcessVideo(rec.process, tmp_path / "camera.mp4", 30.0, 640, 480)
+        bus.subscribe(IMAGE, video.write_image)
+    else:
+        in_place = VideoWriter(tmp_path / "in_place.mp4", 30.0, 640, 480)
+        bus.subscribe(IMAGE, lambda msg: in_place.write(msg.bgr_pixels()))
+    for i, msg in enumerate(images):
+        clock[0] = i * 33_000_000
+        bus.publish("/command", Float64(i))
+        bus.publish(IMAGE, msg)
+    if process:
+        ring = rec.process._ring
+        assert ring is not None and ring.next == len(images) and ring.slots == 3  # every frame went by the ring
+        video.close()
+    else:
+        in_place.close()
+    rec.close()
+    return (tmp_path / f"run_{process}.mcap").read_bytes()
+
+
+def test_camera_frames_cross_in_shared_memory_and_the_files_are_the_in_place_ones(tmp_path, monkeypatch):
+    """Each frame is copied into a ring of slots the child lets go of in turn; with 3 slots and 12 frames the parent
+    reuses each slot 4 times (waiting for the child where it is behind), and no frame is overwritten too early."""
+    monkeypatch.setattr(writer_process, "RING_SLOTS", 3)
+    images = [big_image(i) for i in range(12)]
+    assert record_and_film(tmp_path, True, images) == record_and_film(tmp_path, False, images)
+    decoded = []
+    for path in (tmp_path / "camera.mp4", tmp_path / "in_place.mp4"):
+        with av.open(str(path)) as container:
+            decoded.append([f.to_ndarray(format="bgr24") for f in container.decode(video=0)])
+    assert len(decoded[0]) == 12 and all(np.array_equal(a, b) for a, b in zip(*decoded))
+
+
 def test_a_video_without_a_recording_owns_its_process_and_falls_back_to_gif(tmp_path, monkeypatch, caplog):
     fake = tmp_path / "site"
     fake.mkdir()

@@ -3,9 +3,10 @@
 The recording's Python (the mcap writer, chunking) and the encoders would otherwise compete with the simulation for
 its GIL. The parent only hands over what it publishes, in batches through a pipe: messages already serialized, and
 camera images as their raw pixels, sent once even when the child both records them as JPEG and puts them in the
-video. The child does the work in the order it was handed over, so the files are byte for byte those writing in
-place gives. The child is a fresh interpreter (like multiprocessing's spawn, never a fork of a process with GL
-contexts and threads) started without waiting for it: its imports overlap the parent's start-up.
+video (a camera frame through shared memory where the system has it: one copy instead of the pipe's two, and none
+of the child's allocations). The child does the work in the order it was handed over, so the files are byte for byte
+those writing in place gives. The child is a fresh interpreter (like multiprocessing's spawn, never a fork of a
+process with GL contexts and threads) started without waiting for it: its imports overlap the parent's start-up.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import logging
+import mmap
 import os
 import pickle
 import queue
@@ -22,9 +24,12 @@ import struct
 import subprocess
 import sys
 import threading
+import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from racecar_sim.core.errors import RecordingError
 from racecar_sim.msgs import Image
@@ -38,6 +43,13 @@ DEPTH = 64
 """Hand-overs the child may hold unwritten (with a frame each, two seconds of 30 Hz video); beyond that the parent's
 send waits, so the simulation never runs far ahead of its files and memory stays bounded."""
 PIPE_SIZE = 1 << 20  # bytes: a camera frame fits in the pipe at once (Linux's default limit for a user)
+RING_SLOTS = 32
+"""Camera frames the shared memory holds (a second of 30 Hz video, 29 MB at 640x480): the parent writes frame n in
+slot n % RING_SLOTS once the child has let go of the frame RING_SLOTS before, waiting (RING_WAIT at a time) when the
+child is that far behind."""
+RING_MIN = 1 << 16  # bytes: smaller images cross in the pipe (they cost little there), and so do the first's larger
+RING_WAIT = 0.0005  # s
+_RING_HEAD = 64  # bytes before the slots: the first 8, the number of the first frame the child still holds
 
 _HEAD = struct.Struct("<QI")  # pickle bytes, out-of-band buffers
 _SIZE = struct.Struct("<Q")
@@ -47,6 +59,7 @@ _PR_SET_PDEATHSIG = 1  # linux/prctl.h
 # operations, the first item of each tuple handed over
 MESSAGE, JPEG, FRAME, OPEN_MCAP, OPEN_VIDEO, CLOSE_VIDEO = range(6)
 _SAME = None  # an image op's pixels: those of the image before
+_RING = "ring"  # an image's pixels in the shared memory: (_RING, frame number, bytes, slot size, slots)
 
 
 class WriterProcess:
@@ -77,6 +90,9 @@ class WriterProcess:
         back_read, back_write = os.pipe()
         with contextlib.suppress(OSError, AttributeError):  # a bigger pipe: fewer wake-ups per frame
             fcntl.fcntl(data_write, fcntl.F_SETPIPE_SZ, PIPE_SIZE)
+        self._ring_fd = _shared_memory()  # sized with the first camera frame
+        self._ring: _FrameRing | None = None
+        ring_fds = () if self._ring_fd is None else (self._ring_fd,)
         # a SIGKILL of the run ends its writer too (on Linux): the file is cut where it was, as without a process
         # (racecar-sim recover mends it), never finished behind the back of whoever reads it next. Only when the
         # main thread starts it: the signal comes when the starting thread ends.
@@ -88,16 +104,20 @@ class WriterProcess:
             str(data_read),
             str(back_write),
             str(linked),
+            str(-1 if self._ring_fd is None else self._ring_fd),
         ]
         # the child starts with SIGINT and SIGTERM blocked, so none arrives before it ignores them
         blocked = signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
         try:
             self._process = subprocess.Popen(
-                command, pass_fds=(data_read, back_write, *pass_fds), stdin=subprocess.DEVNULL, env=_child_environment()
+                command,
+                pass_fds=(data_read, back_write, *ring_fds, *pass_fds),
+                stdin=subprocess.DEVNULL,
+                env=_child_environment(),
             )
         except BaseException:
-            os.close(data_write)
-            os.close(back_read)
+            for fd in (data_write, back_read, *ring_fds):
+                os.close(fd)
             raise
         finally:
             signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
@@ -120,8 +140,31 @@ class WriterProcess:
         self._last_image = msg
         self._pixels_queued = True
         data = memoryview(msg.data)  # type: ignore[arg-type]  # an ndarray is a buffer: its stubs do not say so
-        pixels = pickle.PickleBuffer(data if data.c_contiguous else data.tobytes())  # crosses the pipe uncopied
+        pixels: object = self._in_ring(data)
+        if pixels is None:
+            pixels = pickle.PickleBuffer(data if data.c_contiguous else data.tobytes())  # crosses the pipe uncopied
         return (msg.header, msg.height, msg.width, msg.encoding, msg.is_bigendian, msg.step, pixels)
+
+    def _in_ring(self, data: memoryview) -> tuple[Any, ...] | None:
+        """The pixels copied into the shared memory, as an image op's pixels; None where they go by the pipe."""
+        if self._ring_fd is None or data.nbytes < RING_MIN or not data.c_contiguous:
+            return None
+        if self._ring is None:
+            try:
+                self._ring = _FrameRing(self._ring_fd, data.nbytes)
+            except OSError:  # no room for it (e.g. a small /dev/shm): the pipe it is
+                os.close(self._ring_fd)
+                self._ring_fd = None
+                return None
+        ring = self._ring
+        if data.nbytes > ring.slot_size:
+            return None
+        while not ring.free():  # the child is a second of frames behind: wait for it, as the pipe would
+            self._poll()
+            if self._error is not None or self._back is None:
+                return None  # the child does no more work: the next hand-over raises why
+            time.sleep(RING_WAIT)
+        return ring.put(data)
 
     def send(self, op: tuple[Any, ...], flush: bool = False) -> None:
         """Queue `op` (the operations above); `flush`: hand it over now."""
@@ -252,6 +295,11 @@ class WriterProcess:
         if self._back is not None:
             os.close(self._back)
             self._back = None
+        if self._ring is not None:
+            self._ring.close()
+        if self._ring_fd is not None:
+            os.close(self._ring_fd)
+            self._ring_fd = None
 
     @property
     def closed(self) -> bool:
@@ -269,6 +317,42 @@ def _read_exactly(fd: int, size: int) -> bytes:
         chunks.append(chunk)
         size -= len(chunk)
     return b"".join(chunks)
+
+
+def _shared_memory() -> int | None:
+    """An anonymous shared-memory file for camera frames (Linux's memfd), or None where there is none."""
+    try:
+        return os.memfd_create("racecar-sim frames")
+    except (AttributeError, OSError):
+        return None
+
+
+class _FrameRing:
+    """The parent's end of the shared memory: RING_SLOTS slots of `slot_size` bytes after a head whose first 8 bytes
+    the child writes: the number of the first frame it still holds (every frame before it is done with)."""
+
+    def __init__(self, fd: int, slot_size: int) -> None:
+        self.slot_size, self.slots = slot_size, RING_SLOTS
+        size = _RING_HEAD + self.slots * slot_size
+        os.ftruncate(fd, size)
+        self.map = mmap.mmap(fd, size)
+        self.held = np.ndarray((1,), np.uint64, self.map)  # the child's count
+        self.next = 0  # the number of the next frame
+
+    def free(self) -> bool:
+        """Whether the next frame's slot is free: the child let go of the frame that was in it."""
+        return self.next < self.slots or int(self.held[0]) > self.next - self.slots
+
+    def put(self, data: memoryview) -> tuple[Any, ...]:
+        """Copy a frame into the next slot; the image op's pixels that name it."""
+        start = _RING_HEAD + (self.next % self.slots) * self.slot_size
+        self.map[start : start + data.nbytes] = data.cast("B")
+        self.next += 1
+        return (_RING, self.next - 1, data.nbytes, self.slot_size, self.slots)
+
+    def close(self) -> None:
+        del self.held
+        self.map.close()
 
 
 def _child_environment() -> dict[str, str]:
@@ -333,11 +417,12 @@ def serve() -> None:
         if os.getppid() != parent:  # it died before that
             os._exit(1)
     back = _Reports(int(sys.argv[2]))
+    ring = int(sys.argv[4]) if len(sys.argv) > 4 else -1
     logging.getLogger("racecar_sim").addHandler(back)
     hand_overs: queue.Queue[tuple[bytes, list[bytearray]] | None] = queue.Queue(DEPTH)
     reader = threading.Thread(target=_read_hand_overs, args=(int(sys.argv[1]), hand_overs), daemon=True)
     reader.start()  # reads on while the main thread encodes: the parent's hand-over waits on no encoder
-    files = _Files(back)
+    files = _Files(back, ring)
     error: BaseException | None = None
     while (hand_over := hand_overs.get()) is not None:
         if error is not None:
@@ -407,19 +492,38 @@ class _Reports(logging.Handler):
 class _Files:
     """The child's files: the MCAP recorder and the video writer, opened by operations."""
 
-    def __init__(self, reports: _Reports) -> None:
+    def __init__(self, reports: _Reports, ring_fd: int = -1) -> None:
         self.reports = reports
         self.recorder: Any = None
         self.video: Any = None
         self.video_path: str | None = None
         self.last_image: Image | None = None
+        self.ring_fd = ring_fd
+        self.ring: mmap.mmap | None = None  # the shared memory, mapped with the first frame in it
+        self.held: np.ndarray | None = None  # its head's count: the parent's _FrameRing.held
+        self.holding: int | None = None  # the frame of the shared memory last_image is
 
     def image(self, pixels: tuple[Any, ...] | None) -> Image:
         if pixels is not _SAME:
             header, height, width, encoding, is_bigendian, step, data = pixels
+            self.last_image = None
+            if self.holding is not None:  # the image before is done with: its slot is the parent's again
+                assert self.held is not None
+                self.held[0] = self.holding + 1
+                self.holding = None
+            if isinstance(data, tuple) and data[0] == _RING:
+                data = self._from_ring(*data[1:])
             self.last_image = Image(header, height, width, encoding, is_bigendian, step, data)
         assert self.last_image is not None
         return self.last_image
+
+    def _from_ring(self, frame: int, nbytes: int, slot_size: int, slots: int) -> memoryview:
+        if self.ring is None:
+            self.ring = mmap.mmap(self.ring_fd, _RING_HEAD + slots * slot_size)
+            self.held = np.ndarray((1,), np.uint64, self.ring)
+        self.holding = frame
+        start = _RING_HEAD + (frame % slots) * slot_size
+        return memoryview(self.ring)[start : start + nbytes]
 
     def do(self, op: tuple[Any, ...]) -> None:
         kind = op[0]

@@ -8,10 +8,17 @@ cube map on every one of those pixels (about 2.5 ms of a 5.5 ms frame in walker,
 sky). When the skybox is one colour and nothing drawn is translucent (`flat_sky`), the camera draws without it
 and reads RGBA instead: MuJoCo clears to alpha 0 and every opaque geom writes alpha 1, so the sky is exactly the
 pixels left at alpha 0, and painting them the sky's colour gives the skybox's image bit for bit.
+
+A fleet's cameras: every camera of one model draws with the same MjrContext (its meshes, textures and offscreen
+framebuffer, made once), one after the other on the GL thread, each reading its image into its own buffer before the
+next draws. Drawing each camera into a framebuffer of its own cost 60 % more a camera with four cars (4.6 ms against
+2.8 ms a frame): llvmpipe's caches go cold switching between four framebuffers of 2.4 MB each. The images are the
+same bit for bit: the same drawing into the same-sized buffer at the same place.
 """
 
 from __future__ import annotations
 
+import threading
 from concurrent.futures import Future
 
 import mujoco
@@ -67,6 +74,39 @@ def flat_sky(model: mujoco.MjModel) -> np.ndarray | None:
     return sky
 
 
+class _SharedContexts:
+    """The MjrContext of each model in a HeadlessGL, made by the first GLScene of that model and freed with the last
+    (counted); made and freed on the context's thread."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._contexts: dict[tuple[int, int], tuple[mujoco.MjModel, mujoco.MjrContext, int]] = {}
+
+    def take(self, model: mujoco.MjModel, gl: HeadlessGL) -> mujoco.MjrContext:
+        key = (id(gl), id(model))  # the model is kept while counted, so its id is not reused meanwhile
+        with self._lock:
+            if key in self._contexts:
+                kept, context, users = self._contexts[key]
+                self._contexts[key] = (kept, context, users + 1)
+                return context
+            context = gl.call(mujoco.MjrContext, model, mujoco.mjtFontScale.mjFONTSCALE_50)
+            self._contexts[key] = (model, context, 1)
+            return context
+
+    def give_back(self, model: mujoco.MjModel, gl: HeadlessGL) -> None:
+        key = (id(gl), id(model))
+        with self._lock:
+            kept, context, users = self._contexts[key]
+            if users > 1:
+                self._contexts[key] = (kept, context, users - 1)
+                return
+            del self._contexts[key]
+        gl.call(context.free)
+
+
+_contexts = _SharedContexts()
+
+
 class GLScene:
     """A MuJoCo scene and its GL objects in the shared headless context, drawn offscreen on the context's thread into
     an RGB buffer (rows bottom-up, GL order) that the next drawing reuses. `fix`: what the one-line RenderingError
@@ -81,10 +121,9 @@ class GLScene:
         self.rgba = np.empty((height, width, 4), dtype=np.uint8)
         self.depth: np.ndarray | None = None  # made by the first depth drawing
         self.sky = flat_sky(model)
+        self.model = model
         try:
-            self.context: mujoco.MjrContext | None = gl.call(
-                mujoco.MjrContext, model, mujoco.mjtFontScale.mjFONTSCALE_50
-            )
+            self.context: mujoco.MjrContext | None = _contexts.take(model, gl)  # shared by the model's cameras
         except mujoco.FatalError as exc:  # e.g. MuJoCo's GL loader bound to another backend earlier in the process
             raise RenderingError(f"MuJoCo cannot render in the {gl.backend} context ({exc}): {fix}") from None
 
@@ -135,10 +174,11 @@ class GLScene:
         return self.rgba
 
     def close(self) -> None:
-        """Free the GL objects (the shared context stays). Idempotent."""
+        """Free the GL objects once no other camera of the model draws with them (the shared GL context stays).
+        Idempotent."""
         if self.context is not None:
-            self.gl.call(self.context.free)
             self.context = None
+            _contexts.give_back(self.model, self.gl)
 
 
 class OffscreenCamera:
