@@ -33,7 +33,8 @@ TOPICS = {  # what a typical ROS 2 node of the car reads
     "/clock": "rosgraph_msgs.msg:Clock",
 }
 LISTENER = textwrap.dedent("""
-    import importlib, signal, sys, rclpy
+    import importlib, sys, rclpy
+    from rclpy.executors import ExternalShutdownException
     from rclpy.node import Node
     from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
     profiles = {"/scan": qos_profile_sensor_data, "/tf": QoSProfile(depth=100),
@@ -48,10 +49,10 @@ LISTENER = textwrap.dedent("""
         module, name = spec.split(":")
         cls = getattr(importlib.import_module(module), name)
         node.create_subscription(cls, topic, lambda m, t=topic: on_msg(m, t), profiles.get(topic, QoSProfile(depth=10)))
-    stop = []
-    signal.signal(signal.SIGINT, lambda *a: stop.append(1))
-    while not stop:
-        rclpy.spin_once(node, timeout_sec=0.1)
+    try:  # as a ROS 2 node runs: rclpy.spin until Ctrl-C (SIGINT)
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
     print(sum(counts.values()), len(counts), flush=True)
 """)
 

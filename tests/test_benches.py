@@ -4,6 +4,8 @@ bridge's throughput bench (bench/bench_ros_bridge.py --quick). A check that they
 
 from __future__ import annotations
 
+import importlib.util
+import os
 import re
 import subprocess
 import sys
@@ -68,3 +70,46 @@ def test_ros_bridge_bench_quick_prints_the_ratio():
         assert line in result.stdout, line
     ratio = re.search(r"^ratio\s+([0-9.]+)$", result.stdout, re.MULTILINE)
     assert ratio is not None and float(ratio[1]) > 0, result.stdout
+
+
+@pytest.mark.skipif(
+    importlib.util.find_spec("mujoco_warp") is None or os.environ.get("RACECAR_SIM_TEST_WARP") == "0",
+    reason="needs mujoco-warp (the [gpu] extra); RACECAR_SIM_TEST_WARP=0 skips it",
+)
+def test_gpu_bench_quick_prints_its_table():
+    """bench/bench_gpu.py --quick: the MuJoCo Warp batch on Warp's CPU device at 1 and 8 worlds against the CPU batch,
+    the table and its trajectory check printed (~30 s the first time: Warp compiles its kernels; then ~10 s)."""
+    bench = Path(__file__).resolve().parents[1] / "bench" / "bench_gpu.py"
+    result = subprocess.run(
+        [sys.executable, str(bench), "--quick"], capture_output=True, text=True, timeout=600, check=False
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    out = result.stdout
+    assert "device cpu (" in out and "computed on the HOST" in out
+    assert "worlds  device car-steps/s   CPU car-steps/s    ratio  host lidar" in out
+    rows = re.findall(r"^ +(\d+) +([\d,]+) +[\d,]+ +[\d.]+ +\d+% +\d+ +\S+ +\S+ +\S+ +(yes|NO.*)$", out, re.MULTILINE)
+    assert [int(row[0]) for row in rows] == [1, 8], out
+    assert all(int(row[1].replace(",", "")) > 0 for row in rows), out
+
+
+def test_gpu_bench_without_a_gpu_is_one_line():
+    """bench/bench_gpu.py --device warp on a machine without a CUDA GPU (or without mujoco-warp): what is missing in
+    one line, exit 2."""
+    if importlib.util.find_spec("warp") is not None:
+        import warp
+
+        warp.config.log_level = warp.LOG_ERROR
+        if warp.get_cuda_device_count():
+            pytest.skip("this machine has a CUDA GPU")
+    bench = Path(__file__).resolve().parents[1] / "bench" / "bench_gpu.py"
+    result = subprocess.run(
+        [sys.executable, str(bench), "--device", "warp", "--worlds", "1"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert result.returncode == 2, result.stderr[-3000:]
+    assert result.stdout == ""
+    (line,) = result.stderr.splitlines()
+    assert line.startswith("bench_gpu.py: error: ") and "[gpu]" in line, line

@@ -39,7 +39,8 @@ def _import_warp(device: str) -> Any:
         import warp
     except ImportError:
         raise ConfigError(f"DriveBatch device={device!r} needs MuJoCo Warp: {GPU_HINT}") from None
-    warp.config.quiet = True
+    # not Warp's banner nor a line per kernel module loaded (Warp 1.19 has log_level; its old config.quiet is gone)
+    warp.config.log_level = warp.LOG_WARNING
     warp.init()
     return mujoco_warp
 
