@@ -461,16 +461,26 @@ TELEOP_AND_WATCH = """
     msg = AckermannDriveStamped()
     msg.drive.speed = 1.5
     published = 0
+    # until a command has made the round trip (discovery on a loaded machine may finish on the sim's side seconds
+    # after ours: what is published before that is not the bridge's to deliver), then 4 s more, counted
+    end = time.monotonic() + 30
+    while 1.5 not in output and time.monotonic() < end:
+        pub.publish(msg)
+        published += 1
+        rclpy.spin_once(node, timeout_sec=0.05)
+        time.sleep(0.02)
+    counted = 0
     end = time.monotonic() + 4
     while time.monotonic() < end:
         pub.publish(msg)
         published += 1
+        counted += 1
         rclpy.spin_once(node, timeout_sec=0.05)
         time.sleep(0.02)
     end = time.monotonic() + 1
     while time.monotonic() < end:
         rclpy.spin_once(node, timeout_sec=0.05)
-    print(json.dumps({"published": published, "navigation": navigation, "output": output}))
+    print(json.dumps({"published": published, "counted": counted, "navigation": navigation, "output": output}))
 """
 
 
@@ -495,4 +505,5 @@ def test_commands_from_ros2_come_out_of_the_mux_and_nothing_echoes(jazzy, tmp_pa
     assert len(got["navigation"]) > 20 and set(got["navigation"]) == {0.5}  # the sim's own driver
     assert got["output"].count(1.5) > 20 and 0.5 in got["output"]  # teleop wins over navigation in the mux
     assert set(injected) == {"/vesc/ackermann_cmd_mux/input/teleop"}  # no echo of the driver's commands
-    assert got["published"] / 2 < len(injected) <= got["published"]
+    # every command after the round trip reaches the sim (rclpy's MultiThreadedExecutor on the ROS side lost 2 in 5)
+    assert 0.8 * got["counted"] < len(injected) <= got["published"]

@@ -112,8 +112,6 @@ class RosSide:
     ID: Any = None
 
     def __init__(self, node: Node, link: Any) -> None:
-        from rclpy.callback_groups import ReentrantCallbackGroup
-
         self.node, self.link = node, link
         self.publishers: dict[int, Any] = {}
         self.counts: dict[int, int] = {}
@@ -125,7 +123,6 @@ class RosSide:
         self.lock = threading.Lock()
         self.echoes: dict[str, collections.deque[tuple[float, bytes]]] = {}  # what we published on a subscribed topic
         self.echo_lock = threading.Lock()
-        self.service_group = ReentrantCallbackGroup()  # a call waits for the sim: others go on meanwhile
 
     def handle(self, op: dict[str, Any]) -> None:
         name = op["op"]
@@ -151,9 +148,7 @@ class RosSide:
                 def handler(request: Any, response: Any, name: str = op["name"]) -> Any:
                     return self._on_call(name, request, response)
 
-                self.services[op["name"]] = self.node.create_service(
-                    srv, op["name"], handler, callback_group=self.service_group
-                )
+                self.services[op["name"]] = self.node.create_service(srv, op["name"], handler)
         elif name == "unservice":
             service = self.services.pop(op["name"], None)
             if service is not None:
@@ -247,13 +242,15 @@ def serve(name: str) -> int:
     link = links.PipeEnd.from_stdio()
     RosSide.DATA, RosSide.ID = links.DATA, links.ID
     import rclpy
-    from rclpy.executors import MultiThreadedExecutor
+    from rclpy.executors import SingleThreadedExecutor
     from rclpy.node import Node
 
     rclpy.init()
     node = Node(name)
     side = RosSide(node, link)
-    executor = MultiThreadedExecutor(num_threads=4)
+    # one thread: rclpy's MultiThreadedExecutor took commands so slowly beside the publishing that, at 50 Hz from a
+    # ROS 2 node, 2 of 5 were never taken (a service call waits for the sim's answer, a drain away, meanwhile)
+    executor = SingleThreadedExecutor()
     executor.add_node(node)
     spinner = threading.Thread(target=executor.spin, daemon=True)
     spinner.start()
