@@ -13,8 +13,9 @@ the first --cpu-max worlds (world i has seed i on both sides, whatever n).
 
 Where the lidar runs: on the Warp devices only the physics and the crash check's contacts run on the device. After
 each control step the batch copies every world's qpos back to the host, and the scan is BatchLidar's, as on the CPU
-batch: the compiled 2-D wall cast (numba) over all worlds on one host thread, the 3-D RayCaster where that cannot
-answer, and the noise on the host. The "host lidar" column is the share of the device batch's step spent there.
+batch: the compiled 2-D wall cast (numba), the 3-D RayCaster where that cannot answer, and the noise, chunk by chunk
+on the batch's host threads (`threads`, default every core). The "host lidar" column is the share of the device
+batch's step spent there.
 
 --device warp needs a CUDA GPU and the [gpu] extra (mujoco-warp, warp-lang); warp-cpu runs MuJoCo Warp on Warp's
 CPU device (slow: a check that it runs, not a GPU figure). --quick: warp-cpu, 1 and 8 worlds, a few steps.
@@ -195,7 +196,7 @@ def header(device: DriveBatch, args: argparse.Namespace) -> None:
     print(f"device {dev.alias} ({dev.name}), Warp {_warp_version()}; world {args.world}, 20 Hz control")
     print(
         f"lidar on ({beams} beams), computed on the HOST: physics and contacts on the device, qpos copied back each "
-        "control step, BatchLidar's 2-D wall cast + noise over all worlds on one host thread"
+        f"control step, BatchLidar's 2-D wall cast + noise in chunks on {device.threads} host threads"
     )
     print(
         f"CPU batch: {os.cpu_count()} threads, measured up to {args.cpu_max} worlds (* = its rate at {args.cpu_max} "

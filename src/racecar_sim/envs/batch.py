@@ -512,8 +512,17 @@ class DriveBatch(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         self._warmstart[:], self._act[:] = warp.qacc_warmstart(), warp.act()
         self.speed[:] = warp.body_velocity(self.root_body)[:, 3]
         self.time_ns += self.period_ns
-        if self.lidar is not None:
-            self.scan[:] = self.lidar.scans(self.qpos, self.seeds, self.time_ns)
+        lidar = self.lidar
+        if lidar is not None:  # on the host, chunk by chunk over the pool (the compiled casts release the GIL)
+
+            def scan(chunk: np.ndarray) -> None:
+                self.scan[chunk] = lidar.scans(self.qpos[chunk], self.seeds[chunk], self.time_ns[chunk])
+
+            if self._pool is None:
+                for chunk in self._chunks:
+                    scan(chunk)
+            else:
+                list(self._pool.map(scan, self._chunks))
 
     def _load(self, d: mujoco.MjData, i: int) -> None:
         """World i's state (and its ctrl) into d."""
