@@ -17,13 +17,14 @@ import queue
 import sys
 import threading
 import time
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from racecar_sim.bridges.link import DATA, ID
 
 if TYPE_CHECKING:
     from racecar_sim.runtime import Simulator
 
+B = TypeVar("B", bound="BusBridge")
 DRAIN_RATE = 200.0  # Hz of sim time: a command from outside reaches the bus at most 5 ms of sim time late
 SYNC_EVERY = 10  # drains between checks for new services and listened topics (20 Hz of sim time)
 SYNC_WALL = 0.02  # s of wall time at least between two such checks (a sim running ahead checks no more often)
@@ -49,6 +50,21 @@ class BusBridge:
         self.received = 0  # messages from the other side published on the bus
         self._by_id: dict[int, Any] = {}  # outbound topics by their id on the link: .connections, .ok
         self._ready = threading.Event()  # the other side said it is ready
+
+    def start(self) -> None:
+        """Start the other side and begin bridging."""
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Stop bridging and the other side."""
+        raise NotImplementedError
+
+    def __enter__(self: B) -> B:
+        self.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
     # --- to override ---------------------------------------------------------------------------------------------
     def _wants(self, topic: str) -> bool:

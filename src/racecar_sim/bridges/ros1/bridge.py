@@ -142,13 +142,6 @@ class RosBridge(BusBridge):
             raise RuntimeError("the ROS bridge is not started")
         return self._link
 
-    def __enter__(self) -> RosBridge:
-        self.start()
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
     # --- sim -> ROS ----------------------------------------------------------------------------------------------
     def _wants(self, topic: str) -> bool:
         out = self._out.get(topic)

@@ -121,13 +121,6 @@ class Ros2Bridge(BusBridge):
             raise RuntimeError("the ROS 2 bridge is not started")
         return self._link
 
-    def __enter__(self) -> Ros2Bridge:
-        self.start()
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
     # --- sim -> ROS ----------------------------------------------------------------------------------------------
     def _flush(self) -> None:
         """At a drain: send the batch when FLUSH_WALL has passed since the last one (a sim running ahead of the
