@@ -363,6 +363,7 @@ def cast_solids(
         if reach > rbound[s] + range_max or pos[2] - rbound[s] > hi or pos[2] + rbound[s] < lo:
             continue  # out of reach, or its bounding sphere above or below every beam
         k = _upright_axis(mat)
+        mark_x, mark_y, mark_r = 0.0, 0.0, -1.0  # a circle whose beams are unsure (none: radius < 0)
         if kind == BOX and k >= 0:
             zlo, zhi = pos[2] - size[k], pos[2] + size[k]
             cx, cy, radius = _footprint(pos, mat, size, k, range_min, range_max, table)
@@ -394,51 +395,24 @@ def cast_solids(
             elif zlo < hi and zhi > lo:
                 mode[s] = 2
                 if math.hypot(cx - ox, cy - oy) <= radius + range_max:
-                    _mark(
-                        unsure,
-                        cx,
-                        cy,
-                        radius,
-                        ox,
-                        oy,
-                        p00,
-                        p01,
-                        p10,
-                        p11,
-                        stretch,
-                        angle_min,
-                        inverse_step,
-                        count,
-                        turn,
-                    )
+                    mark_x, mark_y, mark_r = cx, cy, radius
         elif kind == CYLINDER and k == 2:
             zlo, zhi = pos[2] - size[1], pos[2] + size[1]
             if zlo < hi and zhi > lo:
                 mode[s] = 2
                 if not (zlo <= lo and zhi >= hi) and reach <= size[0] + range_max:
-                    _mark(
-                        unsure,
-                        pos[0],
-                        pos[1],
-                        size[0],
-                        ox,
-                        oy,
-                        p00,
-                        p01,
-                        p10,
-                        p11,
-                        stretch,
-                        angle_min,
-                        inverse_step,
-                        count,
-                        turn,
-                    )
+                    mark_x, mark_y, mark_r = pos[0], pos[1], size[0]
         else:  # a bounding cylinder: its beams are cast in 3-D
+            mark_x, mark_y, mark_r = pos[0], pos[1], rbound[s]
+            half = _half_height(kind, mat, size) * (1.0 + 1e-9) + 1e-12
+            if pos[2] - half <= hi and pos[2] + half >= lo:  # else no beam reaches the solid itself
+                mode[s] = 2
+        if mark_r >= 0.0:  # the beams that may meet this circle are unsure: every solid on them is cast in 3-D
             _mark(
                 unsure,
-                pos[0],
-                pos[1],
-                rbound[s],
+                mark_x,
+                mark_y,
+                mark_r,
                 ox,
                 oy,
                 p00,
@@ -451,9 +425,6 @@ def cast_solids(
                 count,
                 turn,
             )
-            half = _half_height(kind, mat, size) * (1.0 + 1e-9) + 1e-12
-            if pos[2] - half <= hi and pos[2] + half >= lo:  # else no beam reaches the solid itself
-                mode[s] = 2
     r00, r01, r10, r11, r20, r21 = (
         rotation[0, 0],
         rotation[0, 1],
