@@ -1,4 +1,4 @@
-"""The GPU batch: `python bench/bench_gpu.py [--device warp|warp-cpu] [--worlds 1 256 4096 16384] [--quick]`.
+"""The GPU batch: `python bench/bench_gpu.py [--device warp|warp-cpu] [--worlds 1 256 ...] [--lidar-on host|device]`.
 
 Car-steps per second (control steps x worlds per wall second, 20 Hz control, lidar on, random-walk actions, after a
 warm-up that compiles Warp's kernels and captures the CUDA graphs) of `DriveBatch(n, device=...)` (MuJoCo Warp)
@@ -14,8 +14,10 @@ the first --cpu-max worlds (world i has seed i on both sides, whatever n).
 Where the lidar runs: on the Warp devices only the physics and the crash check's contacts run on the device. After
 each control step the batch copies every world's qpos back to the host, and the scan is BatchLidar's, as on the CPU
 batch: the compiled 2-D wall cast (numba), the 3-D RayCaster where that cannot answer, and the noise, chunk by chunk
-on the batch's host threads (`threads`, default every core). The "host lidar" column is the share of the device
-batch's step spent there.
+on the batch's host threads (`threads`, default every core). With --lidar-on device (DriveBatch(lidar_on="device"))
+the scan is cast on the device instead (MuJoCo Warp's batched rays, envs/batch_warp.py WarpLidar) and only the
+distances come back for the noise on the host. The "host lidar" ("dev. lidar") column is the share of the device
+batch's step spent in the scans (host: the casts and noise; device: the device cast, the copy back and the noise).
 
 --device warp needs a CUDA GPU and the [gpu] extra (mujoco-warp, warp-lang); warp-cpu runs MuJoCo Warp on Warp's
 CPU device (slow: a check that it runs, not a GPU figure). --quick: warp-cpu, 1 and 8 worlds, a few steps.
@@ -53,20 +55,26 @@ class Walk:
 
 
 def timed_lidar(batch: DriveBatch) -> list[float]:
-    """Wrap the batch's lidar so that the seconds spent in its scans add up in the returned one-item list."""
+    """Wrap the batch's lidar so that the seconds spent in its scans add up in the returned one-item list (host:
+    BatchLidar.scans; device: WarpLidar.ranges and the noise, BatchLidar.publish)."""
     spent = [0.0]
     lidar = batch.lidar
-    if lidar is not None:
-        scans: Callable[..., np.ndarray] = lidar.scans
+    if lidar is None:
+        return spent
+    targets: list[tuple[Any, str]] = [(lidar, "scans")]
+    if batch.warp_lidar is not None:
+        targets = [(batch.warp_lidar, "ranges"), (lidar, "publish")]
+    for owner, name in targets:
+        method: Callable[..., np.ndarray] = getattr(owner, name)
 
-        def wrapped(*args: Any) -> np.ndarray:
+        def wrapped(*args: Any, method: Callable[..., np.ndarray] = method) -> np.ndarray:
             start = time.perf_counter()
             try:
-                return scans(*args)
+                return method(*args)
             finally:
                 spent[0] += time.perf_counter() - start
 
-        setattr(lidar, "scans", wrapped)  # noqa: B010  (an instance attribute over the method)
+        setattr(owner, name, wrapped)  # an instance attribute over the method
     return spent
 
 
@@ -143,6 +151,9 @@ def main(argv: list[str] | None = None) -> int:
         "--check-world", default="empty", help="the trajectory check's world (default empty, the Warp test's)"
     )
     parser.add_argument("--check-steps", type=int, default=20, help="control steps of the trajectory check")
+    parser.add_argument(
+        "--lidar-on", choices=("host", "device"), default="host", help="where the device batch casts its lidar"
+    )
     parser.add_argument("--quick", action="store_true", help="warp-cpu, 1 and 8 worlds, a few steps (a check)")
     args = parser.parse_args(argv)
     if args.quick:
@@ -160,7 +171,8 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         for k, n in enumerate(args.worlds):
-            device = DriveBatch(n, world=args.world, device=args.device)  # ConfigError first: no Warp / no GPU
+            # ConfigError first: no Warp / no GPU
+            device = DriveBatch(n, world=args.world, device=args.device, lidar_on=args.lidar_on)
             if k == 0:
                 header(device, args)
             got, lidar_share = rate(device, args.warmup, args.steps)
@@ -169,7 +181,7 @@ def main(argv: list[str] | None = None) -> int:
                 cpu_rates[m] = rate(cpu_batch(args.world, m), args.warmup, args.steps)[0]
             if args.check_world != args.world:
                 device.close()
-                device = DriveBatch(n, world=args.check_world, device=args.device)
+                device = DriveBatch(n, world=args.check_world, device=args.device, lidar_on=args.lidar_on)
             dq, median, dv, flags, bad = trajectory(device, cpu_batch(args.check_world, m), args.check_steps)
             device.close()
             ok = "yes" if bad == 0 else f"NO: {bad} of {m} worlds" + (f", {flags} flag mismatches" if flags else "")
@@ -194,17 +206,25 @@ def header(device: DriveBatch, args: argparse.Namespace) -> None:
     dev = device.warp.device
     beams = device.lidar.spec.samples if device.lidar is not None else 0
     print(f"device {dev.alias} ({dev.name}), Warp {_warp_version()}; world {args.world}, 20 Hz control")
-    print(
-        f"lidar on ({beams} beams), computed on the HOST: physics and contacts on the device, qpos copied back each "
-        f"control step, BatchLidar's 2-D wall cast + noise in chunks on {device.threads} host threads"
-    )
+    lidar = "host lidar" if device.warp_lidar is None else "dev. lidar"
+    if device.warp_lidar is not None:
+        print(
+            f"lidar on ({beams} beams), --lidar-on device: cast on the DEVICE (mujoco_warp.rays after kinematics), "
+            "the (N, beams) distances copied back each control step, noise on the host"
+        )
+    else:
+        print(
+            f"lidar on ({beams} beams), --lidar-on host: computed on the HOST: physics and contacts on the device, "
+            f"qpos copied back each control step, BatchLidar's 2-D wall cast + noise in chunks on {device.threads} "
+            "host threads"
+        )
     print(
         f"CPU batch: {os.cpu_count()} threads, measured up to {args.cpu_max} worlds (* = its rate at {args.cpu_max} "
         f"worlds); {args.steps} timed steps after {args.warmup} warm-up; trajectory check in {args.check_world}: "
         f"{args.check_steps} steps, tolerance {POS_TOL:g} m / {SPEED_TOL:g} m/s (the Warp test's)"
     )
     print(
-        f"{'worlds':>7}  {'device car-steps/s':>18}  {'CPU car-steps/s':>16}  {'ratio':>7}  {'host lidar':>10}  "
+        f"{'worlds':>7}  {'device car-steps/s':>18}  {'CPU car-steps/s':>16}  {'ratio':>7}  {lidar:>10}  "
         f"{'checked':>7}  {'max |dq| m':>10}  {'median |dq|':>10}  {'max |dv|':>9}  within tolerance",
         flush=True,
     )

@@ -83,9 +83,11 @@ from racecar_sim.runtime.simulator import Simulator
 from racecar_sim.worlds import Spawn, load_world
 
 if TYPE_CHECKING:  # mujoco-warp loads only for device="warp"
-    from racecar_sim.envs.batch_warp import WarpWorlds
+    from racecar_sim.envs.batch_warp import WarpLidar, WarpWorlds
+    from racecar_sim.sensors.lidar import LidarPublisher
 
 DEVICES = ("cpu", "warp", "warp-cpu")
+LIDAR_ON = ("host", "device")  # where a Warp batch casts its lidar
 MAX_EPISODE_STEPS = 1200
 CHUNK_WORLDS = 64  # at most this many worlds per task of the thread pool
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
@@ -103,7 +105,11 @@ class DriveBatch(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
     max_episode_steps: the episode's step limit (truncated; default 1200, Drive-v0's), None for none.
     device: "cpu", "warp" (MuJoCo Warp on a CUDA GPU: the `[gpu]` extra; see batch_warp.py) or "warp-cpu" (MuJoCo
     Warp on Warp's CPU device: slow, for tests). On Warp the physics is float32: the worlds agree with the CPU batch
-    to ~1e-4 m, not bit for bit; lidar, noise and progress stay on the CPU.
+    to ~1e-4 m, not bit for bit; progress and the lidar's noise stay on the CPU (the lidar's casts too unless
+    lidar_on="device").
+    lidar_on: where a Warp batch casts the lidar: "host" (default: the CPU batch's casts at the worlds' qpos, copied
+    back) or "device" (MuJoCo Warp's batched rays on the Warp device, float32: batch_warp.py WarpLidar; only the
+    (N, beams) distances come back, the noise is drawn on the host as on the CPU).
     DriveEnv's camera and render_mode are taken and refused: the batch has no camera and renders nothing.
     """
 
@@ -132,10 +138,18 @@ class DriveBatch(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         threads: int | None = None,
         device: str = "cpu",
         num_worlds: int | None = None,
+        lidar_on: str = "host",
     ) -> None:
         n = _world_count(num_envs, num_worlds)
         if device not in DEVICES:
             raise ConfigError(f"DriveBatch device={device!r} is not one of {', '.join(DEVICES)}")
+        if lidar_on not in LIDAR_ON:
+            raise ConfigError(f"DriveBatch lidar_on={lidar_on!r} is not one of {', '.join(LIDAR_ON)}")
+        if lidar_on == "device" and device == "cpu":
+            raise ConfigError(
+                f"DriveBatch lidar_on='device' casts the lidar with MuJoCo Warp: it needs device='warp' or "
+                f"'warp-cpu', got device={device!r}"
+            )
         if not (isinstance(control_rate, (int, float)) and 1.0 / NAVIGATION_TIMEOUT < control_rate < float("inf")):
             raise ConfigError(
                 f"DriveBatch control_rate {control_rate!r}: commands must come faster than "
@@ -241,10 +255,13 @@ class DriveBatch(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         self._velocity = [np.zeros(6) for _ in range(n)]
         self._seeds_arg = seeds
         self.warp: WarpWorlds | None = None
+        self.warp_lidar: WarpLidar | None = None
         if device != "cpu":
             from racecar_sim.envs.batch_warp import WarpWorlds
 
             self.warp = WarpWorlds(self.model, self._rest, n, device=device)
+            if lidar_on == "device" and laser is not None:
+                self.warp_lidar = self._device_lidar(laser)
 
     # --- the Gymnasium vector API -------------------------------------------------------------------
     def reset(
@@ -513,7 +530,9 @@ class DriveBatch(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         self.speed[:] = warp.body_velocity(self.root_body)[:, 3]
         self.time_ns += self.period_ns
         lidar = self.lidar
-        if lidar is not None:  # on the host, chunk by chunk over the pool (the compiled casts release the GIL)
+        if lidar is not None and self.warp_lidar is not None:
+            self.scan[:] = lidar.publish(self.warp_lidar.ranges(), self.seeds, self.time_ns)
+        elif lidar is not None:  # on the host, chunk by chunk over the pool (the compiled casts release the GIL)
 
             def scan(chunk: np.ndarray) -> None:
                 self.scan[chunk] = lidar.scans(self.qpos[chunk], self.seeds[chunk], self.time_ns[chunk])
@@ -524,6 +543,24 @@ class DriveBatch(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
             else:
                 list(self._pool.map(scan, self._chunks))
 
+    def _device_lidar(self, laser: LidarPublisher) -> WarpLidar:
+        """The car's lidar cast by MuJoCo Warp (lidar_on="device"): the host lidar's mount, fan, range limits, group
+        and own geoms hidden, on the worlds' device."""
+        from racecar_sim.envs.batch_warp import WarpLidar
+
+        assert self.warp is not None and self.lidar is not None
+        rays = laser.caster.rays3d
+        if rays.walls is not None:  # never in a batch (built without near_walls): boxes no Warp model holds
+            raise ConfigError(
+                f"DriveBatch lidar_on='device': world {self._world_key!r} holds its map walls outside the MuJoCo "
+                "model (near_walls), which MuJoCo Warp cannot cast; use lidar_on='host'"
+            )
+        mount, fan = self.lidar.mount, self.lidar.fan
+        return WarpLidar(
+            self.warp, self.root_body, mount.local_origin, mount.local_axes, fan.directions, fan.range_min,
+            fan.range_max, rays.group, rays.hidden,
+        )  # fmt: skip
+
     def _load(self, d: mujoco.MjData, i: int) -> None:
         """World i's state (and its ctrl) into d."""
         d.time, d.qpos[:], d.qvel[:], d.act[:] = self._mj_time[i], self.qpos[i], self.qvel[i], self._act[i]
@@ -533,7 +570,10 @@ class DriveBatch(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
 
     def _observe(self, worlds: np.ndarray) -> None:
         """Scans at the current pose of the chosen worlds, stamped with their time (a reset's first scan)."""
-        if self.lidar is not None and len(worlds):
+        if self.lidar is not None and self.warp_lidar is not None and len(worlds):  # every world is cast: keep these
+            ranges = self.warp_lidar.ranges()[worlds]
+            self.scan[worlds] = self.lidar.publish(ranges, self.seeds[worlds], self.time_ns[worlds])
+        elif self.lidar is not None and len(worlds):
             self.scan[worlds] = self.lidar.scans(self.qpos[worlds], self.seeds[worlds], self.time_ns[worlds])
 
     def _planar_pose(self) -> tuple[np.ndarray, np.ndarray]:

@@ -53,4 +53,9 @@ class BatchLidar:
 
     def scans(self, qpos: np.ndarray, seeds: np.ndarray, stamps_ns: np.ndarray) -> np.ndarray:
         """The published ranges (float32, N x beams) of scans stamped `stamps_ns` (N,) in worlds seeded `seeds`."""
-        return self._lidar.publish(self.true_ranges(qpos), seeds, stamps_ns)
+        return self.publish(self.true_ranges(qpos), seeds, stamps_ns)
+
+    def publish(self, ranges: np.ndarray, seeds: np.ndarray, stamps_ns: np.ndarray) -> np.ndarray:
+        """The published ranges (float32, N x beams) of true ranges (N x beams, inf: no hit) cast elsewhere (a Warp
+        device): the single car's noise, clamp and float32 rule, compiled."""
+        return self._lidar.publish(ranges, seeds, stamps_ns)

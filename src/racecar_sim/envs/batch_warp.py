@@ -212,4 +212,110 @@ class WarpWorlds:
         return out
 
 
-__all__ = ["NCONMAX", "WARP_DEVICES", "WarpWorlds", "warp_model"]
+class WarpLidar:
+    """One lidar's scans in every world of a WarpWorlds, cast by MuJoCo Warp on its device (`mujoco_warp.rays`, one
+    thread block per (world, beam)): the rule of the CPU lidar's 3-D cast (sensors/raycast/mujoco3d.py MujocoRays).
+
+    The worlds are posed at their current qpos (mujoco_warp.kinematics, as the CPU fallback's mj_kinematics), each
+    world's ray origins and directions are formed on the device from the pose of the body the laser is welded to
+    (`body`; `local_origin` (3,) and `local_axes` (3, 3) in its frame: sensors/laser_mount.py LaserMount) and the
+    fan's fixed beam directions, and only geoms of `group` are seen. The car must not see itself: `rays` excludes one
+    body per ray and the car is several, so the cast reads a copy of the device model whose `hidden_geoms` sit in
+    another geom group (no physics reads geom_group; the stepped model is untouched). A hit nearer than range_min is
+    looked past (a second cast from range_min on, only when a beam needs it) and one beyond range_max is inf.
+    Distances come back as float64 from float32 casts (~1e-6 m off the CPU cast at the lidar's ranges).
+    """
+
+    def __init__(
+        self,
+        worlds: WarpWorlds,
+        body: int,
+        local_origin: np.ndarray,
+        local_axes: np.ndarray,
+        fan_directions: np.ndarray,
+        range_min: float,
+        range_max: float,
+        group: int,
+        hidden_geoms: np.ndarray,
+    ) -> None:
+        wp = worlds._wp
+        self.worlds, self.body = worlds, body
+        self.range_min, self.range_max = float(range_min), float(range_max)
+        count = fan_directions.shape[1]
+        local = (np.asarray(local_axes, np.float64)[:, :2] @ np.asarray(fan_directions, np.float64)).T  # (beams, 3)
+        n = worlds.num_worlds
+        mask = [0] * mujoco.mjNGROUP
+        mask[group] = 1
+        groups = worlds.model.geom_group.copy()
+        groups[np.asarray(hidden_geoms, int)] = (group + 1) % mujoco.mjNGROUP
+        with wp.ScopedDevice(worlds.device):
+            self._model = copy.copy(worlds.mw)  # the stepped model's arrays, but its own geom groups
+            self._model.geom_group = wp.array(groups.astype(np.int32), dtype=int)
+            self._group = wp.types.vector(length=6, dtype=wp.float32)(*mask)  # mujoco_warp's vec6 (geomgroup)
+            self._origin = wp.vec3(*np.asarray(local_origin, np.float64).tolist())
+            self._local = wp.array(local.astype(np.float32), dtype=wp.vec3)
+            self._exclude = wp.full(count, -1, dtype=int)
+            self._pnt = wp.empty((n, count), dtype=wp.vec3)
+            self._vec = wp.empty((n, count), dtype=wp.vec3)
+            self._dist = wp.empty((n, count), dtype=float)
+            self._geom = wp.empty((n, count), dtype=int)
+            self._normal = wp.empty((n, count), dtype=wp.vec3)
+        self._kernel = _beams_kernel(wp)
+
+    def _cast(self, shift: float) -> np.ndarray:
+        """(N, beams) float64 distances from the ray origins moved `shift` along each beam, -1 where none."""
+        wp, mjw, worlds = self.worlds._wp, self.worlds._mjw, self.worlds
+        with wp.ScopedDevice(worlds.device):
+            wp.launch(
+                self._kernel,
+                dim=self._pnt.shape,
+                inputs=[worlds.dw.xpos, worlds.dw.xmat, self.body, self._origin, self._local, float(shift)],
+                outputs=[self._pnt, self._vec],
+            )
+            mjw.rays(
+                self._model, worlds.dw, self._pnt, self._vec, self._group, True, self._exclude, self._dist,
+                self._geom, self._normal,
+            )  # fmt: skip
+            wp.synchronize_device(worlds.device)
+        return self._dist.numpy().astype(np.float64)
+
+    def ranges(self) -> np.ndarray:
+        """Noise-free ranges (N, beams) of every world at its current qpos, inf where nothing is within range."""
+        wp, mjw, worlds = self.worlds._wp, self.worlds._mjw, self.worlds
+        with wp.ScopedDevice(worlds.device):
+            mjw.kinematics(worlds.mw, worlds.dw)
+        dist = self._cast(0.0)
+        dist[dist < 0.0] = np.inf
+        near = dist < self.range_min
+        if near.any():  # something before the ray start: look past it, as MujocoRays does
+            past = self._cast(self.range_min)[near]
+            dist[near] = np.where(past < 0.0, np.inf, self.range_min + past)
+        dist[dist > self.range_max] = np.inf
+        return dist
+
+
+def _beams_kernel(wp: Any) -> Any:
+    """The Warp kernel that forms every (world, beam)'s ray: origin body_pos + R (origin + shift d), direction R d,
+    with R the body's rotation and d the beam's direction in the body frame."""
+
+    @wp.kernel
+    def beams(
+        xpos: wp.array2d(dtype=wp.vec3),  # type: ignore[valid-type]
+        xmat: wp.array2d(dtype=wp.mat33),  # type: ignore[valid-type]
+        body: int,
+        origin: wp.vec3,
+        local: wp.array(dtype=wp.vec3),  # type: ignore[valid-type]
+        shift: float,
+        pnt: wp.array2d(dtype=wp.vec3),  # type: ignore[valid-type]
+        vec: wp.array2d(dtype=wp.vec3),  # type: ignore[valid-type]
+    ) -> None:
+        world, beam = wp.tid()
+        rotation = xmat[world, body]
+        direction = rotation @ local[beam]
+        pnt[world, beam] = xpos[world, body] + rotation @ origin + shift * direction
+        vec[world, beam] = direction
+
+    return beams
+
+
+__all__ = ["NCONMAX", "WARP_DEVICES", "WarpLidar", "WarpWorlds", "warp_model"]
