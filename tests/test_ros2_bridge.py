@@ -417,7 +417,7 @@ def test_a_second_sim_in_the_same_domain_is_one_line(jazzy) -> None:
     second = Simulator(world="empty", camera=False)
     bridge = Ros2Bridge(first)
     bridge.start()
-    end = time.monotonic() + 3.5  # the first one looks for another of its name in its first seconds only
+    end = time.monotonic() + 6.5  # the first one looks for another of its name in its first 6 s only
     while time.monotonic() < end:
         first.run_for(0.05)
         time.sleep(0.02)

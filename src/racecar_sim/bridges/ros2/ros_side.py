@@ -31,7 +31,10 @@ if TYPE_CHECKING:  # the ROS interpreter's packages (no type information here)
     from rclpy.node import Node
 
 CONNECTION_POLL = 0.05  # s between counts of the subscribers each publisher has
-DUPLICATE_WINDOW = 3.0  # s after start in which another node of our name in the domain means a domain in use
+# s after start in which another node of our name in the domain means a domain in use: Fast DDS participants announce
+# themselves a few times at start, then every 3 s, so a start-up announcement missed on a loaded machine is made good
+# within the window
+DUPLICATE_WINDOW = 6.0
 ECHO_WINDOW = 2.0  # s a message we published on a topic we subscribe to may take to come back to us
 ECHO_KEEP = 1000  # of those messages, at most this many remembered per topic
 CALL_TIMEOUT = 30.0  # s a service call waits for the sim's answer (a paused sim still answers between events)
