@@ -39,9 +39,7 @@ def mcap_digest(path: Path) -> dict[str, dict[str, object]]:
 
 
 def renderer() -> str:
-    """What draws and encodes camera images here: the GL renderer and Pillow (libjpeg-turbo) version."""
-    import PIL
-
+    """What draws and encodes camera images here: the GL renderer, then (after "; ") the JPEG encoder's version."""
     from racecar_sim.core.errors import RenderingError
 
     try:
@@ -52,7 +50,20 @@ def renderer() -> str:
         gl = shared_context()
     except RenderingError:
         return "none"
-    return f"{gl.backend}: {gl.renderer}; Pillow {PIL.__version__}"
+    try:
+        import simplejpeg
+
+        encoder = f"simplejpeg {simplejpeg.__version__}"
+    except ImportError:  # the checkouts before the encoder changed (tests/data was written with Pillow 13.0.0)
+        import PIL
+
+        encoder = f"Pillow {PIL.__version__}"
+    return f"{gl.backend}: {gl.renderer}; {encoder}"
+
+
+def same_drawing(here: str, there: str) -> bool:
+    """Whether two renderer() strings draw the same images (the same GL renderer; the JPEG encoder aside)."""
+    return here.split("; ")[0] == there.split("; ")[0]
 
 
 def run_digest(
@@ -70,11 +81,15 @@ def run_digest(
     return mcap_digest(out / "run.mcap")
 
 
-# the runs pinned: the original car for 10 s with every sensor, and a 4-car fleet (lidar only)
+# the runs pinned: the original car for 10 s with every sensor, a 4-car fleet (lidar only), and 3 s of the original
+# car's camera recorded raw (its frames bit for bit, whatever the JPEG encoder: written at cf9a246, before issue 25's
+# camera work)
 RUNS = {
     "original_car_walker_10s": ["--world", "walker", "--duration", "10", "--seed", "7"],
     "fleet4_tunnel_10s": ["--world", "tunnel", "--cars", "4", "--no-camera", "--duration", "10", "--seed", "3"],
+    "original_car_walker_raw_images_3s": ["--world", "walker", "--duration", "3", "--seed", "7", "--raw-images"],
 }
+RAW_IMAGES = "original_car_walker_raw_images_3s"  # its camera topics need only the same GL renderer
 
 
 if __name__ == "__main__":  # python tests/topic_digest.py OUTDIR: write tests/data/topic_digests.json

@@ -38,6 +38,9 @@ class _Controller:
     topic: str
     qpos: np.ndarray
     dof: np.ndarray
+    # the addresses message() reads, as plain ints, and the model they were looked up in (None: not yet)
+    model: object = None
+    addresses: tuple[int, int, int, int] = (0, 0, 0, -1)  # qpos, dof, ctrl, act (-1: no integral state read)
 
 
 class ControllerStatePublisher:
@@ -57,6 +60,8 @@ class ControllerStatePublisher:
             _Controller(c, names.topic(f"{c.namespace}/{c.name}/state"), *state.joint_indices([c.joint]))
             for c in config.controllers
         ]
+        # the MjData whose arrays these views are, and the views (MjData makes a new view object at every access)
+        self._views: tuple[object, np.ndarray, np.ndarray, np.ndarray] = (None, *(np.zeros(0),) * 3)
         scheduler.every(STATE_RATE, self.publish, "controller_state", unheard=self._unheard)
 
     def _unheard(self, _now_ns: int) -> bool:
@@ -69,23 +74,49 @@ class ControllerStatePublisher:
 
     def publish(self, now_ns: int) -> None:
         listened = self.bus.has_listeners  # asked first: the cheaper question, and mostly no
+        time_step = None
         for c in self.controllers:
             if listened(c.topic) and self.running(c.config.name):
-                self.bus.publish(c.topic, self.message(c, now_ns))
+                if time_step is None:
+                    time_step = float(self.state.model.opt.timestep)
+                self.bus.publish(c.topic, self._message(c, now_ns, time_step))
 
     def message(self, c: _Controller, now_ns: int) -> JointControllerState:
-        state, g, name = self.state, c.config.gains, c.config.name
-        model, d = state.model, state.data
-        q, w = float(d.qpos[c.qpos[0]]), float(d.qvel[c.dof[0]])
-        set_point = float(d.ctrl[state.actuator_ctrl(name)[0]])
+        """The state message of one controller now."""
+        return self._message(c, now_ns, float(self.state.model.opt.timestep))
+
+    def _addresses(self, c: _Controller) -> tuple[int, int, int, int]:
+        """qpos, dof, ctrl and integral-state (act, -1 for none) addresses of a controller in the current model."""
+        state, name = self.state, c.config.name
+        model = state.model
+        if c.model is not model:
+            act = -1
+            if c.config.gains.i:  # the integral state: of the velocity I-term actuator (the last id), else of the PID
+                integral = state.actuator_ids(name)[-1]
+                act = int(model.actuator_actadr[integral] + model.actuator_actnum[integral] - 1)
+            c.addresses = (int(c.qpos[0]), int(c.dof[0]), state.actuator_ctrl(name)[0], act)
+            c.model = model
+        return c.addresses
+
+    def _message(self, c: _Controller, now_ns: int, time_step: float) -> JointControllerState:
+        g, state = c.config.gains, self.state
+        qpos, dof, ctrl, act = self._addresses(c) if c.model is not state.model else c.addresses
+        data, qpos_, qvel, ctrl_ = self._views
+        if data is not state.data:
+            data = state.data
+            self._views = data, qpos_, qvel, ctrl_ = data, data.qpos, data.qvel, data.ctrl
+        q, w, set_point = qpos_.item(qpos), qvel.item(dof), ctrl_.item(ctrl)
         i_term = 0.0
-        if g.i:  # the integral state: of the velocity I-term actuator (the last id), else of the position PID
-            integral = state.actuator_ids(name)[-1]
-            act = float(d.act[model.actuator_actadr[integral] + model.actuator_actnum[integral] - 1])
-            i_term = g.i * (act - q) if c.config.type == VELOCITY else g.i * act
-            if c.config.type == VELOCITY and g.i_clamp:
+        velocity = c.config.type == VELOCITY
+        if g.i:
+            if act < 0:  # the gain was 0 when the addresses were looked up
+                c.model = None
+                qpos, dof, ctrl, act = self._addresses(c)
+            integral = data.act.item(act)
+            i_term = g.i * (integral - q) if velocity else g.i * integral
+            if velocity and g.i_clamp:
                 i_term = min(max(i_term, -g.i_clamp), g.i_clamp)
-        if c.config.type == VELOCITY:
+        if velocity:
             value, value_dot, error = w, 0.0, set_point - w  # ros_control leaves process_value_dot at 0 here
             command = g.p * error + i_term
         else:
@@ -97,7 +128,7 @@ class ControllerStatePublisher:
             value,
             value_dot,
             error,
-            float(model.opt.timestep),
+            time_step,
             command,
             g.p,
             g.i,

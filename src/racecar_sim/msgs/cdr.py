@@ -160,11 +160,32 @@ def _encode_str(msgtype: str, path: str, value: Any, out: list[Any], pos: int) -
     return pos + pad + 5 + len(data)
 
 
+_STRINGS_KEPT = 64  # encodings one string field keeps (frame ids, names); more distinct values start it over
+_STRING_KEPT_LENGTH = 256  # longer strings (a robot description) are encoded every time
+
+
 def _string_op(msgtype: str, path: str) -> Encoder:
     get = _get(msgtype, path)
+    # Encodings of the values this field had, per start alignment: frame ids and names repeat in every message.
+    # A str equal to a kept one encodes to the same bytes; dict reads and writes are whole under the GIL.
+    kept: tuple[dict[Any, bytes], ...] = ({}, {}, {}, {})
 
     def op(msg: Any, out: list[Any], pos: int) -> int:
-        return _encode_str(msgtype, path, get(msg), out, pos)
+        value = get(msg)
+        cache = kept[pos & 3]
+        try:
+            data = cache.get(value)
+        except TypeError:  # unhashable: not a str, _encode_str says so
+            data = None
+        if data is not None:
+            out.append(data)
+            return pos + len(data)
+        end = _encode_str(msgtype, path, value, out, pos)
+        if len(value) <= _STRING_KEPT_LENGTH:
+            if len(cache) >= _STRINGS_KEPT:
+                cache.clear()
+            cache[value] = out[-1]
+        return end
 
     return op
 
@@ -325,21 +346,33 @@ def _message_array_op(msgtype: str, path: str, element_type: str, size: int | No
     paths, type_name = uniform
     code, width = SCALARS[type_name]
     getter, per_item = attrgetter(*paths), len(paths)
+    packers: dict[int, struct.Struct] = {}  # by element count
 
     def op_uniform(msg: Any, out: list[Any], pos: int) -> int:
         # every element's numbers in one struct.pack; whatever it refuses is diagnosed element by element
-        items = _sequence(msgtype, path, get(msg), size)
-        prefix, pos = _length_prefix(pos, len(items), size)
-        out.append(prefix)
-        if not items:
+        items = get(msg)
+        count = len(items) if type(items) is list else -1  # a list of any length: _sequence() would pass it
+        if count < 0 or size is not None:
+            items = _sequence(msgtype, path, items, size)
+            count = len(items)
+            prefix, pos = _length_prefix(pos, count, size)
+        else:  # _length_prefix() of a sequence, inline
+            pad = -pos & 3
+            prefix, pos = _PAD[pad] + _U32.pack(count), pos + pad + 4
+        if not count:
+            out.append(prefix)
             return pos
         try:
-            numbers = list(chain.from_iterable(map(getter, items))) if per_item > 1 else list(map(getter, items))
-            data = _packer(code, len(numbers)).pack(*numbers)
+            packer = packers.get(count) or _packer(code, count * per_item)
+            data = packer.pack(*chain.from_iterable(map(getter, items)) if per_item > 1 else map(getter, items))
         except (struct.error, TypeError, AttributeError, OverflowError):
+            out.append(prefix)
             return one_by_one(items, out, pos)
+        if len(packers) < 4:  # the lengths this field has had (links, models): no shared cache to ask
+            packers[count] = packer
         pad = -pos % width
-        out.append(_PAD[pad] + data)
+        out.append(prefix + _PAD[pad])
+        out.append(data)
         return pos + pad + len(data)
 
     return op_uniform

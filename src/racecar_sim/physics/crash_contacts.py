@@ -14,6 +14,7 @@ import numpy as np
 import numpy.typing as npt
 
 SUPPORT_NORMAL_Z = 0.7071  # |n_z| above this: a wheel standing on the surface, not driving into it
+_FEW = 64  # contacts up to which a Python loop beats numpy's per-call overhead (a car's 4 wheels on the floor: 4x)
 
 
 class CrashContacts:
@@ -31,6 +32,9 @@ class CrashContacts:
         wheel = np.zeros(model.nbody, bool)
         wheel[list(wheel_bodies)] = True
         self._wheel_geom: npt.NDArray[np.bool_] = wheel[model.geom_bodyid]
+        # the same tables as Python lists, for the few contacts of most calls: numpy costs more on a handful
+        self._owner_list: list[int] = self.car_of_geom.tolist()
+        self._wheel_list: list[bool] = self._wheel_geom.tolist()
 
     def touching(self, data: mujoco.MjData) -> set[tuple[int, int, int]]:
         """(car, other car or -1, geom of the other side) for every crash contact now; a car-car contact once, with
@@ -39,6 +43,8 @@ class CrashContacts:
         if n == 0:
             return set()
         contact = data.contact
+        if n <= _FEW:
+            return self._touching_few(contact, n)
         geoms = contact.geom[:n]
         owner = self.car_of_geom[geoms]
         first, second = owner[:, 0], owner[:, 1]
@@ -52,6 +58,29 @@ class CrashContacts:
         for index in np.flatnonzero(crash):
             a, b = int(first[index]), int(second[index])
             ga, gb = int(geoms[index, 0]), int(geoms[index, 1])
+            if a >= 0 and b >= 0:
+                found.add((a, b, gb) if a < b else (b, a, ga))
+            elif a >= 0:
+                found.add((a, -1, gb))
+            else:
+                found.add((b, -1, ga))
+        return found
+
+    def _touching_few(self, contact: mujoco._structs._MjContactList, n: int) -> set[tuple[int, int, int]]:
+        """touching() for a few contacts, element by element: the same tests on the same numbers (a Python float is
+        the float64 numpy compares), the normals read only when a wheel may rest on a surface."""
+        owner, wheel = self._owner_list, self._wheel_list
+        found: set[tuple[int, int, int]] = set()
+        normal_z: list[float] | None = None
+        for index, (ga, gb) in enumerate(contact.geom[:n].tolist()):
+            a, b = owner[ga], owner[gb]
+            if a == b:  # within one car, or the world against itself
+                continue
+            if (wheel[ga] and b < 0) or (wheel[gb] and a < 0):
+                if normal_z is None:
+                    normal_z = contact.frame[:n, 2].tolist()
+                if abs(normal_z[index]) > SUPPORT_NORMAL_Z:  # a wheel resting on the ground, a floor, a ramp
+                    continue
             if a >= 0 and b >= 0:
                 found.add((a, b, gb) if a < b else (b, a, ga))
             elif a >= 0:

@@ -337,6 +337,7 @@ class _FrameRing:
         os.ftruncate(fd, size)
         self.map = mmap.mmap(fd, size)
         self.held = np.ndarray((1,), np.uint64, self.map)  # the child's count
+        self.bytes = np.ndarray((size,), np.uint8, self.map)  # numpy copies a frame in without holding the GIL
         self.next = 0  # the number of the next frame
 
     def free(self) -> bool:
@@ -346,12 +347,12 @@ class _FrameRing:
     def put(self, data: memoryview) -> tuple[Any, ...]:
         """Copy a frame into the next slot; the image op's pixels that name it."""
         start = _RING_HEAD + (self.next % self.slots) * self.slot_size
-        self.map[start : start + data.nbytes] = data.cast("B")
+        self.bytes[start : start + data.nbytes] = np.frombuffer(data, np.uint8)
         self.next += 1
         return (_RING, self.next - 1, data.nbytes, self.slot_size, self.slots)
 
     def close(self) -> None:
-        del self.held
+        del self.held, self.bytes
         self.map.close()
 
 

@@ -26,6 +26,7 @@ import numpy as np
 
 from racecar_sim.core.errors import RenderingError
 from racecar_sim.physics.world_geoms import VISUAL_GROUP
+from racecar_sim.render.culling import FrustumCuller
 from racecar_sim.render.gl import HeadlessGL, shared_context
 
 _OFF = (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION, mujoco.mjtRndFlag.mjRND_HAZE)
@@ -111,14 +112,20 @@ class GLScene:
     """A MuJoCo scene and its GL objects in the shared headless context, drawn offscreen on the context's thread into
     an RGB buffer (rows bottom-up, GL order) that the next drawing reuses. `fix`: what the one-line RenderingError
     tells the user to do when MuJoCo cannot render in the context. draw_later() reads RGB (the skybox drawn);
-    draw_rgba_later() reads RGBA, without the skybox where `sky` (flat_sky) is its colour."""
+    draw_rgba_later() reads RGBA, without the skybox where `sky` (flat_sky) is its colour.
+
+    Two MjvScenes take turns (flip()), each with its own RGBA buffer: the next frame is posed into one while the GL
+    thread still draws the other, so the GL thread goes from one frame to the next without waiting for the simulation
+    to take the first, and a frame's pixels stay in its buffer until that scene is drawn again."""
 
     def __init__(self, model: mujoco.MjModel, width: int, height: int, gl: HeadlessGL, fix: str) -> None:
         self.gl = gl
         self.scene = mujoco.MjvScene(model, maxgeom=max(1000, 2 * model.ngeom))
+        self.culler = FrustumCuller(self.scene, width, height)
         self.rect = mujoco.MjrRect(0, 0, width, height)
         self.rgb = np.empty((height, width, 3), dtype=np.uint8)
         self.rgba = np.empty((height, width, 4), dtype=np.uint8)
+        self._spare: tuple[mujoco.MjvScene, FrustumCuller, np.ndarray] | None = None  # made by the first flip()
         self.depth: np.ndarray | None = None  # made by the first depth drawing
         self.sky = flat_sky(model)
         self.model = model
@@ -127,18 +134,28 @@ class GLScene:
         except mujoco.FatalError as exc:  # e.g. MuJoCo's GL loader bound to another backend earlier in the process
             raise RenderingError(f"MuJoCo cannot render in the {gl.backend} context ({exc}): {fix}") from None
 
+    def flip(self) -> mujoco.MjvScene:
+        """Make the other scene `scene` (with its `culler` and `rgba` buffer), to be posed while a drawing of this one
+        may be in flight; returns it."""
+        if self._spare is None:
+            model, (height, width) = self.model, self.rgba.shape[:2]
+            spare = mujoco.MjvScene(model, maxgeom=self.scene.maxgeom)
+            self._spare = (spare, FrustumCuller(spare, width, height), np.empty_like(self.rgba))
+        (self.scene, self.culler, self.rgba), self._spare = self._spare, (self.scene, self.culler, self.rgba)
+        return self.scene
+
     def draw_later(self) -> Future[np.ndarray]:
         """Draw the scene as it is now posed; the future's result is the RGB buffer."""
         if self.context is None:
             raise RuntimeError("drawing after close()")
-        return self.gl.submit(self._draw)
+        return self.gl.submit(self._draw, self.scene)
 
     def draw_rgba_later(self) -> Future[np.ndarray]:
         """Draw the scene as it is now posed, the skybox left out where `sky` is set (its pixels then keep alpha 0);
         the future's result is the RGBA buffer."""
         if self.context is None:
             raise RuntimeError("drawing after close()")
-        return self.gl.submit(self._draw_rgba)
+        return self.gl.submit(self._draw_rgba, self.scene, self.rgba)
 
     def draw_depth_later(self) -> Future[tuple[np.ndarray, np.ndarray, float, float]]:
         """Draw the scene as it is now posed (the skybox drawn); the future's result is the RGB buffer, the depth
@@ -146,32 +163,34 @@ class GLScene:
         if self.context is None:
             raise RuntimeError("drawing after close()")
         near, far = self.scene.camera[0].frustum_near, self.scene.camera[0].frustum_far
-        return self.gl.submit(self._draw_depth, near, far)
+        return self.gl.submit(self._draw_depth, self.scene, near, far)
 
-    def _draw_depth(self, near: float, far: float) -> tuple[np.ndarray, np.ndarray, float, float]:
+    def _draw_depth(
+        self, scene: mujoco.MjvScene, near: float, far: float
+    ) -> tuple[np.ndarray, np.ndarray, float, float]:
         if self.depth is None:
             self.depth = np.empty(self.rgb.shape[:2], dtype=np.float32)
-        self.scene.flags[_SKYBOX] = 1
+        scene.flags[_SKYBOX] = 1
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self.context)
-        mujoco.mjr_render(self.rect, self.scene, self.context)
+        mujoco.mjr_render(self.rect, scene, self.context)
         mujoco.mjr_readPixels(self.rgb, self.depth, self.rect, self.context)
         return self.rgb, self.depth, near, far
 
-    def _draw(self) -> np.ndarray:
-        self.scene.flags[_SKYBOX] = 1
+    def _draw(self, scene: mujoco.MjvScene) -> np.ndarray:
+        scene.flags[_SKYBOX] = 1
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self.context)
-        mujoco.mjr_render(self.rect, self.scene, self.context)
+        mujoco.mjr_render(self.rect, scene, self.context)
         mujoco.mjr_readPixels(self.rgb, None, self.rect, self.context)
         return self.rgb
 
-    def _draw_rgba(self) -> np.ndarray:
+    def _draw_rgba(self, scene: mujoco.MjvScene, rgba: np.ndarray) -> np.ndarray:
         from OpenGL import GL  # bound to the context's backend: the context was made through mujoco.egl/osmesa
 
-        self.scene.flags[_SKYBOX] = self.sky is None
+        scene.flags[_SKYBOX] = self.sky is None
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self.context)
-        mujoco.mjr_render(self.rect, self.scene, self.context)
-        GL.glReadPixels(0, 0, self.rect.width, self.rect.height, GL.GL_RGBA, GL.GL_UNSIGNED_BYTE, self.rgba)
-        return self.rgba
+        mujoco.mjr_render(self.rect, scene, self.context)
+        GL.glReadPixels(0, 0, self.rect.width, self.rect.height, GL.GL_RGBA, GL.GL_UNSIGNED_BYTE, rgba)
+        return rgba
 
     def close(self) -> None:
         """Free the GL objects once no other camera of the model draws with them (the shared GL context stays).
@@ -187,6 +206,7 @@ class OffscreenCamera:
 
     The scene is posed from its own MjData, whose kinematics are computed from the live qpos at each render:
     after mj_step, MjData's positions describe the start of the last step, one step behind qpos and the stamp.
+    The geoms that cannot reach the image are left out of the drawing (`cull`, culling.py): the same image, sooner.
     """
 
     def __init__(
@@ -209,6 +229,7 @@ class OffscreenCamera:
         self.camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
         self.camera_name = camera
         self.option = visual_only_option()
+        self.cull = True
         self.width, self.height = width, height
         self.target: GLScene | None = None
         self.rebind(model, data)
@@ -233,7 +254,8 @@ class OffscreenCamera:
 
     def render_later(self) -> Future[np.ndarray]:
         """Pose the scene at the current state now, and draw it on the GL context's thread: the future's result is
-        render()'s. Nothing may render or pose this camera again before that result is taken."""
+        render()'s buffer. The scenes take turns: one more render may be asked while this one is in flight (the
+        camera asks for the next frame before it takes this one); the one after that draws into this buffer again."""
         self._pose_scene()
         assert self.target is not None
         return self.target.draw_rgba_later()
@@ -247,7 +269,7 @@ class OffscreenCamera:
         pose.mocap_quat[:] = self.data.mocap_quat
         mujoco.mj_kinematics(self.model, pose)
         mujoco.mj_camlight(self.model, pose)
-        scene = self.target.scene
+        scene = self.target.flip()  # the previous frame's scene may still be drawing
         mujoco.mjv_updateScene(
             self.model,
             pose,
@@ -259,6 +281,8 @@ class OffscreenCamera:
         )
         for flag in _OFF:
             scene.flags[flag] = 0
+        if self.cull:
+            self.target.culler.cull()
 
     def render_depth_later(self) -> Future[tuple[np.ndarray, np.ndarray, float, float]]:
         """As render_later(), drawing the skybox and reading colour and depth: GLScene.draw_depth_later()'s result."""

@@ -93,10 +93,13 @@ class Crashes(NodeBase):
         """Announce the crashes that started since the last check."""
         if self._contacts is None or self._data is None:
             return
+        touching = self._contacts.touching(self._data)
+        if not touching:  # most checks: nothing to announce, nothing to remember
+            return
         now = self.now()
         pairs: set[tuple[int, int]] = set()
         walls: dict[int, int] = {}
-        for a, b, geom in sorted(self._contacts.touching(self._data)):
+        for a, b, geom in sorted(touching):
             if b >= 0:
                 pairs.add((a, b))
             elif a not in walls:

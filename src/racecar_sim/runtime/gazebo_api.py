@@ -32,7 +32,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Protocol
+from typing import Protocol, cast
 
 import mujoco
 import numpy as np
@@ -240,6 +240,15 @@ class GazeboApi(NodeBase):
             for m in self.models.values()
             if m.car is None and m.links[0].body < 0
         }
+        # link_states() copies these lists and fills in only the moving links: (index, link) of those with a free
+        # joint (their pose from qpos) and of the others (from the posed data, whose bodies `_posed_bodies` lists)
+        self._link_names = [link.name for link in self._links]
+        static = [self._static_msgs.get(link.name) for link in self._links]
+        self._link_poses = [None if entry is None else entry[0] for entry in static]
+        self._link_twists = [None if entry is None else entry[1] for entry in static]
+        self._free_links = [(i, link) for i, link in enumerate(self._links) if link.body >= 0 and link.qpos >= 0]
+        self._posed_links = [(i, link) for i, link in enumerate(self._links) if link.body >= 0 and link.qpos < 0]
+        self._posed_bodies = np.array([link.body for _, link in self._posed_links], np.intp)  # a list costs 10x more
 
     def _link(self, name: str, body: int, static_pose: PoseArrays = _IDENTITY) -> _Link:
         model = self.sim.model
@@ -253,11 +262,12 @@ class GazeboApi(NodeBase):
 
     # --- states --------------------------------------------------------------------------------------------------
     def _posed(self) -> mujoco.MjData:
-        kin = self._kin
-        kin.qpos[:] = self.sim.data.qpos
-        kin.mocap_pos[:] = self.sim.data.mocap_pos
-        kin.mocap_quat[:] = self.sim.data.mocap_quat
-        mujoco.mj_kinematics(self.sim.model, kin)
+        kin, data, model = self._kin, self.sim.data, self.sim.model
+        kin.qpos[:] = data.qpos
+        if model.nmocap:
+            kin.mocap_pos[:] = data.mocap_pos
+            kin.mocap_quat[:] = data.mocap_quat
+        mujoco.mj_kinematics(model, kin)
         return kin
 
     def _link_state(self, link: _Link, kin: mujoco.MjData | None) -> tuple[PoseArrays, PoseArrays]:
@@ -302,44 +312,47 @@ class GazeboApi(NodeBase):
     def model_states(self) -> ModelStates:
         """Every model's pose and twist now, as /gazebo/model_states carries them."""
         msg = ModelStates()
+        names, poses, twists = msg.name, msg.pose, msg.twist
         for m in self.models.values():
             if m.name in self._static_models:
                 pose_msg, twist_msg = self._static_models[m.name]
+            elif m.car is not None:  # _model_state()'s numbers, as Python floats in one call
+                x, y, z, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = m.car.state.base_odometry()
+                pose_msg = Pose(Point(x, y, z), Quaternion(qx, qy, qz, qw))
+                twist_msg = Twist(Vector3(vx, vy, vz), Vector3(wx, wy, wz))
             else:
                 pose_, twist = self._model_state(m)
                 pose_msg, twist_msg = _pose_msg(*pose_), _twist_msg(*twist)
-            msg.name.append(m.name)
-            msg.pose.append(pose_msg)
-            msg.twist.append(twist_msg)
+            names.append(m.name)
+            poses.append(pose_msg)
+            twists.append(twist_msg)
         return msg
 
     def link_states(self) -> LinkStates:
         """Every link's pose and twist now, as /gazebo/link_states carries them. A static link's Pose and Twist
         objects are shared by every message (they never change)."""
-        msg = LinkStates()
-        kin = self._posed()
         # the numbers _link_state() gives, read as Python floats straight from the arrays (this runs at 100 Hz when a
         # run records): free-joint links from qpos, the others from the posed data, twists from mj_objectVelocity
+        poses, twists = self._link_poses.copy(), self._link_twists.copy()
         model, data, vel, velocity = self.sim.model, self.sim.data, self._vel, mujoco.mj_objectVelocity
         qpos = data.qpos
-        posed = [link.body for link in self._links if link.body >= 0 and link.qpos < 0]
-        xpos, xquat = iter(kin.xpos[posed].tolist()), iter(kin.xquat[posed].tolist())
-        for link in self._links:
-            if link.body < 0:
-                pose_msg, twist_msg = self._static_msgs[link.name]
-            else:
-                if link.qpos >= 0:
-                    px, py, pz, w, x, y, z = qpos[link.qpos : link.qpos + 7].tolist()
-                else:
-                    (px, py, pz), (w, x, y, z) = next(xpos), next(xquat)
+        for i, link in self._free_links:
+            px, py, pz, w, x, y, z = qpos[link.qpos : link.qpos + 7].tolist()
+            velocity(model, data, _XBODY, link.body, vel, 0)
+            wx, wy, wz, vx, vy, vz = vel.tolist()
+            poses[i] = Pose(Point(px, py, pz), Quaternion(x, y, z, w))
+            twists[i] = Twist(Vector3(vx, vy, vz), Vector3(wx, wy, wz))
+        if self._posed_links:  # their poses from the kinematics of the live qpos
+            kin, bodies = self._posed(), self._posed_bodies
+            for (i, link), (px, py, pz), (w, x, y, z) in zip(
+                self._posed_links, kin.xpos[bodies].tolist(), kin.xquat[bodies].tolist()
+            ):
                 velocity(model, data, _XBODY, link.body, vel, 0)
                 wx, wy, wz, vx, vy, vz = vel.tolist()
-                pose_msg = Pose(Point(px, py, pz), Quaternion(x, y, z, w))
-                twist_msg = Twist(Vector3(vx, vy, vz), Vector3(wx, wy, wz))
-            msg.name.append(link.name)
-            msg.pose.append(pose_msg)
-            msg.twist.append(twist_msg)
-        return msg
+                poses[i] = Pose(Point(px, py, pz), Quaternion(x, y, z, w))
+                twists[i] = Twist(Vector3(vx, vy, vz), Vector3(wx, wy, wz))
+        # every None of the templates was a moving link's, filled in above
+        return LinkStates(self._link_names.copy(), cast(list[Pose], poses), cast(list[Twist], twists))
 
     # --- services: state -------------------------------------------------------------------------------------
     def get_model_state(self, req: GetModelStateRequest) -> GetModelStateResponse:

@@ -161,13 +161,15 @@ class CameraPublisher(NodeBase):
 
     def _tick(self, now_ns: int) -> None:
         spec = self.spec
-        if self._pending is not None:  # render-ahead: the frame drawn since the last tick goes out now
-            self.flush()
-        if not (self.bus.has_listeners(spec.image_topic) or self.bus.has_listeners(spec.info_topic)):
-            return
+        heard = self.bus.has_listeners(spec.image_topic) or self.bus.has_listeners(spec.info_topic)
         if self._ahead:
-            self._pending = (now_ns, self._capture_later(now_ns))
-        else:
+            # this tick's frame is asked for before the last one is waited for: the GL thread goes on to it without a
+            # pause while the last frame is published
+            drawing = self._capture_later() if heard else None
+            self.flush()  # render-ahead: the frame drawn since the last tick goes out now
+            if drawing is not None:
+                self._pending = (now_ns, drawing)
+        elif heard:
             self._publish(now_ns, self.capture(now_ns))
 
     def render_ahead(self, on: bool = True) -> None:
@@ -181,9 +183,9 @@ class CameraPublisher(NodeBase):
     def flush(self) -> None:
         """Publish the frame being drawn ahead, if any (stamped with its own time), now."""
         if self._pending is not None:
-            stamp_ns, frame = self._pending
+            stamp_ns, drawn = self._pending
             self._pending = None
-            self._publish(stamp_ns, frame.result())
+            self._publish(stamp_ns, self._finish(drawn.result(), stamp_ns))
 
     def drop_pending(self) -> None:
         """Forget the frame being drawn ahead, unpublished (sim time went back: a reset)."""
@@ -210,18 +212,19 @@ class CameraPublisher(NodeBase):
     def capture(self, stamp_ns: int) -> np.ndarray:
         """Render the current state: a new (height, width, 3) uint8 array in the spec's encoding, top row first,
         with the noise of the frame stamped `stamp_ns`."""
-        return self._capture_later(stamp_ns).result()
+        return self._finish(self._capture_later().result(), stamp_ns)
 
-    def _capture_later(self, stamp_ns: int) -> Future[np.ndarray]:
-        """capture(), with the scene posed now and the drawing and noise done on the GL thread."""
+    def _capture_later(self) -> Future[np.ndarray]:
+        """The scene posed now, drawn on the GL thread: the future's result is the GL buffer (RGBA, rows bottom-up)."""
         self.frames_rendered += 1
-        drawn = self.renderer.render_later()
-        return self.renderer.gl.submit(self._finish, drawn, stamp_ns)
+        return self.renderer.render_later()
 
-    def _finish(self, drawn: Future[np.ndarray], stamp_ns: int) -> np.ndarray:
+    def _finish(self, gl_rgba: np.ndarray, stamp_ns: int) -> np.ndarray:
+        """The frame from its GL buffer: flipped, the sky painted, the noise of `stamp_ns` added. It runs on the
+        thread that takes the frame (compiled, without the GIL), not on the GL thread, which meanwhile draws the
+        next frame into the other scene's buffer."""
         from racecar_sim.sensors.camera_noise import finish_frame  # numba loads with the first frame
 
-        gl_rgba = drawn.result()  # GL rows run bottom-up; the buffer is reused by the next drawing (after this job)
         spec = self.spec
         sky = self.renderer.sky
         pixels = np.empty((spec.height, spec.width, 3), dtype=np.uint8)  # the message keeps its own pixels

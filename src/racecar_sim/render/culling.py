@@ -1,0 +1,157 @@
+"""Frustum culling of a posed MjvScene: the geoms that cannot reach the camera's image are taken out before drawing.
+
+mjr_render draws every geom of the scene, and on Mesa's llvmpipe each draw costs its state changes and vertex work
+whether or not a pixel of it lands in the image (about 9 us a geom: a quarter of a walker frame's drawing goes to
+the car under the camera and the walls behind it). With shadows and reflections off (offscreen.py), a geom's only
+effect on the image is its own fragments: a geom whose bounding sphere lies wholly outside the view frustum has
+none, and leaving it out changes no pixel. The geoms kept are drawn in their order, so depth ties between them
+resolve as before: the image is MuJoCo's, bit for bit.
+
+The bindings give each MjvGeom field separately; taking out geoms field by field would cost more Python than the
+drawing saves. So the scene's geom records are viewed as raw bytes, and the kept ones are moved to the front in one
+numpy operation. The record layout (its size and where `pos` and `modelrbound` lie in it) is found once, by writing
+distinct values through the bindings into a probe scene and finding them in its memory; where it cannot be found
+(another MuJoCo's layout), nothing is culled.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import functools
+
+import mujoco
+import numpy as np
+
+MARGIN = 1.25
+"""The frustum's half-extents are widened by this factor (and bounding spheres by CLEARANCE) before testing: the test
+is conservative, culling only geoms well outside the image."""
+CLEARANCE = 0.01  # m
+
+
+class FrustumCuller:
+    """Takes the geoms that cannot appear in the image out of a posed `scene` drawn at width x height (cull())."""
+
+    def __init__(self, scene: mujoco.MjvScene, width: int, height: int) -> None:
+        self.scene, self.aspect = scene, width / height
+        layout = _record_layout()
+        self._raw: np.ndarray | None = None
+        self._eyes: tuple[mujoco.MjvGLCamera, ...] | None = None
+        self._views: tuple[np.ndarray, ...] = ()  # the eyes' positions, forward and up
+        if layout is None or scene.maxgeom < 2:
+            return
+        size, pos_at, rbound_at = layout
+        base = _address(scene.geoms[0].pos) - pos_at
+        memory = (ctypes.c_uint8 * (size * scene.maxgeom)).from_address(base)
+        self._raw = np.ctypeslib.as_array(memory).reshape(scene.maxgeom, size)
+        self._pos = np.ndarray((scene.maxgeom, 3), np.float32, memory, pos_at, (size, 4))
+        self._rbound = np.ndarray((scene.maxgeom,), np.float32, memory, rbound_at, (size,))
+
+    @property
+    def active(self) -> bool:
+        """Whether this MuJoCo's geom records could be read (otherwise cull() keeps every geom)."""
+        return self._raw is not None
+
+    def cull(self) -> int:
+        """Move the geoms whose bounding sphere meets the view frustum to the front, in order, and drop the rest;
+        returns how many were dropped. Geoms without a bounding radius (planes, decorations) are always kept."""
+        scene, raw = self.scene, self._raw
+        n = scene.ngeom
+        if raw is None or n == 0:
+            return 0
+        if self._eyes is None:  # the cameras' views into the scene: read live at every call
+            self._eyes = scene.camera
+            self._views = (self._eyes[0].pos, self._eyes[1].pos, self._eyes[0].forward, self._eyes[0].up)
+        left = self._eyes[0]
+        if left.orthographic:
+            return 0
+        from racecar_sim.render.frustum_kernel import cull_records  # numba loads with the first frame
+
+        kept = cull_records(
+            raw,
+            self._pos,
+            self._rbound,
+            n,
+            self._views[0],
+            self._views[1],
+            self._views[2],
+            self._views[3],
+            left.frustum_near,
+            left.frustum_center,
+            left.frustum_bottom,
+            left.frustum_top,
+            self.aspect,
+            MARGIN,
+            CLEARANCE,
+        )
+        scene.ngeom = kept
+        return n - kept
+
+
+def _address(array: np.ndarray) -> int:
+    return int(array.ctypes.data)
+
+
+@functools.cache
+def _record_layout() -> tuple[int, int, int] | None:
+    """(record size, offset of pos, offset of modelrbound) of an MjvGeom in this MuJoCo, or None if not found.
+
+    Each field of the middle geom of a 3-geom probe scene is changed through the bindings, and the bytes that change
+    are its place; the record starts at the lowest of them (a C struct's first member is at offset 0)."""
+    model = mujoco.MjModel.from_xml_string("<mujoco><worldbody><geom size='1'/></worldbody></mujoco>")
+    scene = mujoco.MjvScene(model, 3)
+    geoms = scene.geoms
+    size = _address(geoms[1].pos) - _address(geoms[0].pos)
+    if size <= 0 or _address(geoms[2].pos) - _address(geoms[1].pos) != size:
+        return None
+    for geom in geoms:  # defined values to change (a new scene's records are uninitialised memory)
+        mujoco.mjv_initGeom(geom, mujoco.mjtGeom.mjGEOM_BOX, np.ones(3), np.zeros(3), np.eye(3).ravel(), np.ones(4))
+    anchor = _address(geoms[1].pos)  # [anchor - size, anchor + size) lies within the three records
+    window = np.ctypeslib.as_array((ctypes.c_uint8 * (2 * size)).from_address(anchor - size))
+    places: dict[str, tuple[int, int]] = {}
+    for name in dir(geoms[1]):
+        value = getattr(geoms[1], name)
+        if name.startswith("_") or callable(value):
+            continue
+        before = window.copy()
+        if not _change(geoms[1], name, value):
+            return None
+        changed = np.flatnonzero(window != before)
+        if changed.size == 0:
+            return None
+        places[name] = (int(changed[0]) - size, int(changed[-1]) - size)  # relative to pos of geom 1
+    if "pos" not in places or "modelrbound" not in places:
+        return None
+    first = min(lo for lo, _ in places.values()) // 4 * 4  # the record starts with a 4-byte member (int type)
+    last = max(hi for _, hi in places.values())
+    if last - first >= size:
+        return None
+    # places are relative to pos; a float's first changed byte need not be its first
+    pos_at, rbound_at = -first, places["modelrbound"][0] // 4 * 4 - first
+    records = np.ctypeslib.as_array((ctypes.c_uint8 * (3 * size)).from_address(anchor - pos_at - size))
+    for index, geom in enumerate(geoms):  # read back where the layout says, what the bindings wrote
+        geom.pos[:] = (1.5 + index, -2.5, 3.25)
+        geom.modelrbound = 7.125 + index
+        record = records[index * size : (index + 1) * size]
+        pos = record[pos_at : pos_at + 12].copy().view(np.float32)
+        rbound = record[rbound_at : rbound_at + 4].copy().view(np.float32)[0]
+        if not (np.array_equal(pos, geom.pos) and rbound == np.float32(geom.modelrbound)):
+            return None
+    return size, pos_at, rbound_at
+
+
+def _change(geom: mujoco.MjvGeom, name: str, value: object) -> bool:
+    """Set field `name` of `geom` to a value other than `value`, through the bindings; False if it cannot be."""
+    try:
+        if isinstance(value, np.ndarray):
+            value[...] = value + 1
+        elif isinstance(value, bool):
+            setattr(geom, name, not value)
+        elif isinstance(value, (int, float)):
+            setattr(geom, name, value + 3)
+        elif isinstance(value, str):
+            setattr(geom, name, value + "x")
+        else:
+            return False
+    except (TypeError, ValueError, AttributeError):
+        return False
+    return True

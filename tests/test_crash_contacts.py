@@ -1,0 +1,50 @@
+"""CrashContacts.touching reads a few contacts element by element and many with numpy: both ways find the same crashes
+(car into car, car into wall, wheels resting on the floor left out) on the contact lists of a real run."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+import racecar_sim.physics.crash_contacts as crash_contacts
+from racecar_sim import Car, Simulator, Spawn
+from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header
+
+
+def _drive(sim: Simulator, car: Car, speed: float, steering: float) -> None:
+    def send(now_ns: int) -> None:
+        command = AckermannDrive(steering_angle=steering, speed=speed)
+        sim.publish(
+            car.topic("/vesc/ackermann_cmd_mux/input/navigation"),
+            AckermannDriveStamped(Header.at(now_ns, car.names.frame("base_link")), command),
+        )
+
+    sim.scheduler.every(20.0, send, f"{car.name} driver")
+
+
+def test_the_few_contacts_path_finds_what_the_numpy_path_finds(monkeypatch: pytest.MonkeyPatch) -> None:
+    cars = [  # a drives into a tunnel wall (at 1.5 s), b and c into each other (at 0.6 s)
+        Car("a", spawn=Spawn(0.0, 0.0, 0.05, -math.pi / 2), camera=False),
+        Car("b", spawn=Spawn(3.0, 0.0, 0.05, math.pi), camera=False),
+        Car("c", spawn=Spawn(1.5, 1.0, 0.05, -1.5), camera=False),
+    ]
+    sim = Simulator(world="tunnel", cars=cars, sensor_noise=False)
+    for car, steering in zip(sim.cars, (0.0, 0.0, 0.3)):
+        _drive(sim, car, 2.0, steering)
+    contacts = sim.collisions._contacts
+    assert contacts is not None
+    seen: set[tuple[int, int]] = set()
+    for _ in range(300):  # until both kinds of crash were compared
+        if any(b >= 0 for _, b in seen) and any(b < 0 for _, b in seen):
+            break
+        sim.run_for(0.02)
+        monkeypatch.setattr(crash_contacts, "_FEW", -1)  # every contact list through numpy
+        by_numpy = contacts.touching(sim.data)
+        monkeypatch.setattr(crash_contacts, "_FEW", 10**9)  # every one element by element
+        assert contacts.touching(sim.data) == by_numpy
+        seen |= {(a, b) for a, b, _ in by_numpy}
+    monkeypatch.undo()
+    assert any(b >= 0 for _, b in seen), "no car-car crash to compare"
+    assert any(b < 0 for _, b in seen), "no wall crash to compare"
+    assert sim.collisions.count > 0
