@@ -13,6 +13,23 @@ import pytest
 from racecar_sim import Simulator
 from racecar_sim.drivers import ConstantCommand
 
+
+def _gl_missing() -> str:
+    """Why no headless OpenGL context can be made here ("" when one can)."""
+    from racecar_sim.core.errors import RenderingError
+    from racecar_sim.render.gl import shared_context
+
+    try:
+        shared_context()
+    except RenderingError as exc:
+        return str(exc)
+    return ""
+
+
+GL_MISSING = _gl_missing()
+needs_gl = pytest.mark.skipif(bool(GL_MISSING), reason=GL_MISSING)
+"""Marks a test that draws camera images."""
+
 NAVIGATION = "/vesc/ackermann_cmd_mux/input/navigation"
 TELEOP = "/vesc/ackermann_cmd_mux/input/teleop"
 

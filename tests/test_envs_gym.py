@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
+from conftest import GL_MISSING, needs_gl
 from racecar_sim import envs
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.envs import DRIVE_CAMERA_ID, DRIVE_ID, ENV_IDS
@@ -20,15 +21,8 @@ from racecar_sim.envs.spaces import (
     steering_from_hinges,
     to_command,
 )
-from racecar_sim.render.gl import shared_context
 from racecar_sim.worlds import world_names
 
-try:
-    shared_context()
-    GL_MISSING = ""
-except Exception as exc:
-    GL_MISSING = str(exc)
-needs_gl = pytest.mark.skipif(bool(GL_MISSING), reason=GL_MISSING)
 FORWARD = np.array([1.0, 0.0], np.float32)
 
 

@@ -15,8 +15,8 @@ import pytest
 from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore
 
+from conftest import needs_gl
 from racecar_sim import Simulator
-from racecar_sim.core.errors import RenderingError
 from racecar_sim.drivers import ConstantCommand
 from racecar_sim.msgs import Header, Image
 from racecar_sim.recording.images import (
@@ -26,18 +26,10 @@ from racecar_sim.recording.images import (
 )
 from racecar_sim.recording.run_recording import RunRecording
 from racecar_sim.recording.writer_thread import WriterThread
-from racecar_sim.render.gl import shared_context
 
 IMAGE = "/camera/zed/rgb/image_rect_color"
 COMPRESSED = IMAGE + "/compressed"
 CLI = [sys.executable, "-m", "racecar_sim"]
-
-try:
-    shared_context()
-    GL_MISSING = ""
-except RenderingError as exc:
-    GL_MISSING = str(exc)
-needs_gl = pytest.mark.skipif(bool(GL_MISSING), reason=GL_MISSING)
 
 
 def read(path: Path) -> tuple[dict[str, int], dict[str, str], list]:

@@ -12,19 +12,13 @@ import numpy as np
 import pytest
 from rosbags.highlevel import AnyReader
 
+from conftest import GL_MISSING
 from racecar_sim import Simulator
 from racecar_sim.cli.main import main as cli_main
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.envs.drive import DriveEnv
 from racecar_sim.envs.policy import attach_policy
 from racecar_sim.envs.spaces import pooled_features, to_command
-from racecar_sim.render.gl import shared_context
-
-try:
-    shared_context()
-    GL_MISSING = ""
-except Exception as exc:
-    GL_MISSING = str(exc)
 
 NAVIGATION = "/vesc/ackermann_cmd_mux/input/navigation"
 

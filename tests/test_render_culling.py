@@ -9,17 +9,9 @@ import mujoco
 import numpy as np
 import pytest
 
+from conftest import needs_gl
 from racecar_sim import Simulator
-from racecar_sim.core.errors import RenderingError
 from racecar_sim.render.culling import FrustumCuller, _record_layout
-from racecar_sim.render.gl import shared_context
-
-try:
-    shared_context()
-    GL_MISSING = ""
-except RenderingError as exc:
-    GL_MISSING = str(exc)
-needs_gl = pytest.mark.skipif(bool(GL_MISSING), reason=GL_MISSING)
 
 
 def test_the_geom_records_are_found_and_read_back_what_the_bindings_wrote():

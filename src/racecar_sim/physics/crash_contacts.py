@@ -56,14 +56,7 @@ class CrashContacts:
         crash = touching & ~(on_surface & (np.abs(contact.frame[:n, 2]) > SUPPORT_NORMAL_Z))
         found: set[tuple[int, int, int]] = set()
         for index in np.flatnonzero(crash):
-            a, b = int(first[index]), int(second[index])
-            ga, gb = int(geoms[index, 0]), int(geoms[index, 1])
-            if a >= 0 and b >= 0:
-                found.add((a, b, gb) if a < b else (b, a, ga))
-            elif a >= 0:
-                found.add((a, -1, gb))
-            else:
-                found.add((b, -1, ga))
+            found.add(_crash(int(first[index]), int(second[index]), int(geoms[index, 0]), int(geoms[index, 1])))
         return found
 
     def _touching_few(self, contact: mujoco._structs._MjContactList, n: int) -> set[tuple[int, int, int]]:
@@ -81,10 +74,12 @@ class CrashContacts:
                     normal_z = contact.frame[:n, 2].tolist()
                 if abs(normal_z[index]) > SUPPORT_NORMAL_Z:  # a wheel resting on the ground, a floor, a ramp
                     continue
-            if a >= 0 and b >= 0:
-                found.add((a, b, gb) if a < b else (b, a, ga))
-            elif a >= 0:
-                found.add((a, -1, gb))
-            else:
-                found.add((b, -1, ga))
+            found.add(_crash(a, b, ga, gb))
         return found
+
+
+def _crash(a: int, b: int, ga: int, gb: int) -> tuple[int, int, int]:
+    """A crash contact between geoms ga (of car a, -1: none) and gb (of car b) as touching() lists it."""
+    if a >= 0 and b >= 0:
+        return (a, b, gb) if a < b else (b, a, ga)
+    return (a, -1, gb) if a >= 0 else (b, -1, ga)
