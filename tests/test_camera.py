@@ -549,6 +549,35 @@ def test_render_ahead_publishes_the_same_frames_one_period_later():
         np.testing.assert_array_equal(frame_ahead, frame)
 
 
+def test_a_capture_while_frames_are_drawn_ahead_changes_none_of_them():
+    """Two scenes take turns while frames are drawn ahead (the next is drawn while the last is published): a
+    capture() in between, even from a subscriber of the frame being published, must not draw over a frame not yet
+    taken. The published frames are those of a run without the captures."""
+    runs = {}
+    for capturing in (False, True):
+        sim = camera_sim("walker", seed=3)
+        camera = sim.car.camera
+        got: list[np.ndarray] = []
+
+        def on_image(msg, got=got, camera=camera, sim=sim, capturing=capturing):
+            got.append(pixels(msg))
+            if capturing:
+                camera.capture(sim.time_ns)  # drawn while the frame of this tick is in flight
+
+        sim.subscribe(camera.spec.image_topic, on_image)
+        camera.render_ahead(True)
+        for _ in range(6):
+            sim.run_for(1 / 30)
+            if capturing:
+                camera.capture(sim.time_ns)  # between ticks, with a frame drawn ahead
+        camera.flush()
+        runs[capturing] = got
+        sim.close()
+    assert len(runs[True]) == len(runs[False]) >= 6
+    for plain, captured in zip(runs[False], runs[True]):
+        np.testing.assert_array_equal(captured, plain)
+
+
 @needs_gl
 def test_a_fleets_cameras_draw_with_one_gl_context_and_the_same_frames():
     """Every camera of one model draws with the same MjrContext (meshes, textures, framebuffer made once); each

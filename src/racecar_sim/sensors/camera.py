@@ -129,7 +129,8 @@ class CameraPublisher(NodeBase):
         self.renderer = OffscreenCamera(model, data, self.spec.name, self.spec.width, self.spec.height)
         self.frames_rendered = 0
         self._ahead = False
-        self._pending: tuple[int, Future[np.ndarray]] | None = None  # (stamp, frame) drawn ahead, not yet published
+        # (stamp, drawing, its finished frame or None): the frame drawn ahead, not yet published
+        self._pending: tuple[int, Future[np.ndarray], np.ndarray | None] | None = None
         self._prepare()
         self._task = ctx.timers.every(self.spec.rate_hz, self._tick, "gazebo_ros_camera")
 
@@ -165,10 +166,9 @@ class CameraPublisher(NodeBase):
         if self._ahead:
             # this tick's frame is asked for before the last one is waited for: the GL thread goes on to it without a
             # pause while the last frame is published
-            drawing = self._capture_later() if heard else None
-            self.flush()  # render-ahead: the frame drawn since the last tick goes out now
-            if drawing is not None:
-                self._pending = (now_ns, drawing)
+            last, self._pending = self._pending, (now_ns, self._capture_later(), None) if heard else None
+            if last is not None:  # render-ahead: the frame drawn since the last tick goes out now
+                self._publish_drawn(*last)
         elif heard:
             self._publish(now_ns, self.capture(now_ns))
 
@@ -183,9 +183,11 @@ class CameraPublisher(NodeBase):
     def flush(self) -> None:
         """Publish the frame being drawn ahead, if any (stamped with its own time), now."""
         if self._pending is not None:
-            stamp_ns, drawn = self._pending
-            self._pending = None
-            self._publish(stamp_ns, self._finish(drawn.result(), stamp_ns))
+            last, self._pending = self._pending, None
+            self._publish_drawn(*last)
+
+    def _publish_drawn(self, stamp_ns: int, drawn: Future[np.ndarray], frame: np.ndarray | None) -> None:
+        self._publish(stamp_ns, frame if frame is not None else self._finish(drawn.result(), stamp_ns))
 
     def drop_pending(self) -> None:
         """Forget the frame being drawn ahead, unpublished (sim time went back: a reset)."""
@@ -212,6 +214,9 @@ class CameraPublisher(NodeBase):
     def capture(self, stamp_ns: int) -> np.ndarray:
         """Render the current state: a new (height, width, 3) uint8 array in the spec's encoding, top row first,
         with the noise of the frame stamped `stamp_ns`."""
+        if self._pending is not None and self._pending[2] is None:  # finished now: its buffer is drawn into next
+            stamp, drawn, _ = self._pending
+            self._pending = (stamp, drawn, self._finish(drawn.result(), stamp))
         return self._finish(self._capture_later().result(), stamp_ns)
 
     def _capture_later(self) -> Future[np.ndarray]:
