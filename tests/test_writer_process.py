@@ -272,3 +272,19 @@ def test_ctrl_c_to_the_whole_process_group_still_finishes_the_files(tmp_path):
     assert "Traceback" not in stderr
     with AnyReader([out], default_typestore=get_typestore(Stores.EMPTY)) as reader:
         assert sum(c.msgcount for c in reader.connections if c.topic == "/vesc/odom") >= 20
+
+
+@pytest.mark.skipif(not hasattr(os, "SCHED_BATCH"), reason="SCHED_BATCH is Linux's")
+def test_the_writer_runs_as_batch_work_at_the_simulations_priority(tmp_path):
+    """The child is scheduled as batch work (woken simulation threads go first) but at the same nice value: a nicer
+    writer starved beside other busy processes, and the simulation waited on it."""
+    bus, clock = Bus(), [0]
+    rec = RunRecording(bus, lambda: clock[0], tmp_path / "run.mcap", image_topics=[IMAGE])
+    pid = rec.process._process.pid
+    deadline = time.monotonic() + 30
+    while os.sched_getscheduler(pid) != os.SCHED_BATCH and time.monotonic() < deadline:
+        time.sleep(0.05)  # the child sets it as it starts
+    assert os.sched_getscheduler(pid) == os.SCHED_BATCH
+    assert os.getpriority(os.PRIO_PROCESS, pid) == os.getpriority(os.PRIO_PROCESS, 0)
+    publish_run(bus, clock, frames=5)
+    rec.close()

@@ -405,6 +405,17 @@ class ProcessVideo:
 # ---- the child ----
 
 
+def _batch_scheduling() -> None:
+    """Schedule this process as batch work (Linux's SCHED_BATCH), before it starts any thread.
+
+    It keeps its full share of the CPU (a nicer priority starved it beside other busy processes: the simulation then
+    waits on the frame ring), but a simulation thread that wakes (the GL thread with a frame to draw, the main
+    thread with its frame drawn) no longer waits behind it: 4 % faster on 2 cores, interleaved rounds."""
+    if hasattr(os, "sched_setscheduler") and hasattr(os, "SCHED_BATCH"):
+        with contextlib.suppress(OSError):
+            os.sched_setscheduler(0, os.SCHED_BATCH, os.sched_param(0))
+
+
 def serve() -> None:
     """The child's main: do the operations read from the pipe (fd argv[1]) until its end; report on fd argv[2]."""
     for signum in _SIGNALS:
@@ -417,6 +428,7 @@ def serve() -> None:
         ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
         if os.getppid() != parent:  # it died before that
             os._exit(1)
+    _batch_scheduling()
     back = _Reports(int(sys.argv[2]))
     ring = int(sys.argv[4]) if len(sys.argv) > 4 else -1
     logging.getLogger("racecar_sim").addHandler(back)
