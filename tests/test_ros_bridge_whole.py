@@ -212,7 +212,8 @@ def test_readme_ros_commands_work_as_typed(master, tmp_path):
         assert call.returncode == 0 and "success: True" in out, out
         x, y = (float(re.search(rf"\n\s+{axis}: (\S+)", out.split("position:")[1])[1]) for axis in "xy")
         stamp = out.split("stamp:")[1]
-        secs, nsecs = (int(re.search(rf"{field}: (\d+)", stamp)[1]) for field in ("secs", "nsecs"))
+        # rostime prints nsecs right-aligned in 9 columns: "nsecs:  15000000" below 0.1 s
+        secs, nsecs = (int(re.search(rf"{field}:\s+(\d+)", stamp)[1]) for field in ("secs", "nsecs"))
         return x, y, secs + nsecs * 1e-9, out
 
     out_file, err_file = tmp_path / "run.out", tmp_path / "run.err"
