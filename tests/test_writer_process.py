@@ -274,17 +274,91 @@ def test_ctrl_c_to_the_whole_process_group_still_finishes_the_files(tmp_path):
         assert sum(c.msgcount for c in reader.connections if c.topic == "/vesc/odom") >= 20
 
 
-@pytest.mark.skipif(not hasattr(os, "SCHED_BATCH"), reason="SCHED_BATCH is Linux's")
-def test_the_writer_runs_as_batch_work_at_the_simulations_priority(tmp_path):
-    """The child is scheduled as batch work (woken simulation threads go first) but at the same nice value: a nicer
-    writer starved beside other busy processes, and the simulation waited on it."""
+def _threads_nice(pid: int) -> dict[int, int]:
+    """Each thread's nice value, as the kernel reports it (/proc/PID/task/TID/stat, field 19)."""
+    nice = {}
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        fields = task.joinpath("stat").read_text().rsplit(")", 1)[1].split()
+        nice[int(task.name)] = int(fields[16])  # field 19 of the line, the 17th after the command's name
+    return nice
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="per-thread nice values and SCHED_BATCH are Linux's")
+def test_the_writer_gives_way_to_the_simulation_with_an_urgent_worker_at_its_priority(tmp_path):
+    """The child is scheduled as batch work (woken simulation threads go first); its relaxed worker (the main thread)
+    runs GIVE_WAY nice levels below the simulation, and its urgent worker, which takes over when the writer falls
+    behind, at the simulation's priority (a writer nicer throughout starved beside other busy processes)."""
     bus, clock = Bus(), [0]
     rec = RunRecording(bus, lambda: clock[0], tmp_path / "run.mcap", image_topics=[IMAGE])
     pid = rec.process._process.pid
+    ours = os.getpriority(os.PRIO_PROCESS, 0)
     deadline = time.monotonic() + 30
-    while os.sched_getscheduler(pid) != os.SCHED_BATCH and time.monotonic() < deadline:
-        time.sleep(0.05)  # the child sets it as it starts
-    assert os.sched_getscheduler(pid) == os.SCHED_BATCH
-    assert os.getpriority(os.PRIO_PROCESS, pid) == os.getpriority(os.PRIO_PROCESS, 0)
+    while time.monotonic() < deadline:  # the child sets them as it starts
+        nice = _threads_nice(pid)
+        if nice.get(pid) == ours + writer_process.GIVE_WAY and ours in nice.values():
+            break
+        time.sleep(0.05)
+    assert nice[pid] == ours + writer_process.GIVE_WAY
+    assert [tid for tid, n in nice.items() if n == ours], "no worker at the simulation's priority"
+    assert all(os.sched_getscheduler(tid) == os.SCHED_BATCH for tid in nice)
     publish_run(bus, clock, frames=5)
     rec.close()
+
+
+class _NiceRecorder:
+    """_Workers' files, recording the nice value of the thread doing each operation."""
+
+    def __init__(self) -> None:
+        self.nice: list[int] = []
+        self.reports = None
+
+    def do(self, op):
+        self.nice.append(os.getpriority(os.PRIO_PROCESS, 0))  # the calling thread's, on Linux
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="per-thread nice values are Linux's")
+def test_the_urgent_worker_takes_the_hand_overs_while_the_writer_is_behind(monkeypatch):
+    import pickle
+    import queue
+    import threading
+
+    monkeypatch.setattr(writer_process, "BEHIND", 4)
+    monkeypatch.setattr(writer_process, "CAUGHT_UP", 1)
+    ours = os.getpriority(os.PRIO_PROCESS, 0)
+    relaxed_nice = ours + writer_process.GIVE_WAY
+    hand_over = (pickle.dumps([(writer_process.MESSAGE,)]), [])
+
+    # behind: 12 hand-overs waiting at once
+    hand_overs: queue.Queue = queue.Queue()
+    for _ in range(12):
+        hand_overs.put(hand_over)
+    hand_overs.put(None)
+    files = _NiceRecorder()
+    workers = writer_process._Workers(hand_overs, files)
+    urgent = threading.Thread(target=workers.work, args=(True,))
+    urgent.start()  # before the other gives way, as serve() starts it
+    relaxed = threading.Thread(target=lambda: writer_process._give_way() and workers.work(urgent=False))
+    relaxed.start()
+    for thread in (urgent, relaxed):
+        thread.join(30)
+    # the relaxed worker does the first; 11 wait, 4 or more: the urgent one does them until one is left (the end)
+    assert files.nice == [relaxed_nice] + [ours] * 11
+    assert workers.done == {False: 1, True: 11}
+
+    # keeping up: each hand-over waits alone, and the relaxed worker does them all
+    hand_overs = queue.Queue()
+    files = _NiceRecorder()
+    workers = writer_process._Workers(hand_overs, files)
+    urgent = threading.Thread(target=workers.work, args=(True,))
+    urgent.start()
+    relaxed = threading.Thread(target=lambda: writer_process._give_way() and workers.work(urgent=False))
+    relaxed.start()
+    for i in range(6):
+        hand_overs.put(hand_over)
+        deadline = time.monotonic() + 10
+        while len(files.nice) <= i and time.monotonic() < deadline:
+            time.sleep(0.005)
+    hand_overs.put(None)
+    for thread in (urgent, relaxed):
+        thread.join(30)
+    assert files.nice == [relaxed_nice] * 6

@@ -47,6 +47,11 @@ RING_SLOTS = 32
 """Camera frames the shared memory holds (a second of 30 Hz video, 29 MB at 640x480): the parent writes frame n in
 slot n % RING_SLOTS once the child has let go of the frame RING_SLOTS before, waiting (RING_WAIT at a time) when the
 child is that far behind."""
+GIVE_WAY = 5
+"""Nice levels the child's relaxed worker runs below the simulation (_Workers); 3 and 10 gave less than 5."""
+BEHIND, CAUGHT_UP = 24, 8
+"""Hand-overs waiting at which the urgent worker takes over from the relaxed one, and at which it hands back: about
+8 and 1 frames, well inside the frame ring's RING_SLOTS."""
 RING_MIN = 1 << 16  # bytes: smaller images cross in the pipe (they cost little there), and so do the first's larger
 RING_WAIT = 0.0005  # s
 _RING_HEAD = 64  # bytes before the slots: the first 8, the number of the first frame the child still holds
@@ -357,10 +362,13 @@ class _FrameRing:
 
 
 def _child_environment() -> dict[str, str]:
-    """The parent's environment, with this racecar_sim first on the path (a checkout run by PYTHONPATH too)."""
+    """The parent's environment, with this racecar_sim first on the path (a checkout run by PYTHONPATH too), and
+    numpy's OpenBLAS without threads of its own: the writer does no linear algebra, and its threads, started with
+    numpy's import, would be the only ones not scheduled as batch work."""
     env = dict(os.environ)
     root = str(Path(__file__).resolve().parents[2])
     env["PYTHONPATH"] = os.pathsep.join(p for p in (root, env.get("PYTHONPATH")) if p)
+    env["OPENBLAS_NUM_THREADS"] = "1"
     return env
 
 
@@ -406,14 +414,73 @@ class ProcessVideo:
 
 
 def _batch_scheduling() -> None:
-    """Schedule this process as batch work (Linux's SCHED_BATCH), before it starts any thread.
-
-    It keeps its full share of the CPU (a nicer priority starved it beside other busy processes: the simulation then
-    waits on the frame ring), but a simulation thread that wakes (the GL thread with a frame to draw, the main
-    thread with its frame drawn) no longer waits behind it: 4 % faster on 2 cores, interleaved rounds."""
+    """Schedule this process as batch work (Linux's SCHED_BATCH), before it starts any thread: a simulation thread that
+    wakes (the GL thread with a frame to draw, the main thread with its frame drawn) does not wait behind it."""
     if hasattr(os, "sched_setscheduler") and hasattr(os, "SCHED_BATCH"):
         with contextlib.suppress(OSError):
             os.sched_setscheduler(0, os.SCHED_BATCH, os.sched_param(0))
+
+
+def _give_way() -> bool:
+    """Lower the calling thread's priority by GIVE_WAY nice levels; whether it was lowered for this thread alone
+    (Linux, where a nice value is a thread's), so that a thread started before keeps its priority."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), os.getpriority(os.PRIO_PROCESS, 0) + GIVE_WAY)
+    except OSError:
+        return False
+    return True
+
+
+class _Workers:
+    """The child's two workers, which take turns doing the hand-overs, in order, one at a time.
+
+    The relaxed worker runs GIVE_WAY nice levels below the simulation: while the writer keeps up, the simulation's
+    threads (stepping, drawing the next frame) get a core the moment they want one, and the encoding fills the gaps
+    (9 % faster on 2 cores, interleaved rounds). When the hand-overs waiting reach BEHIND (the machine is busy with
+    other work, and a nicer writer would starve: the simulation would wait on the frame ring), the urgent worker, at
+    the simulation's priority, takes over until CAUGHT_UP."""
+
+    def __init__(self, hand_overs: queue.Queue[tuple[bytes, list[bytearray]] | None], files: _Files) -> None:
+        self.hand_overs, self.files = hand_overs, files
+        self.turn = threading.Condition()
+        self.urgent_turn = False
+        self.finished = False
+        self.error: BaseException | None = None
+        self.done = {False: 0, True: 0}  # hand-overs done by the relaxed and the urgent worker
+
+    def work(self, urgent: bool) -> None:
+        """Do the hand-overs while it is this worker's turn, until the end of the pipe."""
+        with self.turn:
+            while True:
+                while self.urgent_turn != urgent and not self.finished:
+                    self.turn.wait()
+                if self.finished:
+                    return
+                hand_over = self.hand_overs.get()  # holding the turn: the other worker waits for it anyway
+                if hand_over is None:
+                    self.finished = True
+                    self.turn.notify_all()
+                    return
+                self._do(hand_over)
+                self.done[urgent] += 1
+                waiting = self.hand_overs.qsize()
+                behind = waiting >= BEHIND or (self.urgent_turn and waiting > CAUGHT_UP)
+                if behind != self.urgent_turn:
+                    self.urgent_turn = behind
+                    self.turn.notify_all()
+
+    def _do(self, hand_over: tuple[bytes, list[bytearray]]) -> None:
+        if self.error is not None:
+            return  # later operations are not done, but read on: the parent never waits on a pipe nobody reads
+        try:
+            body, buffers = hand_over
+            for op in pickle.loads(body, buffers=buffers):
+                self.files.do(op)
+        except BaseException as exc:
+            self.error = exc
+            self.files.reports.send("error", exc)
 
 
 def serve() -> None:
@@ -435,24 +502,22 @@ def serve() -> None:
     hand_overs: queue.Queue[tuple[bytes, list[bytearray]] | None] = queue.Queue(DEPTH)
     reader = threading.Thread(target=_read_hand_overs, args=(int(sys.argv[1]), hand_overs), daemon=True)
     reader.start()  # reads on while the main thread encodes: the parent's hand-over waits on no encoder
-    files = _Files(back, ring)
-    error: BaseException | None = None
-    while (hand_over := hand_overs.get()) is not None:
-        if error is not None:
-            continue  # later operations are not done, but read on: the parent never waits on a pipe nobody reads
-        try:
-            body, buffers = hand_over
-            for op in pickle.loads(body, buffers=buffers):
-                files.do(op)
-        except BaseException as exc:
-            error = exc
-            back.send("error", exc)
+    workers = _Workers(hand_overs, _Files(back, ring))
+    urgent = threading.Thread(target=workers.work, args=(True,), name="urgent writer", daemon=True)
+    urgent.start()  # before this thread gives way: it keeps the simulation's priority
+    if _give_way():
+        workers.work(urgent=False)
+    else:  # a nice value for the whole process: one worker, at the simulation's priority
+        with workers.turn:
+            workers.urgent_turn = True
+            workers.turn.notify_all()
+    urgent.join()
     try:
-        files.close()
+        workers.files.close()
     except BaseException as exc:
-        if error is None:
+        if workers.error is None:
             back.send("error", exc)
-    back.send("closed", files.results())
+    back.send("closed", workers.files.results())
 
 
 def _read_hand_overs(fd: int, hand_overs: queue.Queue[tuple[bytes, list[bytearray]] | None]) -> None:
