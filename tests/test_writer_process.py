@@ -292,13 +292,14 @@ def test_the_writer_gives_way_to_the_simulation_with_an_urgent_worker_at_its_pri
     rec = RunRecording(bus, lambda: clock[0], tmp_path / "run.mcap", image_topics=[IMAGE])
     pid = rec.process._process.pid
     ours = os.getpriority(os.PRIO_PROCESS, 0)
+    relaxed = min(ours + writer_process.GIVE_WAY, 19)  # the kernel stops at 19
     deadline = time.monotonic() + 30
     while time.monotonic() < deadline:  # the child sets them as it starts
         nice = _threads_nice(pid)
-        if nice.get(pid) == ours + writer_process.GIVE_WAY and ours in nice.values():
+        if nice.get(pid) == relaxed and ours in nice.values():
             break
         time.sleep(0.05)
-    assert nice[pid] == ours + writer_process.GIVE_WAY
+    assert nice[pid] == relaxed
     assert [tid for tid, n in nice.items() if n == ours], "no worker at the simulation's priority"
     assert all(os.sched_getscheduler(tid) == os.SCHED_BATCH for tid in nice)
     publish_run(bus, clock, frames=5)
@@ -325,7 +326,7 @@ def test_the_urgent_worker_takes_the_hand_overs_while_the_writer_is_behind(monke
     monkeypatch.setattr(writer_process, "BEHIND", 4)
     monkeypatch.setattr(writer_process, "CAUGHT_UP", 1)
     ours = os.getpriority(os.PRIO_PROCESS, 0)
-    relaxed_nice = ours + writer_process.GIVE_WAY
+    relaxed_nice = min(ours + writer_process.GIVE_WAY, 19)
     hand_over = (pickle.dumps([(writer_process.MESSAGE,)]), [])
 
     # behind: 12 hand-overs waiting at once
