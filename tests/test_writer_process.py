@@ -363,3 +363,42 @@ def test_the_urgent_worker_takes_the_hand_overs_while_the_writer_is_behind(monke
     for thread in (urgent, relaxed):
         thread.join(30)
     assert files.nice == [relaxed_nice] * 6
+
+
+def test_a_worker_that_dies_stops_the_other_instead_of_leaving_it_waiting_for_its_turn():
+    """An error that escapes a hand-over (here the report pipe gone) ends both workers: the child then finishes its
+    files and exits, rather than hang with one worker waiting for a turn that never comes."""
+    import pickle
+    import queue
+    import threading
+
+    class _BrokenReports:
+        def send(self, kind, value):
+            raise BrokenPipeError("the parent is gone")
+
+    class _Failing:
+        reports = _BrokenReports()
+
+        def do(self, op):
+            raise OSError("disk full")
+
+    hand_overs: queue.Queue = queue.Queue()
+    for _ in range(3):
+        hand_overs.put((pickle.dumps([(writer_process.MESSAGE,)]), []))
+    workers = writer_process._Workers(hand_overs, _Failing())
+    escaped: list[BaseException] = []
+
+    def work(urgent: bool) -> None:
+        try:
+            workers.work(urgent)
+        except BaseException as exc:
+            escaped.append(exc)
+
+    threads = [threading.Thread(target=work, args=(urgent,), daemon=True) for urgent in (True, False)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(10)
+    assert not any(thread.is_alive() for thread in threads), "a worker still waits for its turn"
+    assert [type(exc) for exc in escaped] == [BrokenPipeError]
+    assert workers.finished

@@ -51,7 +51,7 @@ GIVE_WAY = 5
 """Nice levels the child's relaxed worker runs below the simulation (_Workers); 3 and 10 gave less than 5."""
 BEHIND, CAUGHT_UP = 24, 8
 """Hand-overs waiting at which the urgent worker takes over from the relaxed one, and at which it hands back: about
-8 and 1 frames, well inside the frame ring's RING_SLOTS."""
+24 and 8 frames (a frame is about one hand-over), inside the frame ring's RING_SLOTS."""
 RING_MIN = 1 << 16  # bytes: smaller images cross in the pipe (they cost little there), and so do the first's larger
 RING_WAIT = 0.0005  # s
 _RING_HEAD = 64  # bytes before the slots: the first 8, the number of the first frame the child still holds
@@ -438,7 +438,7 @@ class _Workers:
 
     The relaxed worker runs GIVE_WAY nice levels below the simulation: while the writer keeps up, the simulation's
     threads (stepping, drawing the next frame) get a core the moment they want one, and the encoding fills the gaps
-    (9 % faster on 2 cores, interleaved rounds). When the hand-overs waiting reach BEHIND (the machine is busy with
+    (4-8 % faster on 2 cores, interleaved rounds). When the hand-overs waiting reach BEHIND (the machine is busy with
     other work, and a nicer writer would starve: the simulation would wait on the frame ring), the urgent worker, at
     the simulation's priority, takes over until CAUGHT_UP."""
 
@@ -451,25 +451,28 @@ class _Workers:
         self.done = {False: 0, True: 0}  # hand-overs done by the relaxed and the urgent worker
 
     def work(self, urgent: bool) -> None:
-        """Do the hand-overs while it is this worker's turn, until the end of the pipe."""
+        """Do the hand-overs while it is this worker's turn, until the end of the pipe (or an error that escapes
+        _do, e.g. the report pipe gone: then the other worker stops too, rather than wait for a turn forever)."""
         with self.turn:
-            while True:
-                while self.urgent_turn != urgent and not self.finished:
-                    self.turn.wait()
-                if self.finished:
-                    return
-                hand_over = self.hand_overs.get()  # holding the turn: the other worker waits for it anyway
-                if hand_over is None:
-                    self.finished = True
-                    self.turn.notify_all()
-                    return
-                self._do(hand_over)
-                self.done[urgent] += 1
-                waiting = self.hand_overs.qsize()
-                behind = waiting >= BEHIND or (self.urgent_turn and waiting > CAUGHT_UP)
-                if behind != self.urgent_turn:
-                    self.urgent_turn = behind
-                    self.turn.notify_all()
+            try:
+                while True:
+                    while self.urgent_turn != urgent and not self.finished:
+                        self.turn.wait()
+                    if self.finished:
+                        return
+                    hand_over = self.hand_overs.get()  # holding the turn: the other worker waits for it anyway
+                    if hand_over is None:
+                        return
+                    self._do(hand_over)
+                    self.done[urgent] += 1
+                    waiting = self.hand_overs.qsize()
+                    behind = waiting >= BEHIND or (self.urgent_turn and waiting > CAUGHT_UP)
+                    if behind != self.urgent_turn:
+                        self.urgent_turn = behind
+                        self.turn.notify_all()
+            finally:
+                self.finished = True
+                self.turn.notify_all()
 
     def _do(self, hand_over: tuple[bytes, list[bytearray]]) -> None:
         if self.error is not None:
