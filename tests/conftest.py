@@ -5,8 +5,10 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
+import mujoco
 import numpy as np
 import pytest
 
@@ -29,6 +31,25 @@ def _gl_missing() -> str:
 GL_MISSING = _gl_missing()
 needs_gl = pytest.mark.skipif(bool(GL_MISSING), reason=GL_MISSING)
 """Marks a test that draws camera images."""
+
+
+def random_car_poses(sim: Simulator, count: int, seed: int) -> Iterator[None]:
+    """The car put at `count` random places and headings of the world (kinematics only), level and
+    tilted: each yield leaves the sim at the next pose."""
+    model, data = sim.model, sim.data
+    free = model.jnt_qposadr[np.flatnonzero(model.jnt_type == mujoco.mjtJoint.mjJNT_FREE)[0]]
+    rng = np.random.default_rng(seed)
+    start = data.qpos.copy()
+    for _ in range(count):
+        data.qpos[:] = start
+        data.qpos[free : free + 2] += rng.uniform(-4.0, 4.0, 2)
+        yaw = rng.uniform(-math.pi, math.pi)
+        pitch = rng.uniform(-0.3, 0.3)  # tilted too: the frustum's top and bottom planes matter
+        cy, sy, cp, sp = math.cos(yaw / 2), math.sin(yaw / 2), math.cos(pitch / 2), math.sin(pitch / 2)
+        data.qpos[free + 3 : free + 7] = [cy * cp, -sy * sp, cy * sp, sy * cp]
+        mujoco.mj_forward(model, data)
+        yield
+
 
 NAVIGATION = "/vesc/ackermann_cmd_mux/input/navigation"
 TELEOP = "/vesc/ackermann_cmd_mux/input/teleop"

@@ -3,13 +3,11 @@ frames are MuJoCo's bit for bit; and it does leave geoms out (the car under the 
 
 from __future__ import annotations
 
-import math
-
 import mujoco
 import numpy as np
 import pytest
 
-from conftest import needs_gl
+from conftest import needs_gl, random_car_poses
 from racecar_sim import Simulator
 from racecar_sim.render.culling import FrustumCuller, _record_layout
 
@@ -35,23 +33,6 @@ def test_the_geom_records_are_found_and_read_back_what_the_bindings_wrote():
         assert culler._rbound[i] == pytest.approx(model.geom_rbound[i], rel=1e-6)
 
 
-def _random_poses(sim: Simulator, count: int, seed: int):
-    """The car put at `count` random places and headings of the world (kinematics only)."""
-    model, data = sim.model, sim.data
-    free = model.jnt_qposadr[np.flatnonzero(model.jnt_type == mujoco.mjtJoint.mjJNT_FREE)[0]]
-    rng = np.random.default_rng(seed)
-    start = data.qpos.copy()
-    for _ in range(count):
-        data.qpos[:] = start
-        data.qpos[free : free + 2] += rng.uniform(-4.0, 4.0, 2)
-        yaw = rng.uniform(-math.pi, math.pi)
-        pitch = rng.uniform(-0.3, 0.3)  # tilted too: the frustum's top and bottom planes matter
-        cy, sy, cp, sp = math.cos(yaw / 2), math.sin(yaw / 2), math.cos(pitch / 2), math.sin(pitch / 2)
-        data.qpos[free + 3 : free + 7] = [cy * cp, -sy * sp, cy * sp, sy * cp]
-        mujoco.mj_forward(model, data)
-        yield
-
-
 @needs_gl
 @pytest.mark.parametrize("world", ["walker", "tunnel"])
 def test_culled_frames_are_mujocos_bit_for_bit_and_geoms_are_left_out(world):
@@ -59,7 +40,7 @@ def test_culled_frames_are_mujocos_bit_for_bit_and_geoms_are_left_out(world):
     camera = sim.car.camera
     renderer = camera.renderer
     dropped = []
-    for k, _ in enumerate(_random_poses(sim, 12, seed=11)):
+    for k, _ in enumerate(random_car_poses(sim, 12, seed=11)):
         renderer.cull = True
         culled = camera.capture(1_000_000 * k)
         assert renderer.target is not None

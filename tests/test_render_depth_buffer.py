@@ -6,9 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from conftest import needs_gl
+from conftest import needs_gl, random_car_poses
 from racecar_sim import Simulator
-from test_render_culling import _random_poses
 
 
 def _attachments(context):
@@ -56,7 +55,7 @@ def test_frames_and_depth_are_mujocos_with_the_depth_only_buffer(world):
     gl = renderer.gl
     ours = gl.call(_attachments, target.context)
     assert ours == (GL.GL_DEPTH_COMPONENT32F, GL.GL_NONE), "the cameras' framebuffer still has a stencil"
-    for k, _ in enumerate(_random_poses(sim, 6, seed=23)):
+    for k, _ in enumerate(random_car_poses(sim, 6, seed=23)):
         rgba = renderer.render_later().result().copy()
         scene = target.scene  # the scene just drawn
         theirs, _, _, made = gl.call(
