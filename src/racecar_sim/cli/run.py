@@ -43,11 +43,19 @@ from racecar_sim.cli.args import (
 from racecar_sim.cli.live import LiveViews, RealTimePacer, bridged, paced
 from racecar_sim.cli.ros2_env import check_ros2, start_ros2_bridge
 from racecar_sim.cli.ros_env import PAUSED_WAIT, check_ros, start_ros_bridge
-from racecar_sim.cli.run_folder import RunFolder, driver_label, interrupted_note, output_paths
+from racecar_sim.cli.run_folder import (
+    RunFolder,
+    driver_label,
+    interrupted_note,
+    node_failure_fields,
+    node_failure_note,
+    node_failure_title,
+    output_paths,
+)
 from racecar_sim.cli.spawns import check_row, check_spawn_option, fleet_size
 from racecar_sim.cli.topic_map import check_topic_map, sim_drives
 from racecar_sim.control.profiles import profile_names
-from racecar_sim.core.errors import ConfigError
+from racecar_sim.core.errors import ConfigError, NodeError
 from racecar_sim.drivers import pure_pursuit_config, wall_follow_config
 from racecar_sim.physics import preset_names
 from racecar_sim.runtime import Car, Simulator
@@ -289,7 +297,14 @@ def main(args: argparse.Namespace, attach: Callable[[argparse.Namespace, Simulat
                 _attach_driver(args, sim, car, drivers[index], settings[index])
         args.driver = driver_label(sim, drivers) if any(driven) else "none (ROS drives: /drive)"
         with RunFolder(args, sim, out, record) as folder, LiveViews(sim, args.viewer, args.foxglove) as live:
-            wall, interrupted = _drive(args, sim, live)
+            wall, interrupted, failure = _drive(args, sim, live)
+    if failure is not None:  # a user's node raised: the files hold the run up to that event, marked so
+        folder.finish(
+            node_failure_title(_title(args, sim), failure), _header(args, sim), wall, drivers,
+            node_failure_fields(failure),
+        )  # fmt: skip
+        node_failure_note(failure)
+        return NodeError.EXIT_CODE
     folder.finish(_title(args, sim), _header(args, sim), wall, drivers)
     if interrupted:
         interrupted_note(sim)
@@ -297,9 +312,10 @@ def main(args: argparse.Namespace, attach: Callable[[argparse.Namespace, Simulat
     return 0
 
 
-def _drive(args: argparse.Namespace, sim: Simulator, live: LiveViews) -> tuple[float, bool]:
-    """Run to --duration, until the viewer closes or until Ctrl-C / SIGTERM; returns the wall-clock seconds
-    taken and whether it was interrupted (the run's files are written either way)."""
+def _drive(args: argparse.Namespace, sim: Simulator, live: LiveViews) -> tuple[float, bool, NodeError | None]:
+    """Run to --duration, until the viewer closes, until Ctrl-C / SIGTERM or until a user's node raises; returns the
+    wall-clock seconds taken, whether it was interrupted and what the node raised (the run's files are written in
+    every case)."""
     realtime = paced(args) or live.realtime
     chunk = BRIDGED_CHUNK if realtime and bridged(args) else LIVE_CHUNK if live.realtime else CHUNK
     endless = args.duration == float("inf")
@@ -326,7 +342,7 @@ def _drive(args: argparse.Namespace, sim: Simulator, live: LiveViews) -> tuple[f
     for camera in cameras:  # frames drawn on the GL thread while the physics goes on, published a period later
         camera.render_ahead()
     start = time.perf_counter()
-    interrupted = False
+    interrupted, failure = False, None
     try:
         while sim.time < args.duration - 1e-9 and not live.closed:
             sim.run_until(min(sim.time + chunk, args.duration))
@@ -342,6 +358,8 @@ def _drive(args: argparse.Namespace, sim: Simulator, live: LiveViews) -> tuple[f
                 pacer.wait(sim.time)
     except KeyboardInterrupt:
         interrupted = True
+    except NodeError as exc:
+        failure = exc
     finally:
         for camera in cameras:
             camera.flush()  # the last frame, at the time the run stops
@@ -350,7 +368,7 @@ def _drive(args: argparse.Namespace, sim: Simulator, live: LiveViews) -> tuple[f
             bridge.close()
         if ros2 is not None:
             ros2.close()
-    return time.perf_counter() - start, interrupted
+    return time.perf_counter() - start, interrupted, failure
 
 
 def _title(args: argparse.Namespace, sim: Simulator) -> str:

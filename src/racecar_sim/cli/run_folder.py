@@ -24,8 +24,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from racecar_sim.cli.args import check_folder, check_record_path, fresh_folder, make_folder
-from racecar_sim.core.errors import ConfigError, RecordingError
+from racecar_sim.core.errors import ConfigError, NodeError, RecordingError, one_line
 from racecar_sim.core.names import ODOM
+from racecar_sim.nodes.guard import user_frames
 from racecar_sim.runtime.run_log import RaceLog, RunLog, image_array, race_results
 
 if TYPE_CHECKING:  # mcap, Pillow and PyAV load only when a run needs them
@@ -344,3 +345,31 @@ def _json_safe(value: Any) -> Any:
 def interrupted_note(sim: Simulator) -> None:
     """The line an interrupted run ends with."""
     print(f"racecar-sim: interrupted at sim time {sim.time:.2f} s; the files above are complete", file=sys.stderr)
+
+
+def node_failure_fields(error: NodeError) -> dict[str, Any]:
+    """What summary.json adds for a run a user's node stopped: `ended` "error" and the error's particulars."""
+    cause = error.__cause__
+    return {
+        "ended": "error",
+        "error": {
+            "node": error.node,
+            "car": error.car,
+            "time": error.time,
+            "in": error.where,
+            "exception": f"{type(cause).__name__}: {one_line(cause)}" if cause is not None else str(error),
+        },
+    }
+
+
+def node_failure_title(title: str, error: NodeError) -> str:
+    """summary.png's title for a run a user's node stopped."""
+    cause = type(error.__cause__).__name__ if error.__cause__ is not None else "an error"
+    return f"{title}\nstopped at {error.time:.2f} s: {error.node} raised {cause}"
+
+
+def node_failure_note(error: NodeError) -> None:
+    """The lines a run a user's node stopped ends with: one naming the node, its car, the exception and the sim time,
+    then the traceback of the node's own frames."""
+    print(f"racecar-sim: error: {error}; the run stopped there (the files above hold it up to then)", file=sys.stderr)
+    print(user_frames(error), file=sys.stderr, end="")

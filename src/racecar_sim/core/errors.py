@@ -35,3 +35,25 @@ class RenderingError(RacecarSimError):
 
 class RecordingError(RacecarSimError):
     """An MCAP recording cannot be written, or a file given to recover is missing or not MCAP."""
+
+
+class NodeError(Exception):
+    """A user's node (a driver given to `--driver`, or `sim.add_node`) raised: the run stops at that event.
+
+    Not a RacecarSimError: the input was fine, the node's own code failed. `node` names it (`bad.py:Crashy`), `car`
+    its car, `time` the sim time (s) of the event, `where` what the sim was calling (a subscription to /scan, a
+    timer, its reset hook); the node's exception is the `__cause__`.
+    """
+
+    EXIT_CODE = 3  # racecar-sim's exit code when a user's node stopped the run (README: When the input is wrong)
+
+    def __init__(self, node: str, car: str, time: float, where: str, cause: BaseException) -> None:
+        self.node, self.car, self.time, self.where = node, car, time, where
+        super().__init__(
+            f"{node} (car {car}) raised {type(cause).__name__}: {one_line(cause)} at sim time {time:.3f} s, in {where}"
+        )
+
+
+def one_line(exc: BaseException) -> str:
+    """An exception's message on one line (whitespace runs folded)."""
+    return " ".join(str(exc).split()) or "(no message)"

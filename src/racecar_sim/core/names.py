@@ -29,6 +29,7 @@ ODOM_RELAY = "/pf/pose/odom"
 NAVIGATION = "/vesc/ackermann_cmd_mux/input/navigation"
 TELEOP = "/vesc/ackermann_cmd_mux/input/teleop"
 SAFETY = "/vesc/ackermann_cmd_mux/input/safety"
+ROBOT_DESCRIPTION = "/robot_description"  # the URDF, as ROS 2's robot_state_publisher publishes it (latched)
 BASE_LINK = "base_link"
 
 

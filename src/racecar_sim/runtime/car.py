@@ -33,6 +33,7 @@ from racecar_sim.core.names import ODOM_RELAY, CarNames
 from racecar_sim.description import DEFAULT_XACRO, Robot, load_robot, package_path, parse_urdf
 from racecar_sim.description.controllers import ControllerConfig, load_controller_config
 from racecar_sim.nodes import Mount, Node, NodeContext, ScopedBus, ScopedTimers, StaticTf, Timers
+from racecar_sim.nodes.guard import GuardedNode
 from racecar_sim.physics import PhysicsPreset, add_car
 from racecar_sim.physics.state import CarState
 from racecar_sim.runtime import plugins
@@ -300,8 +301,10 @@ class Car:
 
     def add_node(self, factory: Callable[..., Node], **params: Any) -> Node:
         """Build a node of the car from its context (`factory(ctx, **params)`, e.g. a user's driver class) and hold it
-        with the car's own: its reset, rebind and close hooks run with theirs."""
-        return self.hold(factory(self.context, **params))
+        with the car's own: its reset, rebind and close hooks run with theirs. What the node raises, built or called
+        (a subscription, a timer, a hook), stops the run as a NodeError naming it, the car and the sim time
+        (nodes/guard.py)."""
+        return self.hold(GuardedNode(factory, self.context, self.model_name, **params)).node
 
     @property
     def context(self) -> NodeContext:

@@ -38,6 +38,7 @@ from racecar_sim.drivers import (
     wall_follow_config,
 )
 from racecar_sim.nodes import Node
+from racecar_sim.nodes.guard import FILE_MODULE_PREFIX
 from racecar_sim.runtime.car import Car
 from racecar_sim.runtime.simulator import Simulator
 from racecar_sim.worlds import World, track_file  # noqa: F401 (track_file: sweep/spec.py asks it of a world's name)
@@ -88,7 +89,7 @@ def _load_file(target: str, where: str) -> Any:
     if not path.is_file():
         raise ConfigError(f"{where}: no such file {target}")
     resolved = path.resolve()
-    name = f"racecar_sim_driver_{hashlib.sha1(str(resolved).encode()).hexdigest()[:12]}_{path.stem}"
+    name = f"{FILE_MODULE_PREFIX}{hashlib.sha1(str(resolved).encode()).hexdigest()[:12]}_{path.stem}"
     if name in sys.modules:
         return sys.modules[name]
     spec = importlib.util.spec_from_file_location(name, resolved)

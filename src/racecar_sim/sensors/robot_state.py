@@ -1,4 +1,5 @@
-"""robot_state_publisher: fixed joints on /tf_static once (latched), moving joints on /tf per joint state."""
+"""robot_state_publisher: fixed joints on /tf_static once (latched), moving joints on /tf per joint state, and the URDF
+on /robot_description (latched), as ROS 2's robot_state_publisher gives it to RViz2 and Foxglove."""
 
 from __future__ import annotations
 
@@ -8,12 +9,22 @@ from collections.abc import Sequence
 import numpy as np
 
 from racecar_sim.bus import BusPort
-from racecar_sim.core.names import TF, TF_STATIC, CarNames
+from racecar_sim.core.names import ROBOT_DESCRIPTION, TF, TF_STATIC, CarNames
 from racecar_sim.core.time import NS_PER_S
 from racecar_sim.core.transforms import quat_from_rpy
 from racecar_sim.description.kinematics import joint_transform
 from racecar_sim.description.urdf import Robot
-from racecar_sim.msgs import Header, JointState, Quaternion, TFMessage, Time, Transform, TransformStamped, Vector3
+from racecar_sim.msgs import (
+    Header,
+    JointState,
+    Quaternion,
+    String,
+    TFMessage,
+    Time,
+    Transform,
+    TransformStamped,
+    Vector3,
+)
 from racecar_sim.nodes import NodeBase, StaticTf
 
 
@@ -41,7 +52,9 @@ class StaticTransforms:
 
 class RobotStatePublisher(NodeBase):
     """Publishes the URDF tree as TF (frames with the car's tf_prefix), from the joint states on
-    `joint_states_topic`."""
+    `joint_states_topic`, and the URDF itself on the car's /robot_description (latched: `/car2/robot_description` in a
+    fleet; the text is the description's, frames without the prefix, as robot_state_publisher's frame_prefix leaves
+    it)."""
 
     def __init__(
         self,
@@ -78,6 +91,10 @@ class RobotStatePublisher(NodeBase):
             if not j.moves
         ]
         (static or StaticTransforms(bus)).add(fixed)
+        if robot.urdf:
+            description = names.topic(ROBOT_DESCRIPTION)
+            bus.latch(description)
+            bus.publish(description, String(robot.urdf))
         bus.subscribe(joint_states_topic, self._on_joint_states, feeds={TF: TFMessage})
 
     def _on_joint_states(self, msg: JointState) -> None:

@@ -8,6 +8,11 @@ appended from the second on). Per car:
   /scan (the lidar's topic)                  /scan | /opp_scan, /opp_scan2 ...       sensor_msgs/LaserScan
   /vesc/odom                                 /ego_racecar/odom | /opp_racecar/odom, /opp_racecar2/odom ...
   /vesc/ackermann_cmd_mux/input/navigation   /drive | /opp_drive, /opp_drive2 ...    AckermannDriveStamped (in)
+  /robot_description (the ego car's)         /ego_robot_description                  std_msgs/String (latched)
+
+gym_bridge.py publishes scan and odometry with a plain depth (`create_publisher(LaserScan, ego_scan_topic, 10)`:
+reliable, volatile, keep last 10), and so does the bridge under these names; gym_bridge_launch.py remaps the ego
+car's robot_state_publisher's /robot_description to ego_robot_description (an opponent's keeps the sim's name).
 
 Every other topic keeps its sim name. Frames: a car's frame `f` (`base_link`, or `car2/base_link` in a fleet)
 becomes `<ns>/f` (`ego_racecar/base_link`, `opp_racecar/laser`), its wheel and hinge links under F1TENTH's URDF
@@ -26,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from racecar_sim.bridges.topic_map import rename_frames
-from racecar_sim.core.names import NAVIGATION, ODOM, WORLD_FRAME, CarNames
+from racecar_sim.core.names import NAVIGATION, ODOM, ROBOT_DESCRIPTION, WORLD_FRAME, CarNames
 from racecar_sim.core.transforms import quat_to_matrix
 from racecar_sim.msgs import Odometry, Twist, TwistWithCovariance, Vector3
 
@@ -36,6 +41,8 @@ SCAN, DRIVE = "scan", "drive"  # ego_scan_topic, ego_drive_topic
 ODOM_TOPIC = "odom"  # ego_odom_topic and opp_odom_topic, under the car's namespace
 OPP_SCAN, OPP_DRIVE = "opp_scan", "opp_drive"  # opp_scan_topic, opp_drive_topic (global, numbered)
 ODOM_FRAME = "odom"  # the odometry node's frame (sensors/odometry.py)
+EGO_DESCRIPTION = "ego_robot_description"  # gym_bridge_launch.py's remapping of the ego robot_state_publisher
+QOS = "default"  # gym_bridge.py's publishers: a plain depth of 10 (bridges/ros2/qos.py's name)
 LINK_NAMES = {  # the original racecar's links -> f1tenth_gym_ros's URDF (launch/ego_racecar.xacro)
     "left_rear_wheel": "back_left_wheel",
     "right_rear_wheel": "back_right_wheel",
@@ -73,11 +80,14 @@ class F1tenthCar:
             scan, drive = f"/{SCAN}", f"/{DRIVE}"
         else:
             scan, drive = f"/{OPP_SCAN}{opp_suffix(self.index)}", f"/{OPP_DRIVE}{opp_suffix(self.index)}"
-        return {
+        topics = {
             self.scan_topic: scan,
             self.names.topic(ODOM): f"/{self.namespace}/{ODOM_TOPIC}",
             self.names.topic(NAVIGATION): drive,
         }
+        if self.index == 0:
+            topics[self.names.topic(ROBOT_DESCRIPTION)] = f"/{EGO_DESCRIPTION}"
+        return topics
 
     def local(self, frame: str) -> str | None:
         """The car-relative name of a sim frame of this car (`car2/laser` -> `laser`), or None if not this car's."""
@@ -112,6 +122,12 @@ class F1tenthMap:
         }
         by_namespace = {car.namespace: car for car in self.cars}
         self._by_namespace = by_namespace
+        self._gym_published = {  # what gym_bridge.py publishes itself: scan and odometry
+            ros
+            for car in self.cars
+            for sim, ros in car.topics().items()
+            if sim in (car.scan_topic, car.names.topic(ODOM))
+        }
 
     # --- topics ----------------------------------------------------------------------------------------------
     def ros_name(self, sim_topic: str) -> str | None:
@@ -124,6 +140,10 @@ class F1tenthMap:
         if sim is not None:
             return sim
         return None if ros_topic in self._to_ros else ros_topic
+
+    def qos_name(self, ros_topic: str) -> str | None:
+        """gym_bridge.py's QoS (a plain depth of 10) for the scan and odometry topics it publishes."""
+        return QOS if ros_topic in self._gym_published else None
 
     # --- frames ----------------------------------------------------------------------------------------------
     def ros_frame(self, frame: str) -> str:

@@ -178,7 +178,7 @@ class Ros2Bridge(BusBridge):
         if ros_topic is None or not msgtype:
             out.ok = False  # not bridged (the topic map leaves it out, or it is no ROS message)
             return out
-        profile = qos.profile(ros_topic, msgtype, latched)
+        profile = qos.profile(ros_topic, msgtype, latched, self.topic_map.qos_name(ros_topic))
         out.depth = profile["depth"]
         self._side.send_control(op="advertise", id=out.id, topic=ros_topic, type=msgtype, qos=profile)
         return out
@@ -237,9 +237,7 @@ class Ros2Bridge(BusBridge):
                 continue
             sub_id = len(self._in) + 1
             self._in[sub_id] = _Inbound(topic, ros_topic, msgtype)
-            self._side.send_control(
-                op="subscribe", id=sub_id, topic=ros_topic, type=msgtype, qos=qos.profile(ros_topic, msgtype)
-            )
+            self._side.send_control(op="subscribe", id=sub_id, topic=ros_topic, type=msgtype, qos=qos.command_profile())
         offered = services.offered(self.sim.bus.services())
         for name in set(self._services) - set(offered):
             del self._services[name]
