@@ -280,32 +280,31 @@ F1TENTH_READER = """
 """
 
 
+def _quick_start() -> list[str]:
+    """The commands of the README's F1TENTH quick start, comments dropped."""
+    readme = (Path(__file__).parents[1] / "README.md").read_text()
+    block = readme.split("**F1TENTH quick start.**", 1)[1].split("\n\n", 2)[1]
+    return [line.split("  #", 1)[0].strip() for line in block.splitlines()]
+
+
 def test_f1tenth_lab_node_drives_walker_under_the_f1tenth_map_as_the_readme_says(jazzy, tmp_path) -> None:
-    """The README's F1TENTH quick start, typed as it is there: the sim, `eval "$(racecar-sim ros2-env)"`, the node."""
+    """The README's F1TENTH quick start, typed as it is there: the sim, `eval "$(racecar-sim ros2-env)"`, the node.
+    (Its first two lines, the install and `ros2-env --build`, are what the jazzy fixture has done.)"""
+    install, build, run, env_line, node_line = _quick_start()
+    assert install == 'pip install -e ".[ros2]"' and build.endswith("racecar-sim ros2-env --build")
+    assert (
+        run.endswith(" &") and env_line == 'eval "$(racecar-sim ros2-env)"' and node_line == "python reactive_node.py"
+    )
     (tmp_path / "reactive_node.py").write_text(textwrap.dedent(FOLLOW_THE_GAP))
     (tmp_path / "rviz_like.py").write_text(textwrap.dedent(F1TENTH_READER))
     env = dict(os.environ, PATH=f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}")
-    sim = subprocess.Popen(
-        "racecar-sim run --ros2 --topic-map f1tenth --world walker --no-camera --duration 30 --out run",
-        shell=True,
-        cwd=tmp_path,
-        env=env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    user = f'eval "$(racecar-sim ros2-env)" && exec {jazzy.python} '
+    popen = {"shell": True, "cwd": tmp_path, "env": env, "stdout": subprocess.PIPE, "stderr": subprocess.STDOUT}
+    sim = subprocess.Popen(run.removesuffix(" &"), text=True, **popen)
+    # `python` here is the test's ROS 2 venv's (a user's venv has rclpy itself)
+    user = f"{env_line} && exec {jazzy.python} "
     nodes = [
-        subprocess.Popen(
-            user + script,
-            shell=True,
-            cwd=tmp_path,
-            env=env,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT,
-            text=True,
-        )
-        for script in ("reactive_node.py", "rviz_like.py")
+        subprocess.Popen(user + node_line.split()[1], text=True, **popen),
+        subprocess.Popen(user + "rviz_like.py", text=True, **popen),
     ]
     try:
         sim_out, _ = sim.communicate(timeout=240)
@@ -317,7 +316,8 @@ def test_f1tenth_lab_node_drives_walker_under_the_f1tenth_map_as_the_readme_says
         node_out, _ = nodes[0].communicate(timeout=20)
     assert sim.returncode == 0, sim_out
     assert "WallFollow Initialized" in node_out and "incompatible QoS" not in node_out + reader_out, node_out
-    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    (folder,) = (tmp_path / "runs").iterdir()  # runs/<date-time>/, as any run leaves
+    summary = json.loads((folder / "summary.json").read_text())
     car = summary["cars"]["racecar"]
     assert summary["duration"] == pytest.approx(30.0) and car["distance"] >= 10.0, (car, sim_out)
     got = json.loads(reader_out.strip().splitlines()[-1])
@@ -326,7 +326,7 @@ def test_f1tenth_lab_node_drives_walker_under_the_f1tenth_map_as_the_readme_says
     # /drive from a best-effort publisher entered the bus (the recording keeps the sim's names)
     from rosbags.highlevel import AnyReader
 
-    with AnyReader([tmp_path / "run" / "run.mcap"]) as reader:
+    with AnyReader([folder / "run.mcap"]) as reader:
         frames = [
             reader.deserialize(raw, conn.msgtype).header.frame_id
             for conn, _, raw in reader.messages([c for c in reader.connections if c.topic == NAVIGATION])

@@ -26,5 +26,8 @@ def test_every_topic_is_unchanged(name, tmp_path):
     same_renderer = same_drawing(here, there) if name == RAW_IMAGES else here == there
     topics = [t for t in want if same_renderer or CAMERA_MARK not in t]
     assert sorted(t for t in got if t in topics or CAMERA_MARK not in t) == sorted(topics)
+    for t in topics:
+        if t.endswith("/robot_description"):  # the checkout's path is in it
+            got[t], want[t] = {**got[t], "sha256": ""}, {**want[t], "sha256": ""}
     changed = [f"{t}: {got[t]['count']} messages, was {want[t]['count']}" for t in topics if got[t] != want[t]]
     assert not changed, "\n".join(changed)
