@@ -77,7 +77,7 @@ MATRIX = """
                 rclpy.spin_once(node, timeout_sec=0.05)
             cmd = AckermannDriveStamped()
             cmd.drive.speed = speed
-            for _ in range(20):
+            for _ in range(60):  # 3 s at 20 Hz, as a teleop node publishes
                 pub.publish(cmd)
                 rclpy.spin_once(node, timeout_sec=0.05)
     print(json.dumps({"got": got, "text": text}))
