@@ -137,3 +137,30 @@ def test_a_hook_that_raises_is_named_too() -> None:
         with pytest.raises(NodeError, match="its reset hook") as caught:
             sim.reset()
     assert str(caught.value.__cause__) == "seed 7"
+
+
+CAR_LAUNCH = """<launch>
+  <include file="$(find gazebo_ros)/launch/empty_world.launch"><arg name="world_name" value="walker"/></include>
+  <param name="robot_description" command="$(find xacro)/xacro '$(find racecar_description)/urdf/racecar.xacro'"/>
+  <node name="spawn" pkg="gazebo_ros" type="spawn_model" args="-urdf -param robot_description -model racecar"/>
+</launch>
+"""
+
+
+def test_launch_with_a_raising_driver_keeps_the_run_folder_and_says_so(tmp_path: Path) -> None:
+    (tmp_path / "bad.py").write_text(textwrap.dedent(BAD_DRIVER))
+    (tmp_path / "car.launch").write_text(CAR_LAUNCH)
+    done = subprocess.run(
+        [sys.executable, "-m", "racecar_sim", "launch", "car.launch", "--driver", "bad.py:Crashy", "--no-camera"]
+        + ["--duration", "4", "--out", "out"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert done.returncode == NodeError.EXIT_CODE, done.stderr
+    (line,) = [line for line in done.stderr.splitlines() if line.startswith("racecar-sim: error:")]
+    assert "bad.py:Crashy (car racecar) raised ZeroDivisionError" in line and "sim time 2.500 s" in line
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["ended"] == "error" and summary["launch_file"].endswith("car.launch")
+    assert summary["duration"] == pytest.approx(2.5)
