@@ -110,9 +110,10 @@ class _Crashy(NodeBase):
             raise RuntimeError("lost the plot")
 
 
-def test_run_until_raises_node_error_naming_the_node_and_sim_time_from_the_users_exception() -> None:
+@pytest.mark.parametrize("factory", [_Crashy, lambda ctx: _Crashy(ctx)], ids=["class", "function"])
+def test_run_until_raises_node_error_naming_the_node_and_sim_time_from_the_users_exception(factory) -> None:
     with Simulator(world="empty", camera=False) as sim:
-        node = sim.add_node(_Crashy)
+        node = sim.add_node(factory)
         assert isinstance(node, _Crashy)  # the user's own object comes back
         with pytest.raises(NodeError) as caught:
             sim.run_until(3.0)

@@ -139,6 +139,8 @@ class GuardedNode:
             ctx, bus=GuardedBus(ctx.bus, self.guard), timers=GuardedTimers(ctx.timers, self.guard)
         )
         self.node: Node = self.guard.call("its constructor", factory, self.ctx, **params)
+        if not isinstance(factory, type):  # a function that builds it (`lambda ctx: JoyNode(...)`): named by its class
+            self.guard.label = node_label(type(self.node))
 
     def reset(self, seed: int) -> None:
         """The node's reset hook (its context takes the new seed first, as the car's does)."""
