@@ -33,6 +33,7 @@ from racecar_sim.msgs.typed.sensor_msgs import Joy as Joy
 from racecar_sim.msgs.typed.sensor_msgs import LaserScan as LaserScan
 from racecar_sim.msgs.typed.sensor_msgs import PointCloud2 as PointCloud2
 from racecar_sim.msgs.typed.sensor_msgs import PointField as PointField
+from racecar_sim.msgs.typed.sensor_msgs import Range as Range
 from racecar_sim.msgs.typed.sensor_msgs import RegionOfInterest as RegionOfInterest
 from racecar_sim.msgs.typed.std_msgs import Float64 as Float64
 from racecar_sim.msgs.typed.std_msgs import Header as Header

@@ -207,6 +207,29 @@ class PointField(Message):
         count: int = ...,
     ) -> None: ...
 
+class Range(Message):
+    """Single range reading from an active ranger that emits energy and reports one range reading that is valid
+    along an arc at the distance measured (sonar, IR): the cone's full angle field_of_view (rad), the range in m."""
+
+    __msgtype__: ClassVar[str]
+    ULTRASOUND: ClassVar[int]
+    INFRARED: ClassVar[int]
+    header: Header
+    radiation_type: int
+    field_of_view: float
+    min_range: float
+    max_range: float
+    range: float
+    def __init__(
+        self,
+        header: Header = ...,
+        radiation_type: int = ...,
+        field_of_view: float = ...,
+        min_range: float = ...,
+        max_range: float = ...,
+        range: float = ...,
+    ) -> None: ...
+
 class RegionOfInterest(Message):
     """The ROS message sensor_msgs/msg/RegionOfInterest, made from its definition."""
 
