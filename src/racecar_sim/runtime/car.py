@@ -80,7 +80,8 @@ class Car:
     name: its namespace ("" keeps the original names: /scan, base_link, Gazebo model `racecar`; "car2" gives
     /car2/scan, car2/base_link, model `car2`). spawn: its pose (the first car defaults to the world's).
     lidar, camera: False turns off every sensor of that switch in the description (lasers; cameras and depth
-    cameras); `sensors_off` names more switches ("imu"), sensor types or sensor names to leave out.
+    cameras); `sensors_off` names more switches ("imu"), kinds ("range"), sensor types or sensor names to leave out
+    (runtime/plugins.py: `plugins.switches()`).
     nodes: which of the launch files' nodes it runs (`CarNodes`).
     """
 
@@ -165,21 +166,26 @@ class Car:
     @property
     def camera(self) -> CameraPublisher | None:
         """The car's first camera (None when it has none, it is off, or no OpenGL context could be made)."""
-        if not any(p.kind is plugins.SENSORS["camera"] for p in self._planned[1]):
+        if not self.has("camera"):
             return None
         from racecar_sim.sensors.camera import CameraPublisher
 
         return next((n for n in self.sensors if isinstance(n, CameraPublisher)), None)
 
+    def has(self, kind: str) -> bool:
+        """Whether the car has a sensor of the kind named `kind` (runtime/plugins.py: "laser", "range", "camera",
+        "depth_camera", "imu", ...) that is on."""
+        return any(p.kind.name == kind for p in self._planned[1])
+
     @property
     def has_lidar(self) -> bool:
         """Whether the car has a laser that is on."""
-        return any(p.kind is plugins.LASER for p in self._planned[1])
+        return self.has("laser")
 
     @property
     def has_camera(self) -> bool:
         """Whether the car has a camera that is on."""
-        return any(p.kind is plugins.SENSORS["camera"] for p in self._planned[1])
+        return self.has("camera")
 
     @property
     def commands(self) -> Any:
@@ -223,7 +229,7 @@ class Car:
         mount = Mount(self.robot, self.names, self.controllers)
         for planned in (*self._planned[0], *self._planned[1]):
             if planned.kind.prepare is not None:
-                planned.kind.prepare(spec, planned.block, mount)
+                planned.kind.prepare(spec, planned.spec, mount)
 
     def start(
         self,
@@ -273,7 +279,7 @@ class Car:
             )
         model_plugins, sensors = self._planned
         for planned in model_plugins:
-            node = planned.kind.build(ctx, planned.block)
+            node = planned.kind.build(ctx, planned.spec)
             if node is None:  # it cannot run here, and has said why
                 continue
             self.hold(node)
@@ -292,7 +298,7 @@ class Car:
             )
         kept = []
         for planned in sensors:
-            node = planned.kind.build(ctx, planned.block)
+            node = planned.kind.build(ctx, planned.spec)
             if node is not None:  # a camera without OpenGL has said so, and is left out
                 self.sensors.append(self.hold(node))
                 kept.append(planned)

@@ -1,21 +1,27 @@
-"""The registry: which node a description's `<sensor type>` and `<plugin filename>` blocks become.
+"""The registry: which node a description's `<sensor>` and `<plugin>` blocks become, keyed as Gazebo keys them.
 
-A car's description decides which sensors and plugins it has; this table says how each is built:
+Gazebo picks a sensor's physics by its type and its ROS interface by the plugin inside it, so a sensor block is keyed
+by the pair (sensor type, plugin file); a model plugin by its file alone:
 
-  <sensor type="ray"|"gpu_ray">   the laser (gazebo_ros_laser / gazebo_ros_gpu_laser): sensors/lidar.py
-  <sensor type="camera">          the camera (gazebo_ros_camera): sensors/camera.py
-  <sensor type="depth">           the depth camera (gazebo_ros_openni_kinect): sensors/depth_camera.py
-  <sensor type="imu">             the IMU (gazebo_ros_imu_sensor): sensors/imu.py
-  libgazebo_ros_control.so        the controllers (gazebo_ros_control): control/ros_control.py
-  libgazebo_ros_p3d.so            ground-truth odometry of a link: sensors/ground_truth.py
-  libgazebo_ros_imu.so            the IMU model plugin: sensors/imu.py
+  ray | gpu_ray   + libgazebo_ros_laser.so, libgazebo_ros_gpu_laser.so   laser (LaserScan): sensors/lidar.py
+  ray | gpu_ray   + libgazebo_ros_range.so                                range (Range): sensors/range.py
+  camera          + libgazebo_ros_camera.so                               camera: sensors/camera.py
+  depth           + libgazebo_ros_openni_kinect.so                        depth camera: sensors/depth_camera.py
+  imu             + libgazebo_ros_imu_sensor.so                           IMU: sensors/imu.py
+  libgazebo_ros_control.so    the controllers (gazebo_ros_control): control/ros_control.py
+  libgazebo_ros_p3d.so        ground-truth odometry of a link: sensors/ground_truth.py
+  libgazebo_ros_imu.so        the IMU model plugin: sensors/imu.py
 
-Each entry has an optional `prepare(spec, block, mount)` that puts what the node needs into the MjSpec before it
-is compiled (a MuJoCo camera, a site with its sensors, actuators) and a `build(ctx, block)` that makes the node.
-A sensor belongs to a switch ("lidar", "camera", "imu"): `Car(lidar=False)`, `--no-lidar` and the envs' options
-turn every sensor of that switch off, here and nowhere else. Modules are imported only when a car has such a block
-(the camera's GL bindings load only with a camera). A block the table does not know is a warning naming it and the
-file; `register_sensor` and `register_plugin` add a user's own.
+A sensor block with no plugin becomes its type's first kind above. An unknown pair is one warning naming the type,
+the plugin and the file, and the block is left out.
+
+A kind (`NodeKind`) has a name, an optional `parse(block)` that reads the block once into a typed spec (a malformed
+block is refused when the car is planned, before the model is built), an optional `prepare(spec, parsed, mount)` that
+puts what the node needs into the MjSpec before it is compiled (a MuJoCo camera, a site with its sensors, actuators)
+and a `build(ctx, parsed)` that makes the node; both get the spec parse gave. A kind's name and its switch ("lidar",
+"camera", "imu") turn it off: `--no-sensor NAME`, `Car(sensors_off=...)`; `Car(lidar=False)` and `--no-lidar` are the
+"lidar" switch, `--no-camera` the "camera" one. Modules are imported only when a car has such a block (the camera's
+GL bindings load only with a camera). `register_sensor` and `register_plugin` add a user's own kinds.
 """
 
 from __future__ import annotations
@@ -24,6 +30,7 @@ import logging
 import xml.etree.ElementTree as ET
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import mujoco
 
@@ -39,31 +46,49 @@ Block = Sensor | Plugin
 class NodeKind:
     """How one kind of description block becomes a node.
 
-    build(ctx, block): the node (None: it cannot run here, and has said why). prepare(spec, block, mount): its parts
-    in the MjSpec, before compiling (or None).
-    switch: the sensor switch that turns it off ("" for none). plugins: for a sensor type, the plugin libraries that
-    give it its ROS interface (any other inside the block is a warning).
+    name: the kind's own name (laser, range, camera, ...): `--no-sensor NAME` and `Car.has(NAME)` take it.
+    parse(block): the block's typed spec, read once when the car is planned (a malformed block is refused then, before
+    the model is built) and handed to prepare and build; None: the block itself is the spec.
+    prepare(spec, parsed, mount): its parts in the MjSpec, before compiling (or None).
+    build(ctx, parsed): the node (None: it cannot run here, and has said why).
+    switch: the sensor switch that turns it off with others ("lidar", "camera", "imu"; "" for none).
+    plugins: for a sensor kind, the plugin libraries that give it its ROS interface: each (sensor type, plugin) pair
+    it is registered under maps to it.
     """
 
-    build: Callable[[NodeContext, Block], Node | None]
-    prepare: Callable[[mujoco.MjSpec, Block, Mount], None] | None = None
+    build: Callable[[NodeContext, Any], Node | None]
+    prepare: Callable[[mujoco.MjSpec, Any, Mount], None] | None = None
     switch: str = ""
     plugins: tuple[str, ...] = ()
+    name: str = ""
+    parse: Callable[[Block], Any] | None = None
 
 
 # --- the built-in kinds: each imports its module only when used -----------------------------------------------
-def _laser(ctx: NodeContext, block: Block) -> Node:
+def _laser(ctx: NodeContext, spec: Any) -> Node:
     from racecar_sim.sensors.lidar import LidarPublisher
 
-    assert isinstance(block, Sensor)
-    return LidarPublisher(ctx, block)
+    return LidarPublisher(ctx, spec)
 
 
-def _prepare_laser(spec: mujoco.MjSpec, block: Block, mount: Mount) -> None:
+def _parse_laser(block: Block) -> Any:
     from racecar_sim.sensors.laser_spec import LaserSpec
 
     assert isinstance(block, Sensor)
-    LaserSpec.from_sensor(block)  # a malformed block is refused before the model is built
+    return LaserSpec.from_sensor(block)
+
+
+def _range(ctx: NodeContext, spec: Any) -> Node:
+    from racecar_sim.sensors.range import RangePublisher
+
+    return RangePublisher(ctx, spec)
+
+
+def _parse_range(block: Block) -> Any:
+    from racecar_sim.sensors.range_spec import RangeSpec
+
+    assert isinstance(block, Sensor)
+    return RangeSpec.from_sensor(block)
 
 
 def _camera(ctx: NodeContext, block: Block) -> Node | None:
@@ -138,25 +163,30 @@ def _p3d(ctx: NodeContext, block: Block) -> Node:
 
 
 ROS_CONTROL = "libgazebo_ros_control.so"
-LASER = NodeKind(_laser, _prepare_laser, "lidar", ("libgazebo_ros_laser.so", "libgazebo_ros_gpu_laser.so"))
-SENSORS: dict[str, NodeKind] = {
-    "ray": LASER,
-    "gpu_ray": LASER,
-    "camera": NodeKind(_camera, _prepare_camera, "camera", ("libgazebo_ros_camera.so",)),
-    "depth": NodeKind(_depth, _prepare_depth, "camera", ("libgazebo_ros_openni_kinect.so",)),
-    "imu": NodeKind(_imu, _prepare_imu, "imu", ("libgazebo_ros_imu_sensor.so",)),
-}
+LASER = NodeKind(_laser, None, "lidar", ("libgazebo_ros_laser.so", "libgazebo_ros_gpu_laser.so"), "laser", _parse_laser)
+RANGE = NodeKind(_range, None, "", ("libgazebo_ros_range.so",), "range", _parse_range)
+CAMERA = NodeKind(_camera, _prepare_camera, "camera", ("libgazebo_ros_camera.so",), "camera")
+DEPTH = NodeKind(_depth, _prepare_depth, "camera", ("libgazebo_ros_openni_kinect.so",), "depth_camera")
+IMU = NodeKind(_imu, _prepare_imu, "imu", ("libgazebo_ros_imu_sensor.so",), "imu")
+NO_PLUGIN = ""
+"""The plugin of a `<sensor>` block with none inside (Gazebo gives it no ROS interface; it publishes as its type's
+first kind here would)."""
+
+SENSORS: dict[tuple[str, str], NodeKind] = {}
+"""(sensor type, plugin file) -> kind: Gazebo picks the physics by the type and the ROS interface by the plugin."""
 PLUGINS: dict[str, NodeKind] = {
-    ROS_CONTROL: NodeKind(_ros_control, _prepare_ros_control),
-    "libgazebo_ros_p3d.so": NodeKind(_p3d),
-    "libgazebo_ros_imu.so": NodeKind(_imu, _prepare_imu, "imu"),
+    ROS_CONTROL: NodeKind(_ros_control, _prepare_ros_control, name="ros_control"),
+    "libgazebo_ros_p3d.so": NodeKind(_p3d, name="p3d"),
+    "libgazebo_ros_imu.so": NodeKind(_imu, _prepare_imu, "imu", name="imu"),
 }
-SWITCHES = ("lidar", "camera", "imu")  # the sensor switches of the CLI and the Python API
+"""Model plugins, keyed by their file alone."""
 
 
-def register_sensor(sensor_type: str, kind: NodeKind) -> None:
-    """Build `kind` for every `<sensor type="sensor_type">` of a description (replacing a built-in one)."""
-    SENSORS[sensor_type] = kind
+def register_sensor(sensor_type: str, kind: NodeKind, plugin: str | None = None) -> None:
+    """Build `kind` for every `<sensor type="sensor_type">` with `<plugin filename="plugin">` inside (replacing a
+    built-in one); `plugin` None: under each of the kind's own plugins (a kind with none: a block with no plugin)."""
+    for filename in (kind.plugins or (NO_PLUGIN,)) if plugin is None else (plugin,):
+        SENSORS[(sensor_type, filename)] = kind
 
 
 def register_plugin(filename: str, kind: NodeKind) -> None:
@@ -164,20 +194,61 @@ def register_plugin(filename: str, kind: NodeKind) -> None:
     PLUGINS[filename] = kind
 
 
+for _type in ("ray", "gpu_ray"):
+    register_sensor(_type, LASER)
+    register_sensor(_type, LASER, NO_PLUGIN)
+    register_sensor(_type, RANGE)
+for _kind, _type in ((CAMERA, "camera"), (DEPTH, "depth"), (IMU, "imu")):
+    register_sensor(_type, _kind)
+    register_sensor(_type, _kind, NO_PLUGIN)
+
+
+def kinds() -> list[NodeKind]:
+    """Every registered kind, sensors then model plugins, each once."""
+    found: dict[int, NodeKind] = {}
+    for kind in (*SENSORS.values(), *PLUGINS.values()):
+        found.setdefault(id(kind), kind)
+    return list(found.values())
+
+
+def switches() -> list[str]:
+    """What `--no-sensor` and `sensors_off` turn off by name, besides a sensor's own name: every switch and every
+    kind's name, from the registry."""
+    return sorted({k.switch for k in kinds() if k.switch} | {k.name for k in kinds() if k.name})
+
+
+def sensor_kind(sensor: Sensor) -> NodeKind | None:
+    """The kind a `<sensor>` block becomes: by its type and the first plugin inside it (None if unknown)."""
+    plugin = sensor.plugins[0].filename if sensor.plugins else NO_PLUGIN
+    return SENSORS.get((sensor.type, plugin))
+
+
+def first_sensor(robot: Robot, kind_name: str) -> Sensor | None:
+    """The description's first `<sensor>` block of the kind named `kind_name` ("laser", "camera", ...), or None."""
+    return next((s for s in robot.sensors if (k := sensor_kind(s)) is not None and k.name == kind_name), None)
+
+
 @dataclass(frozen=True)
 class Planned:
-    """One block of a description and the kind it becomes."""
+    """One block of a description, the kind it becomes and its spec (parsed once, here)."""
 
     block: Block
     kind: NodeKind
+    spec: Any = None
+
+    @classmethod
+    def of(cls, block: Block, kind: NodeKind) -> Planned:
+        """The block planned as `kind`, its spec parsed (DescriptionError for a malformed block)."""
+        return cls(block, kind, block if kind.parse is None else kind.parse(block))
 
 
 def plan(robot: Robot, off: frozenset[str]) -> tuple[list[Planned], list[Planned]]:
     """The model plugins and the sensors of `robot` that become nodes, in the description's order, without those
-    turned off (by switch, sensor type or sensor name). Unknown blocks are warnings naming them and the file; a
-    description whose transmissions have no gazebo_ros_control plugin gets it anyway, with a warning (Gazebo would
-    start no controller, and the car could not move)."""
+    turned off (by switch, kind, sensor type or sensor name), each with its spec parsed. Unknown blocks are warnings
+    naming them and the file; a description whose transmissions have no gazebo_ros_control plugin gets it anyway,
+    with a warning (Gazebo would start no controller, and the car could not move)."""
     where = robot.source or f"robot {robot.name}"
+    _check_off(robot, off, where)
     plugins: list[Planned] = []
     for plugin in robot.plugins:
         kind = PLUGINS.get(plugin.filename)
@@ -190,7 +261,7 @@ def plan(robot: Robot, off: frozenset[str]) -> tuple[list[Planned], list[Planned
                 ", ".join(sorted(PLUGINS)),
             )
         elif not _is_off(kind, plugin.name, "", off):
-            plugins.append(Planned(plugin, kind))
+            plugins.append(Planned.of(plugin, kind))
     if robot.transmissions and not any(p.block.filename == ROS_CONTROL for p in plugins if isinstance(p.block, Plugin)):
         log.warning(
             "%s has no <plugin filename='%s'>: its controllers are started anyway, as racecar.gazebo's "
@@ -199,36 +270,42 @@ def plan(robot: Robot, off: frozenset[str]) -> tuple[list[Planned], list[Planned
             ROS_CONTROL,
         )
         implied = Plugin("gazebo_ros_control", ROS_CONTROL, {}, ET.Element("plugin"))
-        plugins.insert(0, Planned(implied, PLUGINS[ROS_CONTROL]))
+        plugins.insert(0, Planned.of(implied, PLUGINS[ROS_CONTROL]))
     sensors: list[Planned] = []
     for sensor in robot.sensors:
-        kind = SENSORS.get(sensor.type)
+        kind = sensor_kind(sensor)
         if kind is None:
+            inner = sensor.plugins[0].filename if sensor.plugins else NO_PLUGIN
+            known = sorted(f"{t}+{p or 'no plugin'}" for t, p in SENSORS if t == sensor.type)
             log.warning(
-                "%s: <sensor type='%s' name='%s'> on link %s is not simulated (racecar-sim knows %s); it is ignored",
+                "%s: <sensor type='%s' name='%s'> on link %s with %s is not simulated (racecar-sim knows %s); "
+                "it is ignored",
                 where,
                 sensor.type,
                 sensor.name,
                 sensor.link,
-                ", ".join(sorted(SENSORS)),
+                f"<plugin filename='{inner}'>" if inner else "no plugin",
+                ", ".join(known) if known else f"no {sensor.type} sensor",
             )
             continue
-        for inner in sensor.plugins:
-            if inner.filename not in kind.plugins:
-                log.warning(
-                    "%s: <sensor name='%s'> has <plugin filename='%s'>, which racecar-sim does not know for a "
-                    "%s sensor (it knows %s): the sensor publishes as %s would",
-                    where,
-                    sensor.name,
-                    inner.filename,
-                    sensor.type,
-                    ", ".join(kind.plugins),
-                    kind.plugins[0],
-                )
         if not _is_off(kind, sensor.name, sensor.type, off):
-            sensors.append(Planned(sensor, kind))
+            sensors.append(Planned.of(sensor, kind))
     return plugins, sensors
 
 
 def _is_off(kind: NodeKind, name: str, sensor_type: str, off: frozenset[str]) -> bool:
-    return bool(off) and ((kind.switch and kind.switch in off) or name in off or sensor_type in off)
+    return bool(off) and bool(({kind.switch, kind.name, name, sensor_type} - {""}) & off)
+
+
+def _check_off(robot: Robot, off: frozenset[str], where: str) -> None:
+    """One warning for each name in `off` that turns nothing off: no switch, kind, sensor type or block has it."""
+    blocks = {s.name for s in robot.sensors} | {p.name for p in robot.plugins}
+    known = set(switches()) | {t for t, _ in SENSORS} | blocks
+    for name in sorted(off - known):
+        log.warning(
+            "%s: --no-sensor %s turns nothing off: it is no sensor or plugin of the description, and no kind or "
+            "switch (%s)",
+            where,
+            name,
+            ", ".join(switches()),
+        )

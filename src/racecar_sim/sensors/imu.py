@@ -29,7 +29,7 @@ from racecar_sim.core.transforms import quat_from_rpy, quat_mul
 from racecar_sim.description.urdf import Origin, Plugin, Robot, Sensor
 from racecar_sim.msgs import Header, Imu, Quaternion, Vector3
 from racecar_sim.nodes import Mount, NodeBase, NodeContext
-from racecar_sim.sensors.sensor_xml import plugin_number, sensor_number
+from racecar_sim.sensors.sensor_xml import join_topic, plugin_number, sensor_number
 
 SENSOR_PLUGIN = "libgazebo_ros_imu_sensor.so"
 MODEL_PLUGIN = "libgazebo_ros_imu.so"
@@ -63,7 +63,7 @@ class ImuSpec:
         plugin = next((p for p in sensor.plugins if p.filename == SENSOR_PLUGIN), None)
         params = plugin.params if plugin is not None else {}
         namespace = params.get("robotNamespace", f"/{model_name}")
-        topic = _join(namespace, params.get("topicName") or "imu_data")
+        topic = join_topic(namespace, params.get("topicName") or "imu_data")
         frame = params.get("frameName", "")
         if plugin is not None and not frame:
             raise DescriptionError(f"{where}: {SENSOR_PLUGIN} needs <frameName> (the plugin does not load without it)")
@@ -96,7 +96,7 @@ class ImuSpec:
             raise DescriptionError(f"{where}: <bodyName> '{body}' is not a link of {robot.name}")
         rate = plugin_number(params, "updateRate", where, 0.0)
         gaussian = plugin_number(params, "gaussianNoise", where, 0.0)
-        topic = _join(params.get("robotNamespace", ""), params.get("topicName") or body)
+        topic = join_topic(params.get("robotNamespace", ""), params.get("topicName") or body)
         zeros = (0.0,) * COMPONENTS
         return cls._checked(
             plugin.name or body,
@@ -148,12 +148,6 @@ class ImuSpec:
             self.gaussian_noise,
             self.rpy_offset,
         )
-
-
-def _join(namespace: str, topic: str) -> str:
-    if topic.startswith("/"):
-        return topic
-    return "/" + "/".join(part for part in (*namespace.split("/"), *topic.split("/")) if part)
 
 
 def _offset(params: dict[str, str], where: str) -> tuple[float, float, float]:

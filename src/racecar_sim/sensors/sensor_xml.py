@@ -38,3 +38,11 @@ def plugin_number(params: dict[str, str], tag: str, where: str, default: float) 
     if not math.isfinite(value):
         raise DescriptionError(f"{where}: <{tag}> '{text}' is not a finite number")
     return value
+
+
+def join_topic(namespace: str, topic: str) -> str:
+    """A gazebo_ros plugin's topic as its ros::NodeHandle(namespace) resolves it: an absolute topic as it is, a
+    relative one under the namespace (``imu`` + ``data`` -> ``/imu/data``)."""
+    if topic.startswith("/"):
+        return topic
+    return "/" + "/".join(part for part in (*namespace.split("/"), *topic.split("/")) if part)
