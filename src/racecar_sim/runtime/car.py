@@ -32,7 +32,7 @@ from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import ODOM_RELAY, CarNames
 from racecar_sim.description import DEFAULT_XACRO, Robot, load_robot, package_path, parse_urdf
 from racecar_sim.description.controllers import ControllerConfig, load_controller_config
-from racecar_sim.nodes import Mount, Node, NodeContext, ScopedBus, ScopedTimers, StaticTf, Timers
+from racecar_sim.nodes import Mount, Node, NodeContext, Parts, ScopedBus, ScopedTimers, StaticTf, Timers
 from racecar_sim.physics import PhysicsPreset, add_car
 from racecar_sim.physics.state import CarState
 from racecar_sim.runtime import plugins
@@ -216,7 +216,7 @@ class Car:
             else:
                 self._robot = load_robot(self.xacro, {**profile.xacro_args, **self.xacro_args})
             self._controllers = load_controller_config(self.controllers_file, self._robot)
-        self._planned = plugins.plan(self.robot, self.off)
+        self._planned = plugins.plan(self.robot, self.off, Mount(self.robot, self.names, self.controllers))
 
     def _load_key(self) -> tuple[object, ...]:
         return (self.profile_name, self.xacro, tuple(sorted(self.xacro_args.items())), self.controllers_file, self.urdf)
@@ -278,7 +278,9 @@ class Car:
                 )
             )
         model_plugins, sensors = self._planned
+        self._bind_parts(model)
         for planned in model_plugins:
+            ctx.parts = planned.parts
             node = planned.kind.build(ctx, planned.spec)
             if node is None:  # it cannot run here, and has said why
                 continue
@@ -298,11 +300,18 @@ class Car:
             )
         kept = []
         for planned in sensors:
+            ctx.parts = planned.parts
             node = planned.kind.build(ctx, planned.spec)
             if node is not None:  # a camera without OpenGL has said so, and is left out
                 self.sensors.append(self.hold(node))
                 kept.append(planned)
         self._planned = (model_plugins, kept)
+        ctx.parts = Parts()
+
+    def _bind_parts(self, model: mujoco.MjModel) -> None:
+        """Bind every planned node's MuJoCo parts to a compiled model (nodes/parts.py)."""
+        for planned in (*self._planned[0], *self._planned[1]):
+            planned.parts.bind(model)
 
     def add_node(self, factory: Callable[..., Node], **params: Any) -> Node:
         """Build a node of the car from its context (`factory(ctx, **params)`, e.g. a user's driver class) and hold it
@@ -359,6 +368,7 @@ class Car:
         self.state.rebind(model, data)
         if self._context is not None:
             self._context.model, self._context.data = model, data
+        self._bind_parts(model)  # before the nodes' hooks: they read their parts' new ids
         for node in self.nodes:
             node.rebind(model, data)
 

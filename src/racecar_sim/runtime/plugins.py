@@ -29,13 +29,14 @@ from __future__ import annotations
 import logging
 import xml.etree.ElementTree as ET
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import mujoco
 
+from racecar_sim.core.names import CarNames
 from racecar_sim.description.urdf import Plugin, Robot, Sensor
-from racecar_sim.nodes import Mount, Node, NodeContext
+from racecar_sim.nodes import Mount, Node, NodeContext, Parts
 
 log = logging.getLogger("racecar_sim")
 
@@ -47,8 +48,10 @@ class NodeKind:
     """How one kind of description block becomes a node.
 
     name: the kind's own name (laser, range, camera, ...): `--no-sensor NAME` and `Car.has(NAME)` take it.
-    parse(block): the block's typed spec, read once when the car is planned (a malformed block is refused then, before
-    the model is built) and handed to prepare and build; None: the block itself is the spec.
+    parse(block, mount): the block's typed spec, read once when the car is planned (a malformed block is refused then,
+    before the model is built) and handed to prepare and build; None: the block itself is the spec.
+    parts(parsed, mount): the MuJoCo elements the node reads (nodes/parts.py), declared by name; the car binds their ids
+    after every compile and hands them to the node as `ctx.parts` while it is built (None: it reads none).
     prepare(spec, parsed, mount): its parts in the MjSpec, before compiling (or None).
     build(ctx, parsed): the node (None: it cannot run here, and has said why).
     switch: the sensor switch that turns it off with others ("lidar", "camera", "imu"; "" for none).
@@ -61,7 +64,8 @@ class NodeKind:
     switch: str = ""
     plugins: tuple[str, ...] = ()
     name: str = ""
-    parse: Callable[[Block], Any] | None = None
+    parse: Callable[[Block, Mount], Any] | None = None
+    parts: Callable[[Any, Mount], Parts] | None = None
 
 
 # --- the built-in kinds: each imports its module only when used -----------------------------------------------
@@ -71,11 +75,16 @@ def _laser(ctx: NodeContext, spec: Any) -> Node:
     return LidarPublisher(ctx, spec)
 
 
-def _parse_laser(block: Block) -> Any:
+def _parse_laser(block: Block, mount: Mount) -> Any:
     from racecar_sim.sensors.laser_spec import LaserSpec
 
     assert isinstance(block, Sensor)
     return LaserSpec.from_sensor(block)
+
+
+def _ray_parts(spec: Any, mount: Mount) -> Parts:
+    """A laser's or a ranger's part: the site of its link (the URDF frame its pose is given in)."""
+    return Parts.sites(f"ray sensor '{spec.name}'", site=mount.names.mj(spec.link))
 
 
 def _range(ctx: NodeContext, spec: Any) -> Node:
@@ -84,7 +93,7 @@ def _range(ctx: NodeContext, spec: Any) -> Node:
     return RangePublisher(ctx, spec)
 
 
-def _parse_range(block: Block) -> Any:
+def _parse_range(block: Block, mount: Mount) -> Any:
     from racecar_sim.sensors.range_spec import RangeSpec
 
     assert isinstance(block, Sensor)
@@ -129,16 +138,30 @@ def _prepare_depth(spec: mujoco.MjSpec, block: Block, mount: Mount) -> None:
     prepare_depth_camera(spec, block, mount)
 
 
-def _imu(ctx: NodeContext, block: Block) -> Node:
-    from racecar_sim.sensors.imu import imu_from_plugin, imu_from_sensor
+def _imu(ctx: NodeContext, spec: Any) -> Node:
+    from racecar_sim.sensors.imu import ImuPublisher
 
-    return imu_from_sensor(ctx, block) if isinstance(block, Sensor) else imu_from_plugin(ctx, block)
+    return ImuPublisher(ctx, spec)
 
 
-def _prepare_imu(spec: mujoco.MjSpec, block: Block, mount: Mount) -> None:
-    from racecar_sim.sensors.imu import prepare_imu
+def _parse_imu(block: Block, mount: Mount) -> Any:
+    from racecar_sim.sensors.imu import ImuSpec
 
-    prepare_imu(spec, block, mount)
+    if isinstance(block, Sensor):
+        return ImuSpec.from_sensor(block, mount.names.model)
+    return ImuSpec.from_plugin(block, mount.robot)
+
+
+def _prepare_imu(spec: mujoco.MjSpec, imu: Any, mount: Mount) -> None:
+    from racecar_sim.sensors.imu import add_imu_site
+
+    add_imu_site(spec, imu, mount.names)
+
+
+def _imu_parts(imu: Any, mount: Mount) -> Parts:
+    from racecar_sim.sensors.imu import imu_parts
+
+    return imu_parts(imu, mount.names)
 
 
 def _ros_control(ctx: NodeContext, block: Block) -> Node:
@@ -162,12 +185,18 @@ def _p3d(ctx: NodeContext, block: Block) -> Node:
     return GroundTruthOdometry(ctx, block)
 
 
+def _p3d_parts(block: Any, mount: Mount) -> Parts:
+    """The site of p3d's <bodyName> link (none for a name that is no link: the node says what is wrong)."""
+    body = block.params.get("bodyName", "")
+    return Parts.sites(f"p3d '{block.name}'", site=mount.names.mj(body)) if body in mount.robot.links else Parts()
+
+
 ROS_CONTROL = "libgazebo_ros_control.so"
 LASER = NodeKind(_laser, None, "lidar", ("libgazebo_ros_laser.so", "libgazebo_ros_gpu_laser.so"), "laser", _parse_laser)
 RANGE = NodeKind(_range, None, "", ("libgazebo_ros_range.so",), "range", _parse_range)
 CAMERA = NodeKind(_camera, _prepare_camera, "camera", ("libgazebo_ros_camera.so",), "camera")
 DEPTH = NodeKind(_depth, _prepare_depth, "camera", ("libgazebo_ros_openni_kinect.so",), "depth_camera")
-IMU = NodeKind(_imu, _prepare_imu, "imu", ("libgazebo_ros_imu_sensor.so",), "imu")
+IMU = NodeKind(_imu, _prepare_imu, "imu", ("libgazebo_ros_imu_sensor.so",), "imu", _parse_imu, _imu_parts)
 NO_PLUGIN = ""
 """The plugin of a `<sensor>` block with none inside (Gazebo gives it no ROS interface; it publishes as its type's
 first kind here would)."""
@@ -176,8 +205,8 @@ SENSORS: dict[tuple[str, str], NodeKind] = {}
 """(sensor type, plugin file) -> kind: Gazebo picks the physics by the type and the ROS interface by the plugin."""
 PLUGINS: dict[str, NodeKind] = {
     ROS_CONTROL: NodeKind(_ros_control, _prepare_ros_control, name="ros_control"),
-    "libgazebo_ros_p3d.so": NodeKind(_p3d, name="p3d"),
-    "libgazebo_ros_imu.so": NodeKind(_imu, _prepare_imu, "imu", name="imu"),
+    "libgazebo_ros_p3d.so": NodeKind(_p3d, name="p3d", parts=_p3d_parts),
+    "libgazebo_ros_imu.so": NodeKind(_imu, _prepare_imu, "imu", name="imu", parse=_parse_imu, parts=_imu_parts),
 }
 """Model plugins, keyed by their file alone."""
 
@@ -230,24 +259,27 @@ def first_sensor(robot: Robot, kind_name: str) -> Sensor | None:
 
 @dataclass(frozen=True)
 class Planned:
-    """One block of a description, the kind it becomes and its spec (parsed once, here)."""
+    """One block of a description, the kind it becomes, its spec (parsed once, here) and its MuJoCo parts."""
 
     block: Block
     kind: NodeKind
     spec: Any = None
+    parts: Parts = field(default_factory=Parts)
 
     @classmethod
-    def of(cls, block: Block, kind: NodeKind) -> Planned:
-        """The block planned as `kind`, its spec parsed (DescriptionError for a malformed block)."""
-        return cls(block, kind, block if kind.parse is None else kind.parse(block))
+    def of(cls, block: Block, kind: NodeKind, mount: Mount) -> Planned:
+        """The block planned as `kind`, its spec parsed (DescriptionError for a malformed block), its parts declared."""
+        spec = block if kind.parse is None else kind.parse(block, mount)
+        return cls(block, kind, spec, Parts() if kind.parts is None else kind.parts(spec, mount))
 
 
-def plan(robot: Robot, off: frozenset[str]) -> tuple[list[Planned], list[Planned]]:
+def plan(robot: Robot, off: frozenset[str], mount: Mount | None = None) -> tuple[list[Planned], list[Planned]]:
     """The model plugins and the sensors of `robot` that become nodes, in the description's order, without those
     turned off (by switch, kind, sensor type or sensor name), each with its spec parsed. Unknown blocks are warnings
     naming them and the file; a description whose transmissions have no gazebo_ros_control plugin gets it anyway,
     with a warning (Gazebo would start no controller, and the car could not move)."""
     where = robot.source or f"robot {robot.name}"
+    mount = mount or Mount(robot, CarNames())
     _check_off(robot, off, where)
     plugins: list[Planned] = []
     for plugin in robot.plugins:
@@ -261,7 +293,7 @@ def plan(robot: Robot, off: frozenset[str]) -> tuple[list[Planned], list[Planned
                 ", ".join(sorted(PLUGINS)),
             )
         elif not _is_off(kind, plugin.name, "", off):
-            plugins.append(Planned.of(plugin, kind))
+            plugins.append(Planned.of(plugin, kind, mount))
     if robot.transmissions and not any(p.block.filename == ROS_CONTROL for p in plugins if isinstance(p.block, Plugin)):
         log.warning(
             "%s has no <plugin filename='%s'>: its controllers are started anyway, as racecar.gazebo's "
@@ -270,7 +302,7 @@ def plan(robot: Robot, off: frozenset[str]) -> tuple[list[Planned], list[Planned
             ROS_CONTROL,
         )
         implied = Plugin("gazebo_ros_control", ROS_CONTROL, {}, ET.Element("plugin"))
-        plugins.insert(0, Planned.of(implied, PLUGINS[ROS_CONTROL]))
+        plugins.insert(0, Planned.of(implied, PLUGINS[ROS_CONTROL], mount))
     sensors: list[Planned] = []
     for sensor in robot.sensors:
         kind = sensor_kind(sensor)
@@ -289,7 +321,7 @@ def plan(robot: Robot, off: frozenset[str]) -> tuple[list[Planned], list[Planned
             )
             continue
         if not _is_off(kind, sensor.name, sensor.type, off):
-            sensors.append(Planned.of(sensor, kind))
+            sensors.append(Planned.of(sensor, kind, mount))
     return plugins, sensors
 
 

@@ -13,13 +13,12 @@ import dataclasses
 import mujoco
 import numpy as np
 
-from racecar_sim.core.errors import DescriptionError
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.rng import NoiseTable
 from racecar_sim.core.transforms import quat_from_rpy, quat_to_matrix
 from racecar_sim.description.urdf import Sensor
 from racecar_sim.msgs import Header, LaserScan
-from racecar_sim.nodes import NodeBase, NodeContext
+from racecar_sim.nodes import NodeBase, NodeContext, Parts
 from racecar_sim.physics import COLLISION_GROUP
 from racecar_sim.sensors.laser_mount import LaserMount
 from racecar_sim.sensors.laser_spec import LaserSpec
@@ -64,7 +63,10 @@ class LidarPublisher(NodeBase):
         self._no_intensities.flags.writeable = False  # one array shared by every scan message
         self._ranges = np.empty(spec.samples)  # level_scan's true ranges (scratch)
         self._root = names.mj(robot.root)
-        self._site = self._site_id(model)
+        # the site of its link, bound by the car (or here, for a laser built on its own)
+        self.parts = ctx.parts if ctx.parts.declares("site") else self._own_parts().bind(model)
+        self._owns_parts = self.parts is not ctx.parts
+        self._site = self.parts["site"]
         self._offset = np.array(spec.pose.xyz, dtype=float)
         self._turn = quat_to_matrix(quat_from_rpy(spec.pose.rpy))
         # Scans are cast in an MjData posed from the live qpos: after mj_step the live positions describe the start
@@ -82,17 +84,16 @@ class LidarPublisher(NodeBase):
         self.beams_3d = 0  # beams cast in 3-D by MuJoCo, over every scan
         self._task = ctx.timers.every(spec.update_rate, self._tick, "hokuyo")
 
-    def _site_id(self, model: mujoco.MjModel) -> int:
-        site: int = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, self.spec.link)
-        if site < 0:
-            raise DescriptionError(f"ray sensor '{self.spec.name}': link {self.spec.link} is not in the model")
-        return site
+    def _own_parts(self) -> Parts:
+        return Parts.sites(f"ray sensor '{self.spec.name}'", site=self.spec.link)
 
     def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         """Scan a recompiled model (a model was spawned or deleted): same node, schedule and noise; the caster
         slices the new world again."""
         self.model, self.data = model, data
-        self._site = self._site_id(model)
+        if self._owns_parts:
+            self.parts.bind(model)
+        self._site = self.parts["site"]
         self._shared = SharedPose.of(model, data)
         self._pose = self._shared.pose
         self.mount = LaserMount.of(model, self._site, self._offset, self._turn)

@@ -10,8 +10,8 @@ Beam (h, v) points along (cos h cos v, sin h cos v, sin v) in the sensor frame, 
 A column of beams (one h, every v) lies in a plane, so it is cast as one fan of the lidar's caster (sensors/raycast):
 the same world the lidar sees, map walls and other cars included; a single row at v = 0 is one level fan.
 
-Sampling point: the pose at the end of the last physics step (the live qpos, posed in the simulation's shared copy,
-sensors/shared_pose.py), as the lidar scans.
+Sampling point: every sensor's, the end of the last physics step (the live qpos, posed in the simulation's shared copy,
+sensors/shared_pose.py). Its link's site is bound for it (nodes/parts.py).
 """
 
 from __future__ import annotations
@@ -21,12 +21,11 @@ import math
 import mujoco
 import numpy as np
 
-from racecar_sim.core.errors import DescriptionError
 from racecar_sim.core.rng import NoiseTable
 from racecar_sim.core.transforms import quat_from_rpy, quat_to_matrix
 from racecar_sim.msgs.sensor_msgs import Range
 from racecar_sim.msgs.std_msgs import Header
-from racecar_sim.nodes import NodeBase, NodeContext
+from racecar_sim.nodes import NodeBase, NodeContext, Parts
 from racecar_sim.physics import COLLISION_GROUP
 from racecar_sim.sensors.range_spec import RangeSpec
 from racecar_sim.sensors.raycast import Fan, RayCaster
@@ -55,7 +54,7 @@ class RangePublisher(NodeBase):
         self.bus, self.seed = ctx.bus, ctx.seed
         self.noise = ctx.noise and spec.gaussian_noise > 0
         self.noise_table = NoiseTable.shared(ctx.noise_stream(f"range/{spec.name}"), 1)
-        self._link, self._root = names.mj(spec.link), names.mj(self.robot.root)
+        self._root = names.mj(self.robot.root)
         self._offset = np.array(spec.pose.xyz, dtype=float)
         self._turn = quat_to_matrix(quat_from_rpy(spec.pose.rpy))
         h, v = spec.horizontal, spec.vertical
@@ -67,15 +66,19 @@ class RangePublisher(NodeBase):
             self._fan = Fan(v.min_angle, v.step, v.samples, spec.range_min, spec.range_max)
             self._columns = [_yaw(h.min_angle + h.step * i) @ _UPRIGHT for i in range(h.samples)]
         self.caster: RayCaster | None = None
+        # the site of its link, bound by the car (or here, for a ranger built on its own)
+        own = Parts.sites(f"ray sensor '{spec.name}'", site=names.mj(spec.link))
+        self.parts = ctx.parts if ctx.parts.declares("site") else own.bind(ctx.model)
+        self._owns_parts = self.parts is not ctx.parts
         self.rebind(ctx.model, ctx.data)
         self._task = ctx.timers.every(spec.update_rate, self._tick, f"range {spec.name}")
 
     def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         """Cast in a recompiled model: the site's new id, the caster's world sliced again."""
         self.model, self.data = model, data
-        self._site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, self._link)
-        if self._site < 0:
-            raise DescriptionError(f"range sensor '{self.spec.name}': link {self.spec.link} is not in the model")
+        if self._owns_parts:
+            self.parts.bind(model)
+        self._site = self.parts["site"]
         self._shared = SharedPose.of(model, data)
         own = model.body(self._root).id
         if self.caster is not None:
