@@ -468,7 +468,7 @@ def test_registry_and_helpers() -> None:
     assert msgs.message_class("sensor_msgs/LaserScan") is msgs.LaserScan
     assert msgs.msgtype_of(msgs.Odometry) == "nav_msgs/msg/Odometry"
     with pytest.raises(KeyError):
-        msgs.message_class("sensor_msgs/msg/NavSatFix")
+        msgs.message_class("sensor_msgs/msg/NoSuchType")
     with pytest.raises(TypeError):
         msgs.msgtype_of(3.0)
     with pytest.raises(TypeError, match="instance"):

@@ -11,6 +11,7 @@ by the pair (sensor type, plugin file); a model plugin by its file alone:
   libgazebo_ros_control.so    the controllers (gazebo_ros_control): control/ros_control.py
   libgazebo_ros_p3d.so        ground-truth odometry of a link: sensors/ground_truth.py
   libgazebo_ros_imu.so        the IMU model plugin: sensors/imu.py
+  libhector_gazebo_ros_gps.so hector's GPS (NavSatFix and its velocity): sensors/gps.py
 
 A sensor block with no plugin becomes its type's first kind above. An unknown pair is one warning naming the type,
 the plugin and the file, and the block is left out.
@@ -191,6 +192,25 @@ def _p3d_parts(block: Any, mount: Mount) -> Parts:
     return Parts.sites(f"p3d '{block.name}'", site=mount.names.mj(body)) if body in mount.robot.links else Parts()
 
 
+def _gps(ctx: NodeContext, spec: Any) -> Node:
+    from racecar_sim.sensors.gps import GpsPublisher
+
+    return GpsPublisher(ctx, spec)
+
+
+def _parse_gps(block: Block, mount: Mount) -> Any:
+    from racecar_sim.sensors.gps import GpsSpec
+
+    assert isinstance(block, Plugin)
+    return GpsSpec.from_plugin(block, mount.robot)
+
+
+def _gps_parts(spec: Any, mount: Mount) -> Parts:
+    from racecar_sim.sensors.gps import gps_parts
+
+    return gps_parts(spec, mount)
+
+
 ROS_CONTROL = "libgazebo_ros_control.so"
 LASER = NodeKind(_laser, None, "lidar", ("libgazebo_ros_laser.so", "libgazebo_ros_gpu_laser.so"), "laser", _parse_laser)
 RANGE = NodeKind(_range, None, "", ("libgazebo_ros_range.so",), "range", _parse_range)
@@ -207,6 +227,7 @@ PLUGINS: dict[str, NodeKind] = {
     ROS_CONTROL: NodeKind(_ros_control, _prepare_ros_control, name="ros_control"),
     "libgazebo_ros_p3d.so": NodeKind(_p3d, name="p3d", parts=_p3d_parts),
     "libgazebo_ros_imu.so": NodeKind(_imu, _prepare_imu, "imu", name="imu", parse=_parse_imu, parts=_imu_parts),
+    "libhector_gazebo_ros_gps.so": NodeKind(_gps, name="gps", parse=_parse_gps, parts=_gps_parts),
 }
 """Model plugins, keyed by their file alone."""
 

@@ -20,6 +20,7 @@ from racecar_sim.msgs.typed.geometry_msgs import TransformStamped as TransformSt
 from racecar_sim.msgs.typed.geometry_msgs import Twist as Twist
 from racecar_sim.msgs.typed.geometry_msgs import TwistWithCovariance as TwistWithCovariance
 from racecar_sim.msgs.typed.geometry_msgs import Vector3 as Vector3
+from racecar_sim.msgs.typed.geometry_msgs import Vector3Stamped as Vector3Stamped
 from racecar_sim.msgs.typed.nav_msgs import MapMetaData as MapMetaData
 from racecar_sim.msgs.typed.nav_msgs import OccupancyGrid as OccupancyGrid
 from racecar_sim.msgs.typed.nav_msgs import Odometry as Odometry
@@ -31,6 +32,8 @@ from racecar_sim.msgs.typed.sensor_msgs import Imu as Imu
 from racecar_sim.msgs.typed.sensor_msgs import JointState as JointState
 from racecar_sim.msgs.typed.sensor_msgs import Joy as Joy
 from racecar_sim.msgs.typed.sensor_msgs import LaserScan as LaserScan
+from racecar_sim.msgs.typed.sensor_msgs import NavSatFix as NavSatFix
+from racecar_sim.msgs.typed.sensor_msgs import NavSatStatus as NavSatStatus
 from racecar_sim.msgs.typed.sensor_msgs import PointCloud2 as PointCloud2
 from racecar_sim.msgs.typed.sensor_msgs import PointField as PointField
 from racecar_sim.msgs.typed.sensor_msgs import Range as Range

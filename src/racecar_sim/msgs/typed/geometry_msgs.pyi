@@ -148,3 +148,15 @@ class Vector3(Message):
         y: float = ...,
         z: float = ...,
     ) -> None: ...
+
+class Vector3Stamped(Message):
+    """A vector with a reference frame and a timestamp."""
+
+    __msgtype__: ClassVar[str]
+    header: Header
+    vector: Vector3
+    def __init__(
+        self,
+        header: Header = ...,
+        vector: Vector3 = ...,
+    ) -> None: ...

@@ -157,6 +157,54 @@ class LaserScan(Message):
         intensities: npt.NDArray[np.float32] = ...,
     ) -> None: ...
 
+class NavSatFix(Message):
+    """Navigation Satellite fix for any Global Navigation Satellite System: latitude and longitude in degrees
+    (positive north and east), altitude in m above the WGS 84 ellipsoid, position covariance in m^2 (east, north,
+    up)."""
+
+    __msgtype__: ClassVar[str]
+    COVARIANCE_TYPE_UNKNOWN: ClassVar[int]
+    COVARIANCE_TYPE_APPROXIMATED: ClassVar[int]
+    COVARIANCE_TYPE_DIAGONAL_KNOWN: ClassVar[int]
+    COVARIANCE_TYPE_KNOWN: ClassVar[int]
+    header: Header
+    status: NavSatStatus
+    latitude: float
+    longitude: float
+    altitude: float
+    position_covariance: npt.NDArray[np.float64]
+    position_covariance_type: int
+    def __init__(
+        self,
+        header: Header = ...,
+        status: NavSatStatus = ...,
+        latitude: float = ...,
+        longitude: float = ...,
+        altitude: float = ...,
+        position_covariance: npt.NDArray[np.float64] = ...,
+        position_covariance_type: int = ...,
+    ) -> None: ...
+
+class NavSatStatus(Message):
+    """Navigation Satellite fix status for any Global Navigation Satellite System."""
+
+    __msgtype__: ClassVar[str]
+    STATUS_NO_FIX: ClassVar[int]
+    STATUS_FIX: ClassVar[int]
+    STATUS_SBAS_FIX: ClassVar[int]
+    STATUS_GBAS_FIX: ClassVar[int]
+    SERVICE_GPS: ClassVar[int]
+    SERVICE_GLONASS: ClassVar[int]
+    SERVICE_COMPASS: ClassVar[int]
+    SERVICE_GALILEO: ClassVar[int]
+    status: int
+    service: int
+    def __init__(
+        self,
+        status: int = ...,
+        service: int = ...,
+    ) -> None: ...
+
 class PointCloud2(Message):
     """The ROS message sensor_msgs/msg/PointCloud2, made from its definition."""
 
