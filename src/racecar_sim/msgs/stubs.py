@@ -66,14 +66,16 @@ def package_stub(package: str) -> str:
     head = ["from typing import ClassVar", ""]
     if "np." in body:
         head += ["import numpy as np", *(["import numpy.typing as npt"] if "npt." in body else []), ""]
-    head += [f"from {module} import {', '.join(sorted(names))}" for module, names in sorted(imports.items())]
+    head += [
+        f"from {module} import {', '.join(sorted(names, key=str.lower))}" for module, names in sorted(imports.items())
+    ]
     return _HEADER + "\n".join(head) + "\n\n" + body
 
 
 def index_stub() -> str:
     """The ``__init__.pyi`` text: every class, re-exported."""
     lines = []
-    for msgtype in available_msgtypes():
+    for msgtype in sorted(available_msgtypes(), key=str.lower):  # in the order ruff's isort keeps
         pkg, _, name = msgtype.split("/")
         lines.append(f"from racecar_sim.msgs.typed.{pkg} import {name} as {name}")
     return _HEADER + "\n".join(lines) + "\n"

@@ -18,6 +18,7 @@ _KINDS = {
     mujoco.mjtObj.mjOBJ_SENSOR: "sensor",
     mujoco.mjtObj.mjOBJ_BODY: "body",
     mujoco.mjtObj.mjOBJ_CAMERA: "camera",
+    mujoco.mjtObj.mjOBJ_GEOM: "geom",
 }
 
 

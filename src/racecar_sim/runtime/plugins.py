@@ -8,6 +8,7 @@ by the pair (sensor type, plugin file); a model plugin by its file alone:
   camera          + libgazebo_ros_camera.so                               camera: sensors/camera.py
   depth           + libgazebo_ros_openni_kinect.so                        depth camera: sensors/depth_camera.py
   imu             + libgazebo_ros_imu_sensor.so                           IMU: sensors/imu.py
+  contact         + libgazebo_ros_bumper.so                               bumper (ContactsState): sensors/bumper.py
   libgazebo_ros_control.so    the controllers (gazebo_ros_control): control/ros_control.py
   libgazebo_ros_p3d.so        ground-truth odometry of a link: sensors/ground_truth.py
   libgazebo_ros_imu.so        the IMU model plugin: sensors/imu.py
@@ -192,6 +193,25 @@ def _p3d_parts(block: Any, mount: Mount) -> Parts:
     return Parts.sites(f"p3d '{block.name}'", site=mount.names.mj(body)) if body in mount.robot.links else Parts()
 
 
+def _bumper(ctx: NodeContext, spec: Any) -> Node:
+    from racecar_sim.sensors.bumper import BumperPublisher
+
+    return BumperPublisher(ctx, spec)
+
+
+def _parse_bumper(block: Block, mount: Mount) -> Any:
+    from racecar_sim.sensors.bumper import BumperSpec
+
+    assert isinstance(block, Sensor)
+    return BumperSpec.from_sensor(block, mount.robot)
+
+
+def _bumper_parts(spec: Any, mount: Mount) -> Parts:
+    from racecar_sim.sensors.bumper import bumper_parts
+
+    return bumper_parts(spec, mount)
+
+
 def _gps(ctx: NodeContext, spec: Any) -> Node:
     from racecar_sim.sensors.gps import GpsPublisher
 
@@ -217,6 +237,7 @@ RANGE = NodeKind(_range, None, "", ("libgazebo_ros_range.so",), "range", _parse_
 CAMERA = NodeKind(_camera, _prepare_camera, "camera", ("libgazebo_ros_camera.so",), "camera")
 DEPTH = NodeKind(_depth, _prepare_depth, "camera", ("libgazebo_ros_openni_kinect.so",), "depth_camera")
 IMU = NodeKind(_imu, _prepare_imu, "imu", ("libgazebo_ros_imu_sensor.so",), "imu", _parse_imu, _imu_parts)
+BUMPER = NodeKind(_bumper, None, "", ("libgazebo_ros_bumper.so",), "bumper", _parse_bumper, _bumper_parts)
 NO_PLUGIN = ""
 """The plugin of a `<sensor>` block with none inside (Gazebo gives it no ROS interface; it publishes as its type's
 first kind here would)."""
@@ -248,7 +269,7 @@ for _type in ("ray", "gpu_ray"):
     register_sensor(_type, LASER)
     register_sensor(_type, LASER, NO_PLUGIN)
     register_sensor(_type, RANGE)
-for _kind, _type in ((CAMERA, "camera"), (DEPTH, "depth"), (IMU, "imu")):
+for _kind, _type in ((CAMERA, "camera"), (DEPTH, "depth"), (IMU, "imu"), (BUMPER, "contact")):
     register_sensor(_type, _kind)
     register_sensor(_type, _kind, NO_PLUGIN)
 

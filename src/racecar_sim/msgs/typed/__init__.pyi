@@ -6,6 +6,8 @@ from racecar_sim.msgs.typed.builtin_interfaces import Time as Time
 from racecar_sim.msgs.typed.control_msgs import JointControllerState as JointControllerState
 from racecar_sim.msgs.typed.controller_manager_msgs import ControllerState as ControllerState
 from racecar_sim.msgs.typed.controller_manager_msgs import HardwareInterfaceResources as HardwareInterfaceResources
+from racecar_sim.msgs.typed.gazebo_msgs import ContactsState as ContactsState
+from racecar_sim.msgs.typed.gazebo_msgs import ContactState as ContactState
 from racecar_sim.msgs.typed.gazebo_msgs import LinkStates as LinkStates
 from racecar_sim.msgs.typed.gazebo_msgs import ModelState as ModelState
 from racecar_sim.msgs.typed.gazebo_msgs import ModelStates as ModelStates
@@ -21,6 +23,7 @@ from racecar_sim.msgs.typed.geometry_msgs import Twist as Twist
 from racecar_sim.msgs.typed.geometry_msgs import TwistWithCovariance as TwistWithCovariance
 from racecar_sim.msgs.typed.geometry_msgs import Vector3 as Vector3
 from racecar_sim.msgs.typed.geometry_msgs import Vector3Stamped as Vector3Stamped
+from racecar_sim.msgs.typed.geometry_msgs import Wrench as Wrench
 from racecar_sim.msgs.typed.nav_msgs import MapMetaData as MapMetaData
 from racecar_sim.msgs.typed.nav_msgs import OccupancyGrid as OccupancyGrid
 from racecar_sim.msgs.typed.nav_msgs import Odometry as Odometry

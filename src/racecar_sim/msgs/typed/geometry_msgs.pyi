@@ -160,3 +160,15 @@ class Vector3Stamped(Message):
         header: Header = ...,
         vector: Vector3 = ...,
     ) -> None: ...
+
+class Wrench(Message):
+    """A force (N) and a torque (N m) in free space, separated into their linear and angular parts."""
+
+    __msgtype__: ClassVar[str]
+    force: Vector3
+    torque: Vector3
+    def __init__(
+        self,
+        force: Vector3 = ...,
+        torque: Vector3 = ...,
+    ) -> None: ...
