@@ -5,8 +5,10 @@ by the pair (sensor type, plugin file); a model plugin by its file alone:
 
   ray | gpu_ray   + libgazebo_ros_laser.so, libgazebo_ros_gpu_laser.so   laser (LaserScan): sensors/lidar.py
   ray | gpu_ray   + libgazebo_ros_range.so                                range (Range): sensors/range.py
+  ray | gpu_ray   + libgazebo_ros_ray_sensor.so (ROS 2)                   laser or range, by its <output_type>
   camera          + libgazebo_ros_camera.so                               camera: sensors/camera.py
   depth           + libgazebo_ros_openni_kinect.so                        depth camera: sensors/depth_camera.py
+  depth           + libgazebo_ros_camera.so, libgazebo_ros_depth_camera.so (ROS 2)  depth camera
   imu             + libgazebo_ros_imu_sensor.so                           IMU: sensors/imu.py
   contact         + libgazebo_ros_bumper.so                               bumper (ContactsState): sensors/bumper.py
   libgazebo_ros_control.so    the controllers (gazebo_ros_control): control/ros_control.py
@@ -14,8 +16,9 @@ by the pair (sensor type, plugin file); a model plugin by its file alone:
   libgazebo_ros_imu.so        the IMU model plugin: sensors/imu.py
   libhector_gazebo_ros_gps.so hector's GPS (NavSatFix and its velocity): sensors/gps.py
 
-A sensor block with no plugin becomes its type's first kind above. An unknown pair is one warning naming the type,
-the plugin and the file, and the block is left out.
+A sensor block with no plugin becomes its type's first kind above. A plugin block in ROS 2's dialect (a `<ros>`
+element, `<frame_name>`, ...) takes its topics and frame by ROS 2's rules: sensors/ros2_dialect.py. An unknown pair
+is one warning naming the type, the plugin and the file, and the block is left out.
 
 A kind (`NodeKind`) has a name, an optional `parse(block)` that reads the block once into a typed spec (a malformed
 block is refused when the car is planned, before the model is built), an optional `prepare(spec, parsed, mount)` that
@@ -54,6 +57,9 @@ class NodeKind:
     before the model is built) and handed to prepare and build; None: the block itself is the spec.
     parts(parsed, mount): the MuJoCo elements the node reads (nodes/parts.py), declared by name; the car binds their ids
     after every compile and hands them to the node as `ctx.parts` while it is built (None: it reads none).
+    refine(parsed): the kind the spec turns out to be, for a plugin whose own parameters choose what it publishes
+    (ROS 2's gazebo_ros_ray_sensor: a laser or a ranger by its <output_type>); parse giving None leaves the block out
+    (it has said why).
     prepare(spec, parsed, mount): its parts in the MjSpec, before compiling (or None).
     build(ctx, parsed): the node (None: it cannot run here, and has said why).
     switch: the sensor switch that turns it off with others ("lidar", "camera", "imu"; "" for none).
@@ -68,6 +74,7 @@ class NodeKind:
     name: str = ""
     parse: Callable[[Block, Mount], Any] | None = None
     parts: Callable[[Any, Mount], Parts] | None = None
+    refine: Callable[[Any], NodeKind] | None = None
 
 
 # --- the built-in kinds: each imports its module only when used -----------------------------------------------
@@ -89,6 +96,19 @@ def _ray_parts(spec: Any, mount: Mount) -> Parts:
     return Parts.sites(f"ray sensor '{spec.name}'", site=mount.names.mj(spec.link))
 
 
+def _parse_ray_sensor(block: Block, mount: Mount) -> Any:
+    from racecar_sim.sensors import ros2_dialect
+
+    assert isinstance(block, Sensor)
+    return ros2_dialect.ray_sensor_spec(block, mount.robot)
+
+
+def _refine_ray_sensor(spec: Any) -> NodeKind:
+    from racecar_sim.sensors.laser_spec import LaserSpec
+
+    return LASER if isinstance(spec, LaserSpec) else RANGE
+
+
 def _range(ctx: NodeContext, spec: Any) -> Node:
     from racecar_sim.sensors.range import RangePublisher
 
@@ -102,42 +122,58 @@ def _parse_range(block: Block, mount: Mount) -> Any:
     return RangeSpec.from_sensor(block)
 
 
-def _camera(ctx: NodeContext, block: Block) -> Node | None:
+def _camera(ctx: NodeContext, spec: Any) -> Node | None:
     from racecar_sim.core.errors import RenderingError
     from racecar_sim.sensors.camera import CameraPublisher
 
-    assert isinstance(block, Sensor)
     try:
-        return CameraPublisher(ctx, block)
+        return CameraPublisher(ctx, spec)
     except RenderingError as exc:
         log.error("%s; continuing without the camera", exc)
         return None
 
 
-def _prepare_camera(spec: mujoco.MjSpec, block: Block, mount: Mount) -> None:
+def _prepare_camera(spec: mujoco.MjSpec, camera: Any, mount: Mount) -> None:
     from racecar_sim.sensors.camera import add_camera
 
+    add_camera(spec, camera, mount.names)
+
+
+def _parse_camera(block: Block, mount: Mount) -> Any:
+    from racecar_sim.sensors import ros2_dialect
+    from racecar_sim.sensors.camera_spec import CameraSpec
+
     assert isinstance(block, Sensor)
-    add_camera(spec, block, mount.names)
+    if block.plugins and ros2_dialect.is_ros2(block.plugins[0]):
+        return ros2_dialect.camera_spec(block, mount.robot)
+    return CameraSpec.from_sensor(block)
 
 
-def _depth(ctx: NodeContext, block: Block) -> Node | None:
+def _depth(ctx: NodeContext, spec: Any) -> Node | None:
     from racecar_sim.core.errors import RenderingError
     from racecar_sim.sensors.depth_camera import DepthCamera
 
-    assert isinstance(block, Sensor)
     try:
-        return DepthCamera(ctx, block)
+        return DepthCamera(ctx, spec)
     except RenderingError as exc:
-        log.error("%s; continuing without the depth camera %s", exc, block.name)
+        log.error("%s; continuing without the depth camera %s", exc, spec.camera.name)
         return None
 
 
-def _prepare_depth(spec: mujoco.MjSpec, block: Block, mount: Mount) -> None:
+def _prepare_depth(spec: mujoco.MjSpec, depth: Any, mount: Mount) -> None:
     from racecar_sim.sensors.depth_camera import prepare_depth_camera
 
+    prepare_depth_camera(spec, depth, mount)
+
+
+def _parse_depth(block: Block, mount: Mount) -> Any:
+    from racecar_sim.sensors import ros2_dialect
+    from racecar_sim.sensors.depth_camera import DepthSpec
+
     assert isinstance(block, Sensor)
-    prepare_depth_camera(spec, block, mount)
+    if block.plugins and ros2_dialect.is_ros2(block.plugins[0]):
+        return ros2_dialect.depth_spec(block, mount.robot)
+    return DepthSpec.from_sensor(block)
 
 
 def _imu(ctx: NodeContext, spec: Any) -> Node:
@@ -147,8 +183,11 @@ def _imu(ctx: NodeContext, spec: Any) -> Node:
 
 
 def _parse_imu(block: Block, mount: Mount) -> Any:
+    from racecar_sim.sensors import ros2_dialect
     from racecar_sim.sensors.imu import ImuSpec
 
+    if isinstance(block, Sensor) and block.plugins and ros2_dialect.is_ros2(block.plugins[0]):
+        return ros2_dialect.imu_spec(block, mount.robot)
     if isinstance(block, Sensor):
         return ImuSpec.from_sensor(block, mount.names.model)
     return ImuSpec.from_plugin(block, mount.robot)
@@ -234,8 +273,12 @@ def _gps_parts(spec: Any, mount: Mount) -> Parts:
 ROS_CONTROL = "libgazebo_ros_control.so"
 LASER = NodeKind(_laser, None, "lidar", ("libgazebo_ros_laser.so", "libgazebo_ros_gpu_laser.so"), "laser", _parse_laser)
 RANGE = NodeKind(_range, None, "", ("libgazebo_ros_range.so",), "range", _parse_range)
-CAMERA = NodeKind(_camera, _prepare_camera, "camera", ("libgazebo_ros_camera.so",), "camera")
-DEPTH = NodeKind(_depth, _prepare_depth, "camera", ("libgazebo_ros_openni_kinect.so",), "depth_camera")
+CAMERA = NodeKind(_camera, _prepare_camera, "camera", ("libgazebo_ros_camera.so",), "camera", _parse_camera)
+DEPTH = NodeKind(_depth, _prepare_depth, "camera", ("libgazebo_ros_openni_kinect.so",), "depth_camera", _parse_depth)
+RAY_SENSOR = NodeKind(
+    _laser, None, "", ("libgazebo_ros_ray_sensor.so",), "ray_sensor", _parse_ray_sensor, refine=_refine_ray_sensor
+)
+"""ROS 2's gazebo_ros_ray_sensor: a laser or a ranger, as its <output_type> says (refined to LASER or RANGE)."""
 IMU = NodeKind(_imu, _prepare_imu, "imu", ("libgazebo_ros_imu_sensor.so",), "imu", _parse_imu, _imu_parts)
 BUMPER = NodeKind(_bumper, None, "", ("libgazebo_ros_bumper.so",), "bumper", _parse_bumper, _bumper_parts)
 NO_PLUGIN = ""
@@ -269,6 +312,9 @@ for _type in ("ray", "gpu_ray"):
     register_sensor(_type, LASER)
     register_sensor(_type, LASER, NO_PLUGIN)
     register_sensor(_type, RANGE)
+    register_sensor(_type, RAY_SENSOR)
+for _plugin in ("libgazebo_ros_camera.so", "libgazebo_ros_depth_camera.so"):  # ROS 2: gazebo_ros_camera's depth
+    register_sensor("depth", DEPTH, _plugin)
 for _kind, _type in ((CAMERA, "camera"), (DEPTH, "depth"), (IMU, "imu"), (BUMPER, "contact")):
     register_sensor(_type, _kind)
     register_sensor(_type, _kind, NO_PLUGIN)
@@ -309,9 +355,14 @@ class Planned:
     parts: Parts = field(default_factory=Parts)
 
     @classmethod
-    def of(cls, block: Block, kind: NodeKind, mount: Mount) -> Planned:
-        """The block planned as `kind`, its spec parsed (DescriptionError for a malformed block), its parts declared."""
+    def of(cls, block: Block, kind: NodeKind, mount: Mount) -> Planned | None:
+        """The block planned as `kind` (or the kind its spec refines it to), its spec parsed (DescriptionError for a
+        malformed block), its parts declared; None if parse left it out."""
         spec = block if kind.parse is None else kind.parse(block, mount)
+        if spec is None:
+            return None
+        if kind.refine is not None:
+            kind = kind.refine(spec)
         return cls(block, kind, spec, Parts() if kind.parts is None else kind.parts(spec, mount))
 
 
@@ -334,8 +385,8 @@ def plan(robot: Robot, off: frozenset[str], mount: Mount | None = None) -> tuple
                 plugin.filename,
                 ", ".join(sorted(PLUGINS)),
             )
-        elif not _is_off(kind, plugin.name, "", off):
-            plugins.append(Planned.of(plugin, kind, mount))
+        elif not _is_off(kind, plugin.name, "", off) and (planned := Planned.of(plugin, kind, mount)) is not None:
+            plugins.append(planned)
     if robot.transmissions and not any(p.block.filename == ROS_CONTROL for p in plugins if isinstance(p.block, Plugin)):
         log.warning(
             "%s has no <plugin filename='%s'>: its controllers are started anyway, as racecar.gazebo's "
@@ -344,7 +395,7 @@ def plan(robot: Robot, off: frozenset[str], mount: Mount | None = None) -> tuple
             ROS_CONTROL,
         )
         implied = Plugin("gazebo_ros_control", ROS_CONTROL, {}, ET.Element("plugin"))
-        plugins.insert(0, Planned.of(implied, PLUGINS[ROS_CONTROL], mount))
+        plugins.insert(0, Planned(implied, PLUGINS[ROS_CONTROL]))
     sensors: list[Planned] = []
     for sensor in robot.sensors:
         kind = sensor_kind(sensor)
@@ -362,8 +413,11 @@ def plan(robot: Robot, off: frozenset[str], mount: Mount | None = None) -> tuple
                 ", ".join(known) if known else f"no {sensor.type} sensor",
             )
             continue
-        if not _is_off(kind, sensor.name, sensor.type, off):
-            sensors.append(Planned.of(sensor, kind, mount))
+        if _is_off(kind, sensor.name, sensor.type, off):
+            continue
+        planned = Planned.of(sensor, kind, mount)
+        if planned is not None and not _is_off(planned.kind, sensor.name, sensor.type, off):  # by its refined kind too
+            sensors.append(planned)
     return plugins, sensors
 
 

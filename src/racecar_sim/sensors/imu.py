@@ -88,6 +88,17 @@ class ImuSpec:
         )
 
     @classmethod
+    def from_sdf(cls, sensor: Sensor) -> ImuSpec:
+        """A `<sensor type="imu">` block by its SDF alone: its rate (0: every physics step) and per-axis noise; the
+        topic and frame are the plugin's to give (ROS 2's gazebo_ros_imu_sensor: sensors/ros2_dialect.py)."""
+        where = f"<sensor type='imu' name='{sensor.name}'> on link {sensor.link}"
+        mean, stddev = _sensor_noise(sensor, where)
+        zero = (0.0, 0.0, 0.0)
+        return cls._checked(
+            sensor.name, sensor.link, sensor.pose, sensor.update_rate, "", sensor.link, mean, stddev, 0.0, zero, where
+        )
+
+    @classmethod
     def from_plugin(cls, plugin: Plugin, robot: Robot) -> ImuSpec:
         """A gazebo_ros_imu model plugin: the IMU at the origin of the link <bodyName>."""
         params = plugin.params

@@ -71,7 +71,8 @@ class RangePublisher(NodeBase):
         self.parts = ctx.parts if ctx.parts.declares("site") else own.bind(ctx.model)
         self._owns_parts = self.parts is not ctx.parts
         self.rebind(ctx.model, ctx.data)
-        self._task = ctx.timers.every(spec.update_rate, self._tick, f"range {spec.name}")
+        rate = spec.update_rate if spec.update_rate > 0 else 1e9 / ctx.timers.step_ns  # 0: every physics step
+        self._task = ctx.timers.every(rate, self._tick, f"range {spec.name}")
 
     def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         """Cast in a recompiled model: the site's new id, the caster's world sliced again."""
@@ -96,13 +97,14 @@ class RangePublisher(NodeBase):
         return pose.site_xpos[self._site] + rotation @ self._offset, rotation @ self._turn
 
     def true_range(self) -> float:
-        """The nearest beam's distance (m) now, range_max if no beam hits anything within it."""
+        """The nearest beam's distance (m) now; if no beam hits anything within range_max, what the plugin then
+        publishes (`spec.nothing_seen`: range_max for ROS 1's gazebo_ros_range, FLT_MAX for ROS 2's ray sensor)."""
         origin, axes = self.ray_origin()
         assert self.caster is not None
         nearest = math.inf
         for column in self._columns:
             nearest = min(nearest, float(self.caster.cast(origin, axes @ column).min(initial=math.inf)))
-        return min(nearest, self.spec.range_max)
+        return nearest if nearest <= self.spec.range_max else self.spec.nothing_seen
 
     def reading(self, stamp_ns: int) -> float:
         """The published range of a reading taken now and stamped `stamp_ns` (with that stamp's noise)."""

@@ -18,6 +18,7 @@ from racecar_sim.description.urdf import Origin, Sensor
 from racecar_sim.sensors.sensor_xml import join_topic, plugin_number, sensor_number
 
 PLUGIN = "libgazebo_ros_range.so"
+FLT_MAX = 3.4028234663852886e38  # std::numeric_limits<float>::max()
 ULTRASOUND, INFRARED = 0, 1  # sensor_msgs/Range's radiation types
 
 
@@ -53,6 +54,12 @@ class RangeSpec:
     radiation_type: int
     field_of_view: float
     gaussian_noise: float
+    no_hit: float = math.nan  # the range when no beam hits: FLT_MAX for ROS 2's plugin; nan: range_max (ROS 1's)
+
+    @property
+    def nothing_seen(self) -> float:
+        """The range published when no beam hits anything within range_max."""
+        return self.range_max if math.isnan(self.no_hit) else self.no_hit
 
     @classmethod
     def from_sensor(cls, sensor: Sensor) -> RangeSpec:
@@ -62,14 +69,8 @@ class RangeSpec:
         plugin = next((p for p in sensor.plugins if p.filename == PLUGIN), None)
         if plugin is None:
             raise DescriptionError(f"{where}: no <plugin filename='{PLUGIN}'> inside")
-        ray = sensor.element.find("ray")
-        if ray is None:
-            raise DescriptionError(f"{where}: <ray> is missing")
-        span = ray.find("range")
-        if span is None:
-            raise DescriptionError(f"{where}: <ray><range> is missing")
         params = plugin.params
-        sensor_rate = sensor_number(sensor.element, "update_rate", where, default=0.0)
+        sensor_rate, horizontal, vertical, range_min, range_max = _ray(sensor, where)
         plugin_rate = plugin_number(params, "updateRate", where, 0.0)  # a throttle on the sensor's updates
         rates = [r for r in (sensor_rate, plugin_rate) if r > 0]
         if not rates:
@@ -80,23 +81,62 @@ class RangeSpec:
             sensor.link,
             sensor.pose,
             min(rates),
-            _beams(ray, "horizontal", where),
-            _beams(ray, "vertical", where),
-            sensor_number(span, "min", where),
-            sensor_number(span, "max", where),
+            horizontal,
+            vertical,
+            range_min,
+            range_max,
             join_topic(params.get("robotNamespace", ""), params.get("topicName") or "/range"),
             frame.lstrip("/"),
             ULTRASOUND if params.get("radiation", "ultrasound") == "ultrasound" else INFRARED,
             plugin_number(params, "fov", where, 0.05),
             plugin_number(params, "gaussianNoise", where, 0.0),
         )
-        if not 0 <= spec.range_min < spec.range_max:
-            raise DescriptionError(
-                f"{where}: <range> needs 0 <= <min> < <max>, got <min> {spec.range_min:g}, <max> {spec.range_max:g}"
-            )
         if spec.gaussian_noise < 0:
             raise DescriptionError(f"{where}: <gaussianNoise> must not be negative, got {spec.gaussian_noise:g}")
         return spec
+
+    @classmethod
+    def from_ros2(cls, sensor: Sensor, topic: str, frame_id: str, radiation: str) -> RangeSpec:
+        """A `<sensor type="ray">` block with ROS 2's gazebo_ros_ray_sensor and `<output_type>sensor_msgs/Range`: as
+        gazebo_ros's conversion fills it, the field of view is the wider of the beams' spans, the range the nearest
+        beam's, FLT_MAX when none hits (its first value), and <radiation_type> defaults to infrared."""
+        where = f"<sensor type='{sensor.type}' name='{sensor.name}'> on link {sensor.link}"
+        rate, horizontal, vertical, range_min, range_max = _ray(sensor, where)
+        if radiation not in ("ultrasound", "infrared"):
+            raise DescriptionError(f"{where}: <radiation_type> '{radiation}' is not ultrasound or infrared")
+        span = max(horizontal.max_angle - horizontal.min_angle, vertical.max_angle - vertical.min_angle)
+        return cls(
+            sensor.name,
+            sensor.link,
+            sensor.pose,
+            rate,
+            horizontal,
+            vertical,
+            range_min,
+            range_max,
+            topic,
+            frame_id,
+            ULTRASOUND if radiation == "ultrasound" else INFRARED,
+            span,
+            0.0,
+            FLT_MAX,
+        )
+
+
+def _ray(sensor: Sensor, where: str) -> tuple[float, Beams, Beams, float, float]:
+    """The ray block's rate, beams (horizontal, vertical) and span (min, max)."""
+    ray = sensor.element.find("ray")
+    if ray is None:
+        raise DescriptionError(f"{where}: <ray> is missing")
+    span = ray.find("range")
+    if span is None:
+        raise DescriptionError(f"{where}: <ray><range> is missing")
+    range_min, range_max = sensor_number(span, "min", where), sensor_number(span, "max", where)
+    if not 0 <= range_min < range_max:
+        got = f"got <min> {range_min:g}, <max> {range_max:g}"
+        raise DescriptionError(f"{where}: <range> needs 0 <= <min> < <max>, {got}")
+    rate = sensor_number(sensor.element, "update_rate", where, default=0.0)
+    return rate, _beams(ray, "horizontal", where), _beams(ray, "vertical", where), range_min, range_max
 
 
 def _beams(ray: ET.Element, axis: str, where: str) -> Beams:
