@@ -6,6 +6,7 @@ by the pair (sensor type, plugin file); a model plugin by its file alone:
   ray | gpu_ray   + libgazebo_ros_laser.so, libgazebo_ros_gpu_laser.so   laser (LaserScan): sensors/lidar.py
   ray | gpu_ray   + libgazebo_ros_range.so                                range (Range): sensors/range.py
   ray | gpu_ray   + libgazebo_ros_ray_sensor.so (ROS 2)                   laser or range, by its <output_type>
+  ray | gpu_ray   + libgazebo_ros_velodyne_laser.so                       3-D lidar (PointCloud2): sensors/velodyne.py
   camera          + libgazebo_ros_camera.so                               camera: sensors/camera.py
   depth           + libgazebo_ros_openni_kinect.so                        depth camera: sensors/depth_camera.py
   depth           + libgazebo_ros_camera.so, libgazebo_ros_depth_camera.so (ROS 2)  depth camera
@@ -107,6 +108,19 @@ def _refine_ray_sensor(spec: Any) -> NodeKind:
     from racecar_sim.sensors.laser_spec import LaserSpec
 
     return LASER if isinstance(spec, LaserSpec) else RANGE
+
+
+def _velodyne(ctx: NodeContext, spec: Any) -> Node:
+    from racecar_sim.sensors.velodyne import VelodynePublisher
+
+    return VelodynePublisher(ctx, spec)
+
+
+def _parse_velodyne(block: Block, mount: Mount) -> Any:
+    from racecar_sim.sensors.velodyne import VelodyneSpec
+
+    assert isinstance(block, Sensor)
+    return VelodyneSpec.from_sensor(block)
 
 
 def _range(ctx: NodeContext, spec: Any) -> Node:
@@ -275,6 +289,9 @@ LASER = NodeKind(_laser, None, "lidar", ("libgazebo_ros_laser.so", "libgazebo_ro
 RANGE = NodeKind(_range, None, "", ("libgazebo_ros_range.so",), "range", _parse_range)
 CAMERA = NodeKind(_camera, _prepare_camera, "camera", ("libgazebo_ros_camera.so",), "camera", _parse_camera)
 DEPTH = NodeKind(_depth, _prepare_depth, "camera", ("libgazebo_ros_openni_kinect.so",), "depth_camera", _parse_depth)
+VELODYNE = NodeKind(
+    _velodyne, None, "lidar", ("libgazebo_ros_velodyne_laser.so",), "velodyne", _parse_velodyne, _ray_parts
+)
 RAY_SENSOR = NodeKind(
     _laser, None, "", ("libgazebo_ros_ray_sensor.so",), "ray_sensor", _parse_ray_sensor, refine=_refine_ray_sensor
 )
@@ -313,6 +330,7 @@ for _type in ("ray", "gpu_ray"):
     register_sensor(_type, LASER, NO_PLUGIN)
     register_sensor(_type, RANGE)
     register_sensor(_type, RAY_SENSOR)
+    register_sensor(_type, VELODYNE)
 for _plugin in ("libgazebo_ros_camera.so", "libgazebo_ros_depth_camera.so"):  # ROS 2: gazebo_ros_camera's depth
     register_sensor("depth", DEPTH, _plugin)
 for _kind, _type in ((CAMERA, "camera"), (DEPTH, "depth"), (IMU, "imu"), (BUMPER, "contact")):

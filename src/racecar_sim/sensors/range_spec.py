@@ -70,7 +70,7 @@ class RangeSpec:
         if plugin is None:
             raise DescriptionError(f"{where}: no <plugin filename='{PLUGIN}'> inside")
         params = plugin.params
-        sensor_rate, horizontal, vertical, range_min, range_max = _ray(sensor, where)
+        sensor_rate, horizontal, vertical, range_min, range_max = ray_block(sensor, where)
         plugin_rate = plugin_number(params, "updateRate", where, 0.0)  # a throttle on the sensor's updates
         rates = [r for r in (sensor_rate, plugin_rate) if r > 0]
         if not rates:
@@ -101,7 +101,7 @@ class RangeSpec:
         gazebo_ros's conversion fills it, the field of view is the wider of the beams' spans, the range the nearest
         beam's, FLT_MAX when none hits (its first value), and <radiation_type> defaults to infrared."""
         where = f"<sensor type='{sensor.type}' name='{sensor.name}'> on link {sensor.link}"
-        rate, horizontal, vertical, range_min, range_max = _ray(sensor, where)
+        rate, horizontal, vertical, range_min, range_max = ray_block(sensor, where)
         if radiation not in ("ultrasound", "infrared"):
             raise DescriptionError(f"{where}: <radiation_type> '{radiation}' is not ultrasound or infrared")
         span = max(horizontal.max_angle - horizontal.min_angle, vertical.max_angle - vertical.min_angle)
@@ -123,7 +123,7 @@ class RangeSpec:
         )
 
 
-def _ray(sensor: Sensor, where: str) -> tuple[float, Beams, Beams, float, float]:
+def ray_block(sensor: Sensor, where: str) -> tuple[float, Beams, Beams, float, float]:
     """The ray block's rate, beams (horizontal, vertical) and span (min, max)."""
     ray = sensor.element.find("ray")
     if ray is None:

@@ -1,0 +1,178 @@
+"""The Velodyne plugin (libgazebo_ros_velodyne_laser.so, velodyne_simulator): a multi-ring 3-D lidar's
+sensor_msgs/PointCloud2 with the fields x, y, z, intensity, ring.
+
+As velodyne_gazebo_plugins/src/GazeboRosVelodyneLaser.cpp (ROS 1) builds it from a `<sensor type="ray">` (or
+"gpu_ray") block: beam (i, j) of <horizontal> sample i and <vertical> sample j (ring j, counted from the lowest)
+points along (cos p cos y, cos p sin y, sin p) in the sensor frame; its range r (no hit: the span range_max -
+range_min) plus N(0, <gaussianNoise>) gives the point r (cos p cos y, cos p sin y, sin p) when
+max(<min_range>, range_min) < r < min(<max_range>, range_max - range_min - 0.01). A point is 32 bytes: x, y, z
+(float32 at 0, 4, 8), intensity (float32 at 16: 0 here, no surface declares a retro-reflectance) and ring (uint16 at
+20); the cloud is one row of the points kept, dense, rings in order. Topic <topicName> (default /points) under
+<robotNamespace>, frame <frameName> (default world), published at the sensor's rate while someone listens.
+
+The beams are cast by the lidar's 3-D caster (sensors/raycast/mujoco3d.py: the world's geoms, a map's walls, other
+cars; never the car itself) at every sensor's sampling point, the end of the last physics step (shared_pose.py).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from racecar_sim.core.errors import DescriptionError
+from racecar_sim.core.rng import NoiseTable
+from racecar_sim.core.transforms import quat_from_rpy, quat_to_matrix
+from racecar_sim.description.urdf import Origin, Sensor
+from racecar_sim.msgs.sensor_msgs import PointCloud2, PointField
+from racecar_sim.msgs.std_msgs import Header
+from racecar_sim.nodes import NodeBase, NodeContext
+from racecar_sim.physics import COLLISION_GROUP
+from racecar_sim.physics.near_walls import WallBoxes
+from racecar_sim.sensors.range_spec import Beams, ray_block
+from racecar_sim.sensors.raycast.mujoco3d import MujocoRays
+from racecar_sim.sensors.raycast.scene import seen_geoms, subtree_bodies
+from racecar_sim.sensors.sensor_xml import join_topic, plugin_number
+from racecar_sim.sensors.shared_pose import SharedPose
+
+PLUGIN = "libgazebo_ros_velodyne_laser.so"
+POINT_STEP = 32
+FIELDS = (
+    PointField("x", 0, PointField.FLOAT32, 1),
+    PointField("y", 4, PointField.FLOAT32, 1),
+    PointField("z", 8, PointField.FLOAT32, 1),
+    PointField("intensity", 16, PointField.FLOAT32, 1),
+    PointField("ring", 20, PointField.UINT16, 1),
+)
+POINT = np.dtype({"names": ["x", "y", "z", "intensity", "ring"], "formats": ["<f4", "<f4", "<f4", "<f4", "<u2"],
+                  "offsets": [0, 4, 8, 16, 20], "itemsize": POINT_STEP})  # fmt: skip
+
+
+@dataclass(frozen=True)
+class VelodyneSpec:
+    """A Velodyne block: its beams, span, rate, the plugin's cut-offs and noise, topic and frame."""
+
+    name: str
+    link: str
+    pose: Origin
+    update_rate: float
+    horizontal: Beams
+    vertical: Beams
+    range_min: float
+    range_max: float
+    min_range: float  # the plugin's <min_range>
+    max_range: float  # the plugin's <max_range>
+    gaussian_noise: float
+    topic: str
+    frame_id: str
+
+    @classmethod
+    def from_sensor(cls, sensor: Sensor) -> VelodyneSpec:
+        """Read a ray block holding the Velodyne plugin (DescriptionError naming what is wrong)."""
+        where = f"<sensor type='{sensor.type}' name='{sensor.name}'> on link {sensor.link}"
+        plugin = next((p for p in sensor.plugins if p.filename == PLUGIN), None)
+        if plugin is None:
+            raise DescriptionError(f"{where}: no <plugin filename='{PLUGIN}'> inside")
+        rate, horizontal, vertical, range_min, range_max = ray_block(sensor, where)
+        if rate <= 0:
+            raise DescriptionError(f"{where}: <update_rate> must be positive, got {rate:g}")
+        params = plugin.params
+        noise = plugin_number(params, "gaussianNoise", where, 0.0)
+        if noise < 0:
+            raise DescriptionError(f"{where}: <gaussianNoise> must not be negative, got {noise:g}")
+        return cls(
+            sensor.name,
+            sensor.link,
+            sensor.pose,
+            rate,
+            horizontal,
+            vertical,
+            range_min,
+            range_max,
+            plugin_number(params, "min_range", where, 0.0),
+            plugin_number(params, "max_range", where, math.inf),
+            noise,
+            join_topic(params.get("robotNamespace", ""), params.get("topicName") or "/points"),
+            (params.get("frameName") or "/world").lstrip("/"),
+        )
+
+    def directions(self) -> np.ndarray:
+        """The beams' unit directions in the sensor frame, ring by ring (rings x samples, 3)."""
+        h, v = self.horizontal, self.vertical
+        yaw = h.min_angle + h.step * np.arange(h.samples)
+        pitch = v.min_angle + v.step * np.arange(v.samples)
+        cp, sp = np.cos(pitch)[:, None], np.sin(pitch)[:, None]
+        return np.stack([cp * np.cos(yaw), cp * np.sin(yaw), np.broadcast_to(sp, (v.samples, h.samples))], axis=-1)
+
+
+class VelodynePublisher(NodeBase):
+    """The Velodyne plugin's node: PointCloud2 on its topic at the sensor's rate (see the module doc)."""
+
+    def __init__(self, ctx: NodeContext, spec: VelodyneSpec) -> None:
+        names = ctx.names
+        self.ctx, self.spec, self.seed = ctx, spec, ctx.seed
+        self.topic = names.topic(spec.topic)
+        self.frame_id = spec.frame_id if spec.frame_id in ("world", "map") else names.frame(spec.frame_id)
+        self.parts = ctx.parts
+        self._root = names.mj(ctx.need_robot("a Velodyne").root)
+        self._local = spec.directions().reshape(-1, 3)
+        self._rings = np.repeat(np.arange(spec.vertical.samples, dtype=np.uint16), spec.horizontal.samples)
+        self._offset = np.array(spec.pose.xyz, dtype=float)
+        self._turn = quat_to_matrix(quat_from_rpy(spec.pose.rpy))
+        self.noise = ctx.noise and spec.gaussian_noise > 0
+        self.noise_table = NoiseTable.shared(ctx.noise_stream(f"velodyne/{spec.name}"), len(self._local))
+        self._lo = max(spec.min_range, spec.range_min)
+        self._hi = min(spec.max_range, spec.range_max - spec.range_min - 0.01)
+        self.rebind(ctx.model, ctx.data)
+        self._task = ctx.timers.every(spec.update_rate, self._tick, f"velodyne {spec.name}")
+
+    def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """Cast in a recompiled model: the caster sees its geoms again (the parts are bound for the node)."""
+        self.model, self.data = model, data
+        self._shared = SharedPose.of(model, data)
+        geoms = seen_geoms(model, COLLISION_GROUP)
+        own = geoms[np.isin(model.geom_bodyid[geoms], subtree_bodies(model, model.body(self._root).id))]
+        self.rays = MujocoRays(model, self._shared.pose, COLLISION_GROUP, own, WallBoxes.of(model))
+
+    def ray_origin(self) -> tuple[np.ndarray, np.ndarray]:
+        """World position of the ray origin and the sensor's axes (world from sensor) at the sampling point."""
+        pose = self._shared.update(self.data)
+        site = self.parts["site"]
+        rotation = pose.site_xmat[site].reshape(3, 3)
+        return pose.site_xpos[site] + rotation @ self._offset, rotation @ self._turn
+
+    def ranges(self, stamp_ns: int) -> np.ndarray:
+        """Every beam's range (m) now, ring by ring, as the plugin reads it (no hit: the span; with noise)."""
+        spec = self.spec
+        origin, axes = self.ray_origin()
+        r = self.rays.cast_rays(origin, self._local @ axes.T, spec.range_min, spec.range_max)
+        np.minimum(r, spec.range_max - spec.range_min, out=r)
+        if self.noise:
+            r += spec.gaussian_noise * self.noise_table.sample(self.seed, stamp_ns)
+        return r
+
+    def cloud(self, stamp_ns: int) -> PointCloud2:
+        """The cloud of a scan taken now, stamped `stamp_ns`."""
+        r = self.ranges(stamp_ns)
+        kept = (self._lo < r) & (r < self._hi)
+        points = np.zeros(int(kept.sum()), POINT)
+        xyz = self._local[kept] * r[kept, None]
+        points["x"], points["y"], points["z"] = xyz[:, 0], xyz[:, 1], xyz[:, 2]
+        points["ring"] = self._rings[kept]
+        n = len(points)
+        header = Header.at(stamp_ns, self.frame_id)
+        return PointCloud2(header, 1, n, list(FIELDS), False, POINT_STEP, n * POINT_STEP, points.tobytes(), True)
+
+    def _tick(self, now_ns: int) -> None:
+        if self.ctx.bus.has_listeners(self.topic):
+            self.ctx.bus.publish(self.topic, self.cloud(now_ns))
+
+    def reset(self, seed: int) -> None:
+        """Noise from `seed` from now on."""
+        self.seed = seed
+
+    def close(self) -> None:
+        """Stop publishing."""
+        self._task.cancel()
