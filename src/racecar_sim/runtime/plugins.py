@@ -8,6 +8,7 @@ by the pair (sensor type, plugin file); a model plugin by its file alone:
   ray | gpu_ray   + libgazebo_ros_ray_sensor.so (ROS 2)                   laser or range, by its <output_type>
   ray | gpu_ray   + libgazebo_ros_velodyne_laser.so                       3-D lidar (PointCloud2): sensors/velodyne.py
   camera          + libgazebo_ros_camera.so                               camera: sensors/camera.py
+  multicamera     + libgazebo_ros_multicamera.so                          stereo pair: sensors/multicamera.py
   depth           + libgazebo_ros_openni_kinect.so                        depth camera: sensors/depth_camera.py
   depth           + libgazebo_ros_camera.so, libgazebo_ros_depth_camera.so (ROS 2)  depth camera
   imu             + libgazebo_ros_imu_sensor.so                           IMU: sensors/imu.py
@@ -163,6 +164,31 @@ def _parse_camera(block: Block, mount: Mount) -> Any:
     return CameraSpec.from_sensor(block)
 
 
+def _multicamera(ctx: NodeContext, specs: Any) -> Node | None:
+    from racecar_sim.core.errors import RenderingError
+    from racecar_sim.sensors.multicamera import stereo_pair
+
+    try:
+        return stereo_pair(ctx, specs)
+    except RenderingError as exc:
+        log.error("%s; continuing without the stereo camera %s", exc, specs[0].name)
+        return None
+
+
+def _prepare_multicamera(spec: mujoco.MjSpec, specs: Any, mount: Mount) -> None:
+    from racecar_sim.sensors.camera import add_camera
+
+    for camera in specs:
+        add_camera(spec, camera, mount.names)
+
+
+def _parse_multicamera(block: Block, mount: Mount) -> Any:
+    from racecar_sim.sensors.multicamera import stereo_specs
+
+    assert isinstance(block, Sensor)
+    return stereo_specs(block)
+
+
 def _depth(ctx: NodeContext, spec: Any) -> Node | None:
     from racecar_sim.core.errors import RenderingError
     from racecar_sim.sensors.depth_camera import DepthCamera
@@ -289,6 +315,9 @@ LASER = NodeKind(_laser, None, "lidar", ("libgazebo_ros_laser.so", "libgazebo_ro
 RANGE = NodeKind(_range, None, "", ("libgazebo_ros_range.so",), "range", _parse_range)
 CAMERA = NodeKind(_camera, _prepare_camera, "camera", ("libgazebo_ros_camera.so",), "camera", _parse_camera)
 DEPTH = NodeKind(_depth, _prepare_depth, "camera", ("libgazebo_ros_openni_kinect.so",), "depth_camera", _parse_depth)
+MULTICAMERA = NodeKind(
+    _multicamera, _prepare_multicamera, "camera", ("libgazebo_ros_multicamera.so",), "multicamera", _parse_multicamera
+)
 VELODYNE = NodeKind(
     _velodyne, None, "lidar", ("libgazebo_ros_velodyne_laser.so",), "velodyne", _parse_velodyne, _ray_parts
 )
@@ -333,9 +362,11 @@ for _type in ("ray", "gpu_ray"):
     register_sensor(_type, VELODYNE)
 for _plugin in ("libgazebo_ros_camera.so", "libgazebo_ros_depth_camera.so"):  # ROS 2: gazebo_ros_camera's depth
     register_sensor("depth", DEPTH, _plugin)
-for _kind, _type in ((CAMERA, "camera"), (DEPTH, "depth"), (IMU, "imu"), (BUMPER, "contact")):
+for _kind, _type in ((CAMERA, "camera"), (DEPTH, "depth"), (IMU, "imu")):
     register_sensor(_type, _kind)
     register_sensor(_type, _kind, NO_PLUGIN)
+register_sensor("contact", BUMPER)  # a contact sensor or a multicamera with no plugin reaches no topic: unknown
+register_sensor("multicamera", MULTICAMERA)
 
 
 def kinds() -> list[NodeKind]:
