@@ -112,10 +112,11 @@ def test_every_stub_is_its_definition() -> None:
 
 def test_sensor_data_is_read_off_the_definition() -> None:
     """The stamped sensor_msgs types but a robot's joint states and a joystick: the topics the ROS 2 bridge sends
-    best effort today, and the ranger's Range and the GPS's NavSatFix, each added as one file."""
+    best effort today, and the ranger's Range, the GPS's NavSatFix and the block laser's PointCloud, each added as one
+    file."""
     from racecar_sim.bridges.ros2 import qos
 
-    added = {"sensor_msgs/msg/Range", "sensor_msgs/msg/NavSatFix"}
+    added = {"sensor_msgs/msg/Range", "sensor_msgs/msg/NavSatFix", "sensor_msgs/msg/PointCloud"}
     assert categories.sensor_data_types() == qos.SENSOR_TYPES | added
     assert categories.is_sensor_data("sensor_msgs/Range") and not categories.is_sensor_data("sensor_msgs/JointState")
     assert not categories.is_sensor_data("nav_msgs/msg/Odometry")

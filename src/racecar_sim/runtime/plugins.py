@@ -7,6 +7,7 @@ by the pair (sensor type, plugin file); a model plugin by its file alone:
   ray | gpu_ray   + libgazebo_ros_range.so                                range (Range): sensors/range.py
   ray | gpu_ray   + libgazebo_ros_ray_sensor.so (ROS 2)                   laser or range, by its <output_type>
   ray | gpu_ray   + libgazebo_ros_velodyne_laser.so                       3-D lidar (PointCloud2): sensors/velodyne.py
+  ray | gpu_ray   + libgazebo_ros_block_laser.so                          3-D lidar (PointCloud): sensors/block_laser.py
   camera          + libgazebo_ros_camera.so                               camera: sensors/camera.py
   multicamera     + libgazebo_ros_multicamera.so                          stereo pair: sensors/multicamera.py
   depth           + libgazebo_ros_openni_kinect.so                        depth camera: sensors/depth_camera.py
@@ -122,6 +123,19 @@ def _parse_velodyne(block: Block, mount: Mount) -> Any:
 
     assert isinstance(block, Sensor)
     return VelodyneSpec.from_sensor(block)
+
+
+def _block_laser(ctx: NodeContext, spec: Any) -> Node:
+    from racecar_sim.sensors.block_laser import BlockLaserPublisher
+
+    return BlockLaserPublisher(ctx, spec)
+
+
+def _parse_block_laser(block: Block, mount: Mount) -> Any:
+    from racecar_sim.sensors.block_laser import BlockLaserSpec
+
+    assert isinstance(block, Sensor)
+    return BlockLaserSpec.from_sensor(block)
 
 
 def _range(ctx: NodeContext, spec: Any) -> Node:
@@ -321,6 +335,9 @@ MULTICAMERA = NodeKind(
 VELODYNE = NodeKind(
     _velodyne, None, "lidar", ("libgazebo_ros_velodyne_laser.so",), "velodyne", _parse_velodyne, _ray_parts
 )
+BLOCK_LASER = NodeKind(
+    _block_laser, None, "lidar", ("libgazebo_ros_block_laser.so",), "block_laser", _parse_block_laser, _ray_parts
+)
 RAY_SENSOR = NodeKind(
     _laser, None, "", ("libgazebo_ros_ray_sensor.so",), "ray_sensor", _parse_ray_sensor, refine=_refine_ray_sensor
 )
@@ -360,6 +377,7 @@ for _type in ("ray", "gpu_ray"):
     register_sensor(_type, RANGE)
     register_sensor(_type, RAY_SENSOR)
     register_sensor(_type, VELODYNE)
+    register_sensor(_type, BLOCK_LASER)
 for _plugin in ("libgazebo_ros_camera.so", "libgazebo_ros_depth_camera.so"):  # ROS 2: gazebo_ros_camera's depth
     register_sensor("depth", DEPTH, _plugin)
 for _kind, _type in ((CAMERA, "camera"), (DEPTH, "depth"), (IMU, "imu")):

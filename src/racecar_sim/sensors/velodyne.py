@@ -107,29 +107,19 @@ class VelodyneSpec:
         return np.stack([cp * np.cos(yaw), cp * np.sin(yaw), np.broadcast_to(sp, (v.samples, h.samples))], axis=-1)
 
 
-class VelodynePublisher(NodeBase):
-    """The Velodyne plugin's node: PointCloud2 on its topic at the sensor's rate (see the module doc)."""
+class BeamCaster:
+    """A 3-D lidar's beams cast from its link: the link's site (bound for the node), the sensor's pose on it, and the
+    3-D caster of the world the car is in (rebuilt after a recompile). Shared by the Velodyne and the block laser."""
 
-    def __init__(self, ctx: NodeContext, spec: VelodyneSpec) -> None:
-        names = ctx.names
-        self.ctx, self.spec, self.seed = ctx, spec, ctx.seed
-        self.topic = names.topic(spec.topic)
-        self.frame_id = spec.frame_id if spec.frame_id in ("world", "map") else names.frame(spec.frame_id)
-        self.parts = ctx.parts
-        self._root = names.mj(ctx.need_robot("a Velodyne").root)
-        self._local = spec.directions().reshape(-1, 3)
-        self._rings = np.repeat(np.arange(spec.vertical.samples, dtype=np.uint16), spec.horizontal.samples)
-        self._offset = np.array(spec.pose.xyz, dtype=float)
-        self._turn = quat_to_matrix(quat_from_rpy(spec.pose.rpy))
-        self.noise = ctx.noise and spec.gaussian_noise > 0
-        self.noise_table = NoiseTable.shared(ctx.noise_stream(f"velodyne/{spec.name}"), len(self._local))
-        self._lo = max(spec.min_range, spec.range_min)
-        self._hi = min(spec.max_range, spec.range_max - spec.range_min - 0.01)
+    def __init__(self, ctx: NodeContext, pose: Origin, what: str) -> None:
+        self.ctx, self.parts = ctx, ctx.parts
+        self._root = ctx.names.mj(ctx.need_robot(what).root)
+        self._offset = np.array(pose.xyz, dtype=float)
+        self._turn = quat_to_matrix(quat_from_rpy(pose.rpy))
         self.rebind(ctx.model, ctx.data)
-        self._task = ctx.timers.every(spec.update_rate, self._tick, f"velodyne {spec.name}")
 
     def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        """Cast in a recompiled model: the caster sees its geoms again (the parts are bound for the node)."""
+        """Cast in a recompiled model."""
         self.model, self.data = model, data
         self._shared = SharedPose.of(model, data)
         geoms = seen_geoms(model, COLLISION_GROUP)
@@ -143,11 +133,38 @@ class VelodynePublisher(NodeBase):
         rotation = pose.site_xmat[site].reshape(3, 3)
         return pose.site_xpos[site] + rotation @ self._offset, rotation @ self._turn
 
+    def cast(self, local: np.ndarray, range_min: float, range_max: float) -> np.ndarray:
+        """Distances (m) along the beams `local` (unit directions in the sensor frame, (n, 3)) to their first hit
+        between range_min and range_max, inf if none."""
+        origin, axes = self.ray_origin()
+        return self.rays.cast_rays(origin, local @ axes.T, range_min, range_max)
+
+
+class VelodynePublisher(NodeBase):
+    """The Velodyne plugin's node: PointCloud2 on its topic at the sensor's rate (see the module doc)."""
+
+    def __init__(self, ctx: NodeContext, spec: VelodyneSpec) -> None:
+        names = ctx.names
+        self.ctx, self.spec, self.seed = ctx, spec, ctx.seed
+        self.topic = names.topic(spec.topic)
+        self.frame_id = spec.frame_id if spec.frame_id in ("world", "map") else names.frame(spec.frame_id)
+        self.beams = BeamCaster(ctx, spec.pose, "a Velodyne")
+        self._local = spec.directions().reshape(-1, 3)
+        self._rings = np.repeat(np.arange(spec.vertical.samples, dtype=np.uint16), spec.horizontal.samples)
+        self.noise = ctx.noise and spec.gaussian_noise > 0
+        self.noise_table = NoiseTable.shared(ctx.noise_stream(f"velodyne/{spec.name}"), len(self._local))
+        self._lo = max(spec.min_range, spec.range_min)
+        self._hi = min(spec.max_range, spec.range_max - spec.range_min - 0.01)
+        self._task = ctx.timers.every(spec.update_rate, self._tick, f"velodyne {spec.name}")
+
+    def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """Cast in a recompiled model (its site's id is bound for the node)."""
+        self.beams.rebind(model, data)
+
     def ranges(self, stamp_ns: int) -> np.ndarray:
         """Every beam's range (m) now, ring by ring, as the plugin reads it (no hit: the span; with noise)."""
         spec = self.spec
-        origin, axes = self.ray_origin()
-        r = self.rays.cast_rays(origin, self._local @ axes.T, spec.range_min, spec.range_max)
+        r = self.beams.cast(self._local, spec.range_min, spec.range_max)
         np.minimum(r, spec.range_max - spec.range_min, out=r)
         if self.noise:
             r += spec.gaussian_noise * self.noise_table.sample(self.seed, stamp_ns)

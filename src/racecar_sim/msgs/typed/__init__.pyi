@@ -12,6 +12,7 @@ from racecar_sim.msgs.typed.gazebo_msgs import LinkStates as LinkStates
 from racecar_sim.msgs.typed.gazebo_msgs import ModelState as ModelState
 from racecar_sim.msgs.typed.gazebo_msgs import ModelStates as ModelStates
 from racecar_sim.msgs.typed.geometry_msgs import Point as Point
+from racecar_sim.msgs.typed.geometry_msgs import Point32 as Point32
 from racecar_sim.msgs.typed.geometry_msgs import Pose as Pose
 from racecar_sim.msgs.typed.geometry_msgs import PoseStamped as PoseStamped
 from racecar_sim.msgs.typed.geometry_msgs import PoseWithCovariance as PoseWithCovariance
@@ -29,6 +30,7 @@ from racecar_sim.msgs.typed.nav_msgs import OccupancyGrid as OccupancyGrid
 from racecar_sim.msgs.typed.nav_msgs import Odometry as Odometry
 from racecar_sim.msgs.typed.rosgraph_msgs import Clock as Clock
 from racecar_sim.msgs.typed.sensor_msgs import CameraInfo as CameraInfo
+from racecar_sim.msgs.typed.sensor_msgs import ChannelFloat32 as ChannelFloat32
 from racecar_sim.msgs.typed.sensor_msgs import CompressedImage as CompressedImage
 from racecar_sim.msgs.typed.sensor_msgs import Image as Image
 from racecar_sim.msgs.typed.sensor_msgs import Imu as Imu
@@ -37,6 +39,7 @@ from racecar_sim.msgs.typed.sensor_msgs import Joy as Joy
 from racecar_sim.msgs.typed.sensor_msgs import LaserScan as LaserScan
 from racecar_sim.msgs.typed.sensor_msgs import NavSatFix as NavSatFix
 from racecar_sim.msgs.typed.sensor_msgs import NavSatStatus as NavSatStatus
+from racecar_sim.msgs.typed.sensor_msgs import PointCloud as PointCloud
 from racecar_sim.msgs.typed.sensor_msgs import PointCloud2 as PointCloud2
 from racecar_sim.msgs.typed.sensor_msgs import PointField as PointField
 from racecar_sim.msgs.typed.sensor_msgs import Range as Range

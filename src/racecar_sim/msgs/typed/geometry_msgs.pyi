@@ -21,6 +21,20 @@ class Point(Message):
         z: float = ...,
     ) -> None: ...
 
+class Point32(Message):
+    """A point in free space, float32 (for many points: sensor_msgs/PointCloud)."""
+
+    __msgtype__: ClassVar[str]
+    x: float
+    y: float
+    z: float
+    def __init__(
+        self,
+        x: float = ...,
+        y: float = ...,
+        z: float = ...,
+    ) -> None: ...
+
 class Pose(Message):
     """The ROS message geometry_msgs/msg/Pose, made from its definition."""
 

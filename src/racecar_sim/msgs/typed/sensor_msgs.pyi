@@ -6,7 +6,7 @@ import numpy.typing as npt
 
 from racecar_sim.msgs._base import Message
 from racecar_sim.msgs.extras import ImageMethods
-from racecar_sim.msgs.typed.geometry_msgs import Quaternion, Vector3
+from racecar_sim.msgs.typed.geometry_msgs import Point32, Quaternion, Vector3
 from racecar_sim.msgs.typed.std_msgs import Header
 
 class CameraInfo(Message):
@@ -37,6 +37,18 @@ class CameraInfo(Message):
         binning_x: int = ...,
         binning_y: int = ...,
         roi: RegionOfInterest = ...,
+    ) -> None: ...
+
+class ChannelFloat32(Message):
+    """One value per point of a sensor_msgs/PointCloud, named: "intensity", "u", "v", "rgb", ..."""
+
+    __msgtype__: ClassVar[str]
+    name: str
+    values: npt.NDArray[np.float32]
+    def __init__(
+        self,
+        name: str = ...,
+        values: npt.NDArray[np.float32] = ...,
     ) -> None: ...
 
 class CompressedImage(Message):
@@ -203,6 +215,21 @@ class NavSatStatus(Message):
         self,
         status: int = ...,
         service: int = ...,
+    ) -> None: ...
+
+class PointCloud(Message):
+    """A collection of 3-D points in header.frame_id, each with the values of the channels (one per point in
+    each)."""
+
+    __msgtype__: ClassVar[str]
+    header: Header
+    points: list[Point32]
+    channels: list[ChannelFloat32]
+    def __init__(
+        self,
+        header: Header = ...,
+        points: list[Point32] = ...,
+        channels: list[ChannelFloat32] = ...,
     ) -> None: ...
 
 class PointCloud2(Message):
