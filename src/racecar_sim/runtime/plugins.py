@@ -5,7 +5,7 @@ by the pair (sensor type, plugin file); a model plugin by its file alone:
 
   ray | gpu_ray   + libgazebo_ros_laser.so, libgazebo_ros_gpu_laser.so   laser (LaserScan): sensors/lidar.py
   ray | gpu_ray   + libgazebo_ros_range.so                                range (Range): sensors/range.py
-  ray | gpu_ray   + libgazebo_ros_ray_sensor.so (ROS 2)                   laser or range, by its <output_type>
+  ray | gpu_ray   + libgazebo_ros_ray_sensor.so (ROS 2)                   laser, range or cloud, by its <output_type>
   ray | gpu_ray   + libgazebo_ros_velodyne_laser.so                       3-D lidar (PointCloud2): sensors/velodyne.py
   ray | gpu_ray   + libgazebo_ros_block_laser.so                          3-D lidar (PointCloud): sensors/block_laser.py
   camera          + libgazebo_ros_camera.so                               camera: sensors/camera.py
@@ -108,8 +108,15 @@ def _parse_ray_sensor(block: Block, mount: Mount) -> Any:
 
 def _refine_ray_sensor(spec: Any) -> NodeKind:
     from racecar_sim.sensors.laser_spec import LaserSpec
+    from racecar_sim.sensors.range_spec import RangeSpec
 
-    return LASER if isinstance(spec, LaserSpec) else RANGE
+    return LASER if isinstance(spec, LaserSpec) else RANGE if isinstance(spec, RangeSpec) else RAY_CLOUD
+
+
+def _ray_cloud(ctx: NodeContext, spec: Any) -> Node:
+    from racecar_sim.sensors.ray_cloud import RayCloudPublisher
+
+    return RayCloudPublisher(ctx, spec)
 
 
 def _velodyne(ctx: NodeContext, spec: Any) -> Node:
@@ -338,10 +345,12 @@ VELODYNE = NodeKind(
 BLOCK_LASER = NodeKind(
     _block_laser, None, "lidar", ("libgazebo_ros_block_laser.so",), "block_laser", _parse_block_laser, _ray_parts
 )
+RAY_CLOUD = NodeKind(_ray_cloud, None, "lidar", (), "ray_cloud", None, _ray_parts)
+"""ROS 2's gazebo_ros_ray_sensor with a point-cloud <output_type> (RAY_SENSOR refines to it)."""
 RAY_SENSOR = NodeKind(
     _laser, None, "", ("libgazebo_ros_ray_sensor.so",), "ray_sensor", _parse_ray_sensor, refine=_refine_ray_sensor
 )
-"""ROS 2's gazebo_ros_ray_sensor: a laser or a ranger, as its <output_type> says (refined to LASER or RANGE)."""
+"""ROS 2's gazebo_ros_ray_sensor: a laser, a ranger or a cloud, as its <output_type> says (LASER, RANGE, RAY_CLOUD)."""
 IMU = NodeKind(_imu, _prepare_imu, "imu", ("libgazebo_ros_imu_sensor.so",), "imu", _parse_imu, _imu_parts)
 BUMPER = NodeKind(_bumper, None, "", ("libgazebo_ros_bumper.so",), "bumper", _parse_bumper, _bumper_parts)
 NO_PLUGIN = ""
@@ -390,7 +399,7 @@ register_sensor("multicamera", MULTICAMERA)
 def kinds() -> list[NodeKind]:
     """Every registered kind, sensors then model plugins, each once."""
     found: dict[int, NodeKind] = {}
-    for kind in (*SENSORS.values(), *PLUGINS.values()):
+    for kind in (*SENSORS.values(), RAY_CLOUD, *PLUGINS.values()):  # RAY_CLOUD: reached by refining only
         found.setdefault(id(kind), kind)
     return list(found.values())
 

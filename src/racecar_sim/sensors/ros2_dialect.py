@@ -23,7 +23,8 @@ from racecar_sim.description.urdf import Plugin, Robot, Sensor
 from racecar_sim.sensors.camera_spec import CameraSpec
 from racecar_sim.sensors.imu import ImuSpec
 from racecar_sim.sensors.laser_spec import LaserSpec
-from racecar_sim.sensors.range_spec import RangeSpec
+from racecar_sim.sensors.range_spec import RangeSpec, ray_block
+from racecar_sim.sensors.ray_cloud import RayCloudSpec
 from racecar_sim.sensors.sensor_xml import plugin_number
 
 RAY_SENSOR = "libgazebo_ros_ray_sensor.so"
@@ -102,9 +103,10 @@ def frame_of(plugin: Plugin, sensor: Sensor, robot: Robot) -> str:
 
 
 # --- the ROS 2 plugins' specs: each the ROS 1 kind's spec, with the ROS 2 plugin's topics, frame and parameters -----
-def ray_sensor_spec(sensor: Sensor, robot: Robot) -> LaserSpec | RangeSpec | None:
-    """gazebo_ros_ray_sensor: a laser (`<output_type>sensor_msgs/LaserScan`) or a ranger (`sensor_msgs/Range`) on
-    `~/out`; None (after a warning naming the block) for the point clouds it can also give, not simulated here."""
+def ray_sensor_spec(sensor: Sensor, robot: Robot) -> LaserSpec | RangeSpec | RayCloudSpec | None:
+    """gazebo_ros_ray_sensor on `~/out`: a laser (`<output_type>sensor_msgs/LaserScan`), a ranger
+    (`sensor_msgs/Range`) or a point cloud (`sensor_msgs/PointCloud2`, the default, or `sensor_msgs/PointCloud`);
+    None (after a warning naming the block) for any other output type."""
     plugin = next(p for p in sensor.plugins if p.filename == RAY_SENSOR)
     node, frame = Ros2Node.of(plugin), frame_of(plugin, sensor, robot)
     output = plugin.params.get("output_type") or "sensor_msgs/PointCloud2"  # the plugin's default
@@ -113,9 +115,16 @@ def ray_sensor_spec(sensor: Sensor, robot: Robot) -> LaserSpec | RangeSpec | Non
         return dataclasses.replace(laser, topic=node.topic("~/out"), frame_id=frame)
     if output == "sensor_msgs/Range":
         return RangeSpec.from_ros2(sensor, node.topic("~/out"), frame, plugin.params.get("radiation_type", "infrared"))
+    if output in ("sensor_msgs/PointCloud2", "sensor_msgs/PointCloud"):
+        where = f"<sensor type='{sensor.type}' name='{sensor.name}'> on link {sensor.link}"
+        rate, horizontal, vertical, range_min, range_max = ray_block(sensor, where)
+        return RayCloudSpec(
+            sensor.name, sensor.link, sensor.pose, rate, horizontal, vertical, range_min, range_max,
+            node.topic("~/out"), frame, output, plugin_number(plugin.params, "min_intensity", where, 0.0),
+        )  # fmt: skip
     log.warning(
-        "%s: <sensor name='%s'> with %s gives <output_type> %s, which racecar-sim does not simulate (it gives "
-        "sensor_msgs/LaserScan and sensor_msgs/Range); the sensor is left out",
+        "%s: <sensor name='%s'> with %s gives <output_type> %s, which is none of sensor_msgs/LaserScan, "
+        "PointCloud2, PointCloud and Range; the sensor is left out",
         robot.source or robot.name,
         sensor.name,
         RAY_SENSOR,
