@@ -19,33 +19,25 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from racecar_sim.core.errors import DescriptionError
 from racecar_sim.core.rng import NoiseTable
-from racecar_sim.description.urdf import Origin, Sensor
+from racecar_sim.description.urdf import Sensor
 from racecar_sim.msgs.geometry_msgs import Point32
 from racecar_sim.msgs.sensor_msgs import ChannelFloat32, PointCloud
 from racecar_sim.msgs.std_msgs import Header
 from racecar_sim.nodes import NodeBase, NodeContext
-from racecar_sim.sensors.range_spec import Beams, ray_block
-from racecar_sim.sensors.sensor_xml import join_topic, plugin_number
-from racecar_sim.sensors.velodyne import BeamCaster
+from racecar_sim.sensors.ray_block import Beams, OnRay, RayBlock, directions
+from racecar_sim.sensors.sensor_xml import topic_and_frame
+from racecar_sim.sensors.velodyne import BeamCaster, noise_stddev
 
 PLUGIN = "libgazebo_ros_block_laser.so"
 EPSILON_DIFF = 1e-6  # the plugin's: a range this close to the cap is a beam that hit nothing (no noise)
 
 
 @dataclass(frozen=True)
-class BlockLaserSpec:
-    """A block laser: its beams, span, rate, noise, topic and frame."""
+class BlockLaserSpec(OnRay):
+    """A block laser: its ray block's beams, noise, topic and frame."""
 
-    name: str
-    link: str
-    pose: Origin
-    update_rate: float
-    horizontal: Beams
-    vertical: Beams
-    range_min: float
-    range_max: float
+    ray: RayBlock
     gaussian_noise: float
     topic: str
     frame_id: str
@@ -53,38 +45,14 @@ class BlockLaserSpec:
     @classmethod
     def from_sensor(cls, sensor: Sensor) -> BlockLaserSpec:
         """Read a ray block holding gazebo_ros_block_laser (DescriptionError naming what is wrong)."""
-        where = f"<sensor type='{sensor.type}' name='{sensor.name}'> on link {sensor.link}"
-        plugin = next((p for p in sensor.plugins if p.filename == PLUGIN), None)
-        if plugin is None:
-            raise DescriptionError(f"{where}: no <plugin filename='{PLUGIN}'> inside")
-        rate, horizontal, vertical, range_min, range_max = ray_block(sensor, where)
-        if rate <= 0:
-            raise DescriptionError(f"{where}: <update_rate> must be positive, got {rate:g}")
-        params = plugin.params
-        noise = plugin_number(params, "gaussianNoise", where, 0.0)
-        if noise < 0:
-            raise DescriptionError(f"{where}: <gaussianNoise> must not be negative, got {noise:g}")
-        return cls(
-            sensor.name,
-            sensor.link,
-            sensor.pose,
-            rate,
-            horizontal,
-            vertical,
-            range_min,
-            range_max,
-            noise,
-            join_topic(params.get("robotNamespace", ""), params.get("topicName") or "/world"),
-            (params.get("frameName") or "/world").lstrip("/"),
-        )
+        ray, params, where = RayBlock.read(sensor, PLUGIN, rated=True)
+        return cls(ray, noise_stddev(params, where), *topic_and_frame(params, "/world"))
 
 
-def _angles(beams: Beams) -> tuple[np.ndarray, np.ndarray]:
-    """The beams' own angles, and the angles the plugin puts their points at (halfway to the next beam)."""
+def _shifted(beams: Beams) -> np.ndarray:
+    """The angles the plugin puts the beams' points at: halfway to the next beam (the last keeps its own)."""
     index = np.arange(beams.samples)
-    own = beams.min_angle + beams.step * index
-    shifted = beams.min_angle + beams.step * 0.5 * (index + np.minimum(index + 1, beams.samples - 1))
-    return own, shifted
+    return beams.min_angle + beams.step * 0.5 * (index + np.minimum(index + 1, beams.samples - 1))
 
 
 class BlockLaserPublisher(NodeBase):
@@ -95,13 +63,13 @@ class BlockLaserPublisher(NodeBase):
         self.ctx, self.spec, self.seed = ctx, spec, ctx.seed
         self.topic = names.topic(spec.topic)
         self.frame_id = spec.frame_id if spec.frame_id in ("world", "map") else names.frame(spec.frame_id)
+        ray = spec.ray
         self.beams = BeamCaster(ctx, spec.pose, "a block laser")
-        (yaw, yaw_at), (pitch, pitch_at) = _angles(spec.horizontal), _angles(spec.vertical)
-        self._local = _directions(yaw, pitch, 1.0)  # where each beam points (rows of the vertical samples)
-        self._placed = _directions(yaw_at, pitch_at, -1.0)  # where the plugin puts its point (z down)
+        self._local = ray.directions()  # where each beam points (rows of the vertical samples)
+        self._placed = directions(_shifted(ray.horizontal), _shifted(ray.vertical), -1.0)  # its point (z down)
         self.noise = ctx.noise and spec.gaussian_noise > 0
         self.noise_table = NoiseTable.shared(ctx.noise_stream(f"block_laser/{spec.name}"), 4 * len(self._local))
-        self._task = ctx.timers.every(spec.update_rate, self._tick, f"block laser {spec.name}")
+        self._task = ctx.timers.every(ray.update_rate, self._tick, f"block laser {spec.name}")
 
     def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         """Cast in a recompiled model (its site's id is bound for the node)."""
@@ -109,10 +77,10 @@ class BlockLaserPublisher(NodeBase):
 
     def cloud(self, stamp_ns: int) -> PointCloud:
         """The cloud of a scan taken now, stamped `stamp_ns`."""
-        spec = self.spec
-        cap = spec.range_max - spec.range_min
-        r = self.beams.cast(self._local, spec.range_min, spec.range_max)
-        r[~np.isfinite(r)] = spec.range_max  # no hit: the ray's full length
+        spec, ray = self.spec, self.spec.ray
+        cap = ray.range_max - ray.range_min
+        r = self.beams.cast(self._local, ray.range_min, ray.range_max)
+        r[~np.isfinite(r)] = ray.range_max  # no hit: the ray's full length
         np.minimum(r, cap, out=r)
         xyz = self._placed * r[:, None]
         intensity = np.zeros(len(r))
@@ -136,10 +104,3 @@ class BlockLaserPublisher(NodeBase):
     def close(self) -> None:
         """Stop publishing."""
         self._task.cancel()
-
-
-def _directions(yaw: np.ndarray, pitch: np.ndarray, up: float) -> np.ndarray:
-    """Unit directions (rows of pitch, each every yaw; flattened to (n, 3)) with z = up * sin(pitch)."""
-    cp, sp = np.cos(pitch)[:, None], np.sin(pitch)[:, None]
-    grid = np.stack([cp * np.cos(yaw), cp * np.sin(yaw), np.broadcast_to(up * sp, (len(pitch), len(yaw)))], axis=-1)
-    return grid.reshape(-1, 3)

@@ -166,10 +166,7 @@ class GpsPublisher(NodeBase):
         names = ctx.names
         self.ctx, self.spec, self.seed = ctx, spec, ctx.seed
         self.fix_topic, self.velocity_topic = names.topic(spec.fix_topic), names.topic(spec.velocity_topic)
-        self.parts = ctx.parts if ctx.parts.declares("site") else gps_parts(spec, Mount(ctx.need_robot("a GPS"), names))
-        if self.parts is not ctx.parts:
-            self.parts.bind(ctx.model)
-        self._owns_parts = self.parts is not ctx.parts
+        self.parts = ctx.parts  # its link's site, bound by the car
         self._north, self._east = spec.radii
         self._cos, self._sin = math.cos(spec.heading), math.sin(spec.heading)
         self.noise = ctx.noise and any(spec.position.gaussian_noise + spec.velocity.gaussian_noise)
@@ -224,11 +221,6 @@ class GpsPublisher(NodeBase):
     def reset(self, seed: int) -> None:
         """Noise from `seed` from now on."""
         self.seed = seed
-
-    def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        """Its parts are bound for it (or rebound here, for a GPS built on its own)."""
-        if self._owns_parts:
-            self.parts.bind(model)
 
     def close(self) -> None:
         """Stop publishing."""

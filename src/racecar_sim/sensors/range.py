@@ -57,13 +57,14 @@ class RangePublisher(NodeBase):
         self._root = names.mj(self.robot.root)
         self._offset = np.array(spec.pose.xyz, dtype=float)
         self._turn = quat_to_matrix(quat_from_rpy(spec.pose.rpy))
-        h, v = spec.horizontal, spec.vertical
+        ray = spec.ray
+        h, v = ray.horizontal, ray.vertical
         self._level = v.samples == 1 and v.min_angle == 0.0  # one level row: a single fan over h
         if self._level:
-            self._fan = Fan(h.min_angle, h.step, h.samples, spec.range_min, spec.range_max)
+            self._fan = Fan(h.min_angle, h.step, h.samples, ray.range_min, ray.range_max)
             self._columns = [np.eye(3)]
         else:
-            self._fan = Fan(v.min_angle, v.step, v.samples, spec.range_min, spec.range_max)
+            self._fan = Fan(v.min_angle, v.step, v.samples, ray.range_min, ray.range_max)
             self._columns = [_yaw(h.min_angle + h.step * i) @ _UPRIGHT for i in range(h.samples)]
         self.caster: RayCaster | None = None
         # the site of its link, bound by the car (or here, for a ranger built on its own)
@@ -71,7 +72,7 @@ class RangePublisher(NodeBase):
         self.parts = ctx.parts if ctx.parts.declares("site") else own.bind(ctx.model)
         self._owns_parts = self.parts is not ctx.parts
         self.rebind(ctx.model, ctx.data)
-        rate = spec.update_rate if spec.update_rate > 0 else 1e9 / ctx.timers.step_ns  # 0: every physics step
+        rate = ray.update_rate if ray.update_rate > 0 else 1e9 / ctx.timers.step_ns  # 0: every physics step
         self._task = ctx.timers.every(rate, self._tick, f"range {spec.name}")
 
     def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
@@ -104,14 +105,15 @@ class RangePublisher(NodeBase):
         nearest = math.inf
         for column in self._columns:
             nearest = min(nearest, float(self.caster.cast(origin, axes @ column).min(initial=math.inf)))
-        return nearest if nearest <= self.spec.range_max else self.spec.nothing_seen
+        return nearest if nearest <= self.spec.ray.range_max else self.spec.nothing_seen
 
     def reading(self, stamp_ns: int) -> float:
         """The published range of a reading taken now and stamped `stamp_ns` (with that stamp's noise)."""
         value = self.true_range()
-        if self.noise and value < self.spec.range_max:
+        range_max = self.spec.ray.range_max
+        if self.noise and value < range_max:
             value = min(value + self.spec.gaussian_noise * float(self.noise_table.sample(self.seed, stamp_ns)[0]),
-                        self.spec.range_max)  # fmt: skip
+                        range_max)  # fmt: skip
         return value
 
     def _tick(self, now_ns: int) -> None:
@@ -124,8 +126,8 @@ class RangePublisher(NodeBase):
                 Header.at(now_ns, self.frame_id),
                 spec.radiation_type,
                 spec.field_of_view,
-                spec.range_min,
-                spec.range_max,
+                spec.ray.range_min,
+                spec.ray.range_max,
                 self.reading(now_ns),
             ),
         )

@@ -16,42 +16,25 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from racecar_sim.description.urdf import Origin
 from racecar_sim.msgs.geometry_msgs import Point32
 from racecar_sim.msgs.sensor_msgs import ChannelFloat32, PointCloud, PointCloud2, PointField
 from racecar_sim.msgs.std_msgs import Header
 from racecar_sim.nodes import NodeBase, NodeContext
-from racecar_sim.sensors.range_spec import Beams
+from racecar_sim.sensors.ray_block import OnRay, RayBlock
 from racecar_sim.sensors.velodyne import BeamCaster
 
 FIELDS = tuple(PointField(name, 4 * i, PointField.FLOAT32, 1) for i, name in enumerate(("x", "y", "z", "intensity")))
 
 
 @dataclass(frozen=True)
-class RayCloudSpec:
+class RayCloudSpec(OnRay):
     """A ray block published as a point cloud by ROS 2's gazebo_ros_ray_sensor."""
 
-    name: str
-    link: str
-    pose: Origin
-    update_rate: float
-    horizontal: Beams
-    vertical: Beams
-    range_min: float
-    range_max: float
+    ray: RayBlock
     topic: str
     frame_id: str
     output_type: str  # sensor_msgs/PointCloud2 | sensor_msgs/PointCloud
     min_intensity: float
-
-    def directions(self) -> np.ndarray:
-        """The beams' unit directions in the sensor frame, row by row of the vertical samples ((n, 3))."""
-        h, v = self.horizontal, self.vertical
-        yaw = h.min_angle + h.step * np.arange(h.samples)
-        pitch = v.min_angle + v.step * np.arange(v.samples)
-        cp, sp = np.cos(pitch)[:, None], np.sin(pitch)[:, None]
-        grid = np.stack([cp * np.cos(yaw), cp * np.sin(yaw), np.broadcast_to(sp, (v.samples, h.samples))], axis=-1)
-        return grid.reshape(-1, 3)
 
 
 class RayCloudPublisher(NodeBase):
@@ -63,8 +46,9 @@ class RayCloudPublisher(NodeBase):
         self.topic = names.topic(spec.topic)
         self.frame_id = spec.frame_id if spec.frame_id in ("world", "map") else names.frame(spec.frame_id)
         self.beams = BeamCaster(ctx, spec.pose, "a ray sensor")
-        self._local = spec.directions()
-        rate = spec.update_rate if spec.update_rate > 0 else 1e9 / ctx.timers.step_ns  # 0: every physics step
+        ray = spec.ray
+        self._local = ray.directions()
+        rate = ray.update_rate if ray.update_rate > 0 else 1e9 / ctx.timers.step_ns  # 0: every physics step
         self._task = ctx.timers.every(rate, self._tick, f"ray sensor {spec.name}")
 
     def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
@@ -74,7 +58,7 @@ class RayCloudPublisher(NodeBase):
     def cloud(self, stamp_ns: int) -> PointCloud2 | PointCloud:
         """The cloud of a scan taken now, stamped `stamp_ns`."""
         spec = self.spec
-        r = self.beams.cast(self._local, spec.range_min, spec.range_max)
+        r = self.beams.cast(self._local, spec.ray.range_min, spec.ray.range_max)
         hit = np.isfinite(r)
         xyz = (self._local[hit] * r[hit, None]).astype(np.float32)
         intensity = np.full(len(xyz), max(0.0, spec.min_intensity), np.float32)

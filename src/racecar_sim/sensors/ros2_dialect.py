@@ -23,7 +23,8 @@ from racecar_sim.description.urdf import Plugin, Robot, Sensor
 from racecar_sim.sensors.camera_spec import CameraSpec
 from racecar_sim.sensors.imu import ImuSpec
 from racecar_sim.sensors.laser_spec import LaserSpec
-from racecar_sim.sensors.range_spec import RangeSpec, ray_block
+from racecar_sim.sensors.range_spec import RangeSpec
+from racecar_sim.sensors.ray_block import RayBlock
 from racecar_sim.sensors.ray_cloud import RayCloudSpec
 from racecar_sim.sensors.sensor_xml import plugin_number
 
@@ -117,11 +118,8 @@ def ray_sensor_spec(sensor: Sensor, robot: Robot) -> LaserSpec | RangeSpec | Ray
         return RangeSpec.from_ros2(sensor, node.topic("~/out"), frame, plugin.params.get("radiation_type", "infrared"))
     if output in ("sensor_msgs/PointCloud2", "sensor_msgs/PointCloud"):
         where = f"<sensor type='{sensor.type}' name='{sensor.name}'> on link {sensor.link}"
-        rate, horizontal, vertical, range_min, range_max = ray_block(sensor, where)
-        return RayCloudSpec(
-            sensor.name, sensor.link, sensor.pose, rate, horizontal, vertical, range_min, range_max,
-            node.topic("~/out"), frame, output, plugin_number(plugin.params, "min_intensity", where, 0.0),
-        )  # fmt: skip
+        min_intensity = plugin_number(plugin.params, "min_intensity", where, 0.0)
+        return RayCloudSpec(RayBlock.from_sensor(sensor), node.topic("~/out"), frame, output, min_intensity)
     log.warning(
         "%s: <sensor name='%s'> with %s gives <output_type> %s, which is none of sensor_msgs/LaserScan, "
         "PointCloud2, PointCloud and Range; the sensor is left out",

@@ -31,10 +31,10 @@ from racecar_sim.msgs.std_msgs import Header
 from racecar_sim.nodes import NodeBase, NodeContext
 from racecar_sim.physics import COLLISION_GROUP
 from racecar_sim.physics.near_walls import WallBoxes
-from racecar_sim.sensors.range_spec import Beams, ray_block
+from racecar_sim.sensors.ray_block import OnRay, RayBlock
 from racecar_sim.sensors.raycast.mujoco3d import MujocoRays
 from racecar_sim.sensors.raycast.scene import seen_geoms, subtree_bodies
-from racecar_sim.sensors.sensor_xml import join_topic, plugin_number
+from racecar_sim.sensors.sensor_xml import plugin_number, topic_and_frame
 from racecar_sim.sensors.shared_pose import SharedPose
 
 PLUGIN = "libgazebo_ros_velodyne_laser.so"
@@ -51,17 +51,10 @@ POINT = np.dtype({"names": ["x", "y", "z", "intensity", "ring"], "formats": ["<f
 
 
 @dataclass(frozen=True)
-class VelodyneSpec:
-    """A Velodyne block: its beams, span, rate, the plugin's cut-offs and noise, topic and frame."""
+class VelodyneSpec(OnRay):
+    """A Velodyne block: its ray block's beams, the plugin's cut-offs and noise, topic and frame."""
 
-    name: str
-    link: str
-    pose: Origin
-    update_rate: float
-    horizontal: Beams
-    vertical: Beams
-    range_min: float
-    range_max: float
+    ray: RayBlock
     min_range: float  # the plugin's <min_range>
     max_range: float  # the plugin's <max_range>
     gaussian_noise: float
@@ -71,40 +64,17 @@ class VelodyneSpec:
     @classmethod
     def from_sensor(cls, sensor: Sensor) -> VelodyneSpec:
         """Read a ray block holding the Velodyne plugin (DescriptionError naming what is wrong)."""
-        where = f"<sensor type='{sensor.type}' name='{sensor.name}'> on link {sensor.link}"
-        plugin = next((p for p in sensor.plugins if p.filename == PLUGIN), None)
-        if plugin is None:
-            raise DescriptionError(f"{where}: no <plugin filename='{PLUGIN}'> inside")
-        rate, horizontal, vertical, range_min, range_max = ray_block(sensor, where)
-        if rate <= 0:
-            raise DescriptionError(f"{where}: <update_rate> must be positive, got {rate:g}")
-        params = plugin.params
-        noise = plugin_number(params, "gaussianNoise", where, 0.0)
-        if noise < 0:
-            raise DescriptionError(f"{where}: <gaussianNoise> must not be negative, got {noise:g}")
-        return cls(
-            sensor.name,
-            sensor.link,
-            sensor.pose,
-            rate,
-            horizontal,
-            vertical,
-            range_min,
-            range_max,
-            plugin_number(params, "min_range", where, 0.0),
-            plugin_number(params, "max_range", where, math.inf),
-            noise,
-            join_topic(params.get("robotNamespace", ""), params.get("topicName") or "/points"),
-            (params.get("frameName") or "/world").lstrip("/"),
-        )
+        ray, params, where = RayBlock.read(sensor, PLUGIN, rated=True)
+        low, high = plugin_number(params, "min_range", where, 0.0), plugin_number(params, "max_range", where, math.inf)
+        return cls(ray, low, high, noise_stddev(params, where), *topic_and_frame(params, "/points"))
 
-    def directions(self) -> np.ndarray:
-        """The beams' unit directions in the sensor frame, ring by ring (rings x samples, 3)."""
-        h, v = self.horizontal, self.vertical
-        yaw = h.min_angle + h.step * np.arange(h.samples)
-        pitch = v.min_angle + v.step * np.arange(v.samples)
-        cp, sp = np.cos(pitch)[:, None], np.sin(pitch)[:, None]
-        return np.stack([cp * np.cos(yaw), cp * np.sin(yaw), np.broadcast_to(sp, (v.samples, h.samples))], axis=-1)
+
+def noise_stddev(params: dict[str, str], where: str) -> float:
+    """A plugin's <gaussianNoise> (default 0; DescriptionError if negative)."""
+    noise = plugin_number(params, "gaussianNoise", where, 0.0)
+    if noise < 0:
+        raise DescriptionError(f"{where}: <gaussianNoise> must not be negative, got {noise:g}")
+    return noise
 
 
 class BeamCaster:
@@ -148,14 +118,15 @@ class VelodynePublisher(NodeBase):
         self.ctx, self.spec, self.seed = ctx, spec, ctx.seed
         self.topic = names.topic(spec.topic)
         self.frame_id = spec.frame_id if spec.frame_id in ("world", "map") else names.frame(spec.frame_id)
+        ray = spec.ray
         self.beams = BeamCaster(ctx, spec.pose, "a Velodyne")
-        self._local = spec.directions().reshape(-1, 3)
-        self._rings = np.repeat(np.arange(spec.vertical.samples, dtype=np.uint16), spec.horizontal.samples)
+        self._local = ray.directions()
+        self._rings = np.repeat(np.arange(ray.vertical.samples, dtype=np.uint16), ray.horizontal.samples)
         self.noise = ctx.noise and spec.gaussian_noise > 0
         self.noise_table = NoiseTable.shared(ctx.noise_stream(f"velodyne/{spec.name}"), len(self._local))
-        self._lo = max(spec.min_range, spec.range_min)
-        self._hi = min(spec.max_range, spec.range_max - spec.range_min - 0.01)
-        self._task = ctx.timers.every(spec.update_rate, self._tick, f"velodyne {spec.name}")
+        self._lo = max(spec.min_range, ray.range_min)
+        self._hi = min(spec.max_range, ray.range_max - ray.range_min - 0.01)
+        self._task = ctx.timers.every(ray.update_rate, self._tick, f"velodyne {spec.name}")
 
     def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         """Cast in a recompiled model (its site's id is bound for the node)."""
@@ -163,9 +134,9 @@ class VelodynePublisher(NodeBase):
 
     def ranges(self, stamp_ns: int) -> np.ndarray:
         """Every beam's range (m) now, ring by ring, as the plugin reads it (no hit: the span; with noise)."""
-        spec = self.spec
-        r = self.beams.cast(self._local, spec.range_min, spec.range_max)
-        np.minimum(r, spec.range_max - spec.range_min, out=r)
+        spec, ray = self.spec, self.spec.ray
+        r = self.beams.cast(self._local, ray.range_min, ray.range_max)
+        np.minimum(r, ray.range_max - ray.range_min, out=r)
         if self.noise:
             r += spec.gaussian_noise * self.noise_table.sample(self.seed, stamp_ns)
         return r
