@@ -38,7 +38,7 @@ USER_XACRO = f"""\
         </scan>
         <range><min>0.3</min><max>10.0</max><resolution>0.001</resolution></range>
       </ray>
-      <plugin name="gazebo_ros_laser_controller" filename="libgazebo_ros_velodyne_laser.so">
+      <plugin name="gazebo_ros_laser_controller" filename="PLUGIN_FILE">
         <topicName>/velodyne_points</topicName><frameName>velodyne</frameName>
         <min_range>0.9</min_range><max_range>130.0</max_range><gaussianNoise>0.0</gaussianNoise>
       </plugin>
@@ -58,8 +58,13 @@ WALL_WORLD = f"""\
 """
 
 
-def test_rings_and_points_in_the_planes_they_hit(tmp_path):
-    (tmp_path / "vlp.xacro").write_text(USER_XACRO)
+@pytest.mark.parametrize(
+    ("sensor_type", "plugin"),
+    [("ray", "libgazebo_ros_velodyne_laser.so"), ("gpu_ray", "libgazebo_ros_velodyne_gpu_laser.so")],
+)
+def test_rings_and_points_in_the_planes_they_hit(tmp_path, sensor_type, plugin):
+    xacro = USER_XACRO.replace("PLUGIN_FILE", plugin).replace('<sensor type="ray"', f'<sensor type="{sensor_type}"')
+    (tmp_path / "vlp.xacro").write_text(xacro)
     (tmp_path / "wall.world").write_text(WALL_WORLD)
     with Simulator(
         world=str(tmp_path / "wall.world"), xacro=tmp_path / "vlp.xacro", camera=False, seed=1,

@@ -6,7 +6,7 @@ by the pair (sensor type, plugin file); a model plugin by its file alone:
   ray | gpu_ray   + libgazebo_ros_laser.so, libgazebo_ros_gpu_laser.so   laser (LaserScan): sensors/lidar.py
   ray | gpu_ray   + libgazebo_ros_range.so                                range (Range): sensors/range.py
   ray | gpu_ray   + libgazebo_ros_ray_sensor.so (ROS 2)                   laser, range or cloud, by its <output_type>
-  ray | gpu_ray   + libgazebo_ros_velodyne_laser.so                       3-D lidar (PointCloud2): sensors/velodyne.py
+  ray | gpu_ray   + libgazebo_ros_velodyne_(gpu_)laser.so                 3-D lidar (PointCloud2): sensors/velodyne.py
   ray | gpu_ray   + libgazebo_ros_block_laser.so                          3-D lidar (PointCloud): sensors/block_laser.py
   camera          + libgazebo_ros_camera.so                               camera: sensors/camera.py
   multicamera     + libgazebo_ros_multicamera.so                          stereo pair: sensors/multicamera.py
@@ -386,6 +386,7 @@ for _type in ("ray", "gpu_ray"):
     register_sensor(_type, RANGE)
     register_sensor(_type, RAY_SENSOR)
     register_sensor(_type, VELODYNE)
+    register_sensor(_type, VELODYNE, "libgazebo_ros_velodyne_gpu_laser.so")  # the same cloud, from a GPU ray block
     register_sensor(_type, BLOCK_LASER)
 for _plugin in ("libgazebo_ros_camera.so", "libgazebo_ros_depth_camera.so"):  # ROS 2: gazebo_ros_camera's depth
     register_sensor("depth", DEPTH, _plugin)

@@ -38,6 +38,7 @@ from racecar_sim.sensors.sensor_xml import plugin_number, topic_and_frame
 from racecar_sim.sensors.shared_pose import SharedPose
 
 PLUGIN = "libgazebo_ros_velodyne_laser.so"
+GPU_PLUGIN = "libgazebo_ros_velodyne_gpu_laser.so"
 POINT_STEP = 32
 FIELDS = (
     PointField("x", 0, PointField.FLOAT32, 1),
@@ -64,7 +65,8 @@ class VelodyneSpec(OnRay):
     @classmethod
     def from_sensor(cls, sensor: Sensor) -> VelodyneSpec:
         """Read a ray block holding the Velodyne plugin (DescriptionError naming what is wrong)."""
-        ray, params, where = RayBlock.read(sensor, PLUGIN, rated=True)
+        plugin = next((p.filename for p in sensor.plugins if p.filename in (PLUGIN, GPU_PLUGIN)), PLUGIN)
+        ray, params, where = RayBlock.read(sensor, plugin, rated=True)
         low, high = plugin_number(params, "min_range", where, 0.0), plugin_number(params, "max_range", where, math.inf)
         return cls(ray, low, high, noise_stddev(params, where), *topic_and_frame(params, "/points"))
 
