@@ -30,7 +30,7 @@ from functools import lru_cache
 import numpy as np
 from gymnasium import spaces
 
-from racecar_sim.core.errors import CommandError, ConfigError
+from racecar_sim.core.errors import CommandError, ConfigError, DescriptionError
 from racecar_sim.sensors.camera_spec import CameraSpec
 from racecar_sim.sensors.laser_spec import LaserSpec
 
@@ -158,11 +158,14 @@ def default_specs(profile: str = "seed") -> tuple[LaserSpec, CameraSpec | None]:
     """The laser and camera specs of the stock racecar xacro under `profile` (for spaces without a Simulator)."""
     from racecar_sim.control.profiles import load_profile
     from racecar_sim.description import DEFAULT_XACRO, load_robot
-    from racecar_sim.sensors.lidar import laser_spec
+    from racecar_sim.runtime.plugins import first_sensor
+    from racecar_sim.sensors.lidar import named_laser_spec
 
     robot = load_robot(DEFAULT_XACRO, load_profile(profile).xacro_args)
-    camera = robot.sensor("camera")
-    return laser_spec(robot), CameraSpec.from_sensor(camera) if camera is not None else None
+    laser, camera = first_sensor(robot, "laser"), first_sensor(robot, "camera")  # the registry's laser, not any ray
+    if laser is None:
+        raise DescriptionError(f"robot {robot.name} has no laser (is DISABLE_GAZEBO_LASER set?)")
+    return named_laser_spec(laser), CameraSpec.from_sensor(camera) if camera is not None else None
 
 
 def pooled_space(sectors: int) -> spaces.Box:

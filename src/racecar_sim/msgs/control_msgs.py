@@ -1,29 +1,12 @@
-"""``control_msgs`` messages: JointControllerState, what ros_control's joint controllers publish on `<name>/state`."""
+"""ROS 2 ``control_msgs``: a class for each definition in msgs/definitions/control_msgs (msgs/generate.py)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import TYPE_CHECKING
 
-from racecar_sim.msgs._base import Message
-from racecar_sim.msgs.std_msgs import Header
+from racecar_sim.msgs.generate import package_getattr
 
+if TYPE_CHECKING:
+    from racecar_sim.msgs.typed.control_msgs import *  # noqa: F403  # the classes' types, from the same definitions
 
-@dataclass(eq=False, repr=False, slots=True)
-class JointControllerState(Message):
-    """State of one joint controller: set point, measured value, error, output effort and PID gains."""
-
-    __msgtype__: ClassVar[str] = "control_msgs/msg/JointControllerState"
-
-    header: Header = field(default_factory=Header)
-    set_point: float = 0.0
-    process_value: float = 0.0
-    process_value_dot: float = 0.0
-    error: float = 0.0
-    time_step: float = 0.0
-    command: float = 0.0
-    p: float = 0.0
-    i: float = 0.0
-    d: float = 0.0
-    i_clamp: float = 0.0
-    antiwindup: bool = False
+__getattr__ = package_getattr(__name__)

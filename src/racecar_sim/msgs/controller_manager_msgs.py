@@ -8,31 +8,15 @@ are plain dataclasses with the fields of the ``.srv`` files: they travel only th
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
-from racecar_sim.msgs._base import Message
+from racecar_sim.msgs.generate import package_getattr
 
+if TYPE_CHECKING:
+    from racecar_sim.msgs.typed.controller_manager_msgs import *  # noqa: F403  # the messages' types
+    from racecar_sim.msgs.typed.controller_manager_msgs import ControllerState
 
-@dataclass(eq=False, repr=False, slots=True)
-class HardwareInterfaceResources(Message):
-    """The resources (joints) a controller claims on one hardware interface."""
-
-    __msgtype__: ClassVar[str] = "controller_manager_msgs/msg/HardwareInterfaceResources"
-
-    hardware_interface: str = ""
-    resources: list[str] = field(default_factory=list)
-
-
-@dataclass(eq=False, repr=False, slots=True)
-class ControllerState(Message):
-    """One loaded controller: name, state ("initialized", "running", "stopped", ...), type and claimed resources."""
-
-    __msgtype__: ClassVar[str] = "controller_manager_msgs/msg/ControllerState"
-
-    name: str = ""
-    state: str = ""
-    type: str = ""
-    claimed_resources: list[HardwareInterfaceResources] = field(default_factory=list)
+__getattr__ = package_getattr(__name__)
 
 
 @dataclass

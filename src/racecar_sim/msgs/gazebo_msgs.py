@@ -10,46 +10,20 @@ recording, so they have no ``.msg`` schema.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 from racecar_sim.msgs._base import Message
+from racecar_sim.msgs.generate import package_getattr
 from racecar_sim.msgs.geometry_msgs import Pose, Twist
 from racecar_sim.msgs.std_msgs import Header
 
+if TYPE_CHECKING:
+    from racecar_sim.msgs.typed.gazebo_msgs import *  # noqa: F403  # the messages' types, from their definitions
+    from racecar_sim.msgs.typed.gazebo_msgs import ModelState
 
-@dataclass(eq=False, repr=False, slots=True)
-class LinkStates(Message):
-    """Every link of every model, named ``model::link``, with its pose and twist in the world frame."""
-
-    __msgtype__: ClassVar[str] = "gazebo_msgs/msg/LinkStates"
-
-    name: list[str] = field(default_factory=list)
-    pose: list[Pose] = field(default_factory=list)
-    twist: list[Twist] = field(default_factory=list)
-
-
-@dataclass(eq=False, repr=False, slots=True)
-class ModelStates(Message):
-    """Every model by its Gazebo name, with its pose and twist in the world frame."""
-
-    __msgtype__: ClassVar[str] = "gazebo_msgs/msg/ModelStates"
-
-    name: list[str] = field(default_factory=list)
-    pose: list[Pose] = field(default_factory=list)
-    twist: list[Twist] = field(default_factory=list)
-
-
-@dataclass(eq=False, repr=False, slots=True)
-class ModelState(Message):
-    """A model's desired pose and twist, relative to `reference_frame` ("", "world" or "map": the world frame;
-    else a model or a ``model::link``)."""
-
-    __msgtype__: ClassVar[str] = "gazebo_msgs/msg/ModelState"
-
-    model_name: str = ""
-    pose: Pose = field(default_factory=Pose)
-    twist: Twist = field(default_factory=Twist)
-    reference_frame: str = ""
+__getattr__ = package_getattr(__name__)
+if not TYPE_CHECKING:
+    ModelState = __getattr__("ModelState")  # a default of SetModelStateRequest
 
 
 # --- services (request --- response) ------------------------------------------------------------------------------
@@ -202,9 +176,6 @@ __all__ = [
     "GetWorldProperties",
     "GetWorldPropertiesRequest",
     "GetWorldPropertiesResponse",
-    "LinkStates",
-    "ModelState",
-    "ModelStates",
     "SetModelState",
     "SetModelStateRequest",
     "SetModelStateResponse",

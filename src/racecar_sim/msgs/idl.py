@@ -42,6 +42,7 @@ class FieldSpec:
         size: ``N`` for a fixed-size array ``T[N]``, otherwise None.
         attr: The message class's attribute that holds the value: ``name`` unless given; None for a field
             that is on a wire only (ROS 1's ``Header.seq``).
+        default: The default value's text after the name (``float64 w 1``), or None.
     """
 
     name: str
@@ -49,6 +50,7 @@ class FieldSpec:
     is_array: bool = False
     size: int | None = None
     attr: str | None = ""
+    default: str | None = None
 
     def __post_init__(self) -> None:
         if self.attr == "":
@@ -133,7 +135,7 @@ def parse_msg(text: str, msgtype: str) -> MsgSpec:
         if const := _CONSTANT_RE.match(rest):
             constants.append((type_token, const["name"], const["value"].strip()))
             continue
-        name = rest.split(None, 1)[0]  # anything after the name is a default value
+        name, *default = rest.split(None, 1)  # anything after the name is a default value
         match = _ARRAY_RE.match(type_token)
         if match is None or not _NAME_RE.match(name):
             raise ValueError(f"{msgtype} line {lineno}: cannot parse {raw!r}")
@@ -143,7 +145,8 @@ def parse_msg(text: str, msgtype: str) -> MsgSpec:
             raise ValueError(f"{msgtype} line {lineno}: {exc}") from None
         is_array = match.group(0) != match["base"]
         fixed = is_array and not match["bound"] and match["size"] != ""
-        fields.append(FieldSpec(name, resolved, is_array, int(match["size"]) if fixed else None))
+        size = int(match["size"]) if fixed else None
+        fields.append(FieldSpec(name, resolved, is_array, size, default=default[0].strip() if default else None))
     return MsgSpec(msgtype, tuple(fields), tuple(constants), text.rstrip() + "\n")
 
 

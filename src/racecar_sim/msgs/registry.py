@@ -2,41 +2,22 @@
 
 from __future__ import annotations
 
-import importlib
-from functools import cache
 from typing import Any
 
-from racecar_sim.msgs.idl import normalize_msgtype
-
-# One module per ROS package, named after it.
-PACKAGES = (
-    "ackermann_msgs",
-    "builtin_interfaces",
-    "control_msgs",
-    "controller_manager_msgs",
-    "gazebo_msgs",
-    "geometry_msgs",
-    "nav_msgs",
-    "rosgraph_msgs",
-    "sensor_msgs",
-    "std_msgs",
-    "tf2_msgs",
-)
+from racecar_sim.msgs.generate import message_type
 
 
-@cache
 def message_class(msgtype: str) -> type[Any]:
-    """The class for ``msgtype`` (``pkg/msg/Name`` or ``pkg/Name``).
+    """The class for ``msgtype`` (``pkg/msg/Name`` or ``pkg/Name``): the one made from its definition.
 
     Raises:
-        KeyError: This package has no class for that type.
+        KeyError: This package has no definition of that type.
+        ValueError: The name is not a message type name.
     """
-    pkg, _, name = normalize_msgtype(msgtype).split("/")
-    if pkg in PACKAGES:
-        cls = getattr(importlib.import_module(f"racecar_sim.msgs.{pkg}"), name, None)
-        if isinstance(cls, type) and getattr(cls, "__msgtype__", None) == f"{pkg}/msg/{name}":
-            return cls
-    raise KeyError(f"no message class for {msgtype!r}")
+    try:
+        return message_type(msgtype)
+    except KeyError:
+        raise KeyError(f"no message class for {msgtype!r}") from None
 
 
 def msgtype_of(msg_or_cls: object) -> str:

@@ -1,18 +1,12 @@
-"""ROS 2 ``rosgraph_msgs`` messages: Clock."""
+"""ROS 2 ``rosgraph_msgs``: a class for each definition in msgs/definitions/rosgraph_msgs (msgs/generate.py)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import TYPE_CHECKING
 
-from racecar_sim.msgs._base import Message
-from racecar_sim.msgs.builtin_interfaces import Time
+from racecar_sim.msgs.generate import package_getattr
 
+if TYPE_CHECKING:
+    from racecar_sim.msgs.typed.rosgraph_msgs import *  # noqa: F403  # the classes' types, from the same definitions
 
-@dataclass(eq=False, repr=False, slots=True)
-class Clock(Message):
-    """The current simulation time, as published on ``/clock``."""
-
-    __msgtype__: ClassVar[str] = "rosgraph_msgs/msg/Clock"
-
-    clock: Time = field(default_factory=Time)
+__getattr__ = package_getattr(__name__)

@@ -1,18 +1,12 @@
-"""ROS 2 ``tf2_msgs`` messages: TFMessage."""
+"""ROS 2 ``tf2_msgs``: a class for each definition in msgs/definitions/tf2_msgs (msgs/generate.py)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import TYPE_CHECKING
 
-from racecar_sim.msgs._base import Message
-from racecar_sim.msgs.geometry_msgs import TransformStamped
+from racecar_sim.msgs.generate import package_getattr
 
+if TYPE_CHECKING:
+    from racecar_sim.msgs.typed.tf2_msgs import *  # noqa: F403  # the classes' types, from the same definitions
 
-@dataclass(eq=False, repr=False, slots=True)
-class TFMessage(Message):
-    """A batch of transforms, as published on ``/tf`` and ``/tf_static``."""
-
-    __msgtype__: ClassVar[str] = "tf2_msgs/msg/TFMessage"
-
-    transforms: list[TransformStamped] = field(default_factory=list)
+__getattr__ = package_getattr(__name__)

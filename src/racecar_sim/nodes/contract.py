@@ -5,7 +5,8 @@ seed, its description and state - and has three hooks, which its owner (a car, t
 holds, in order, so that nobody fans a hook out by hand:
 
   reset(seed)          sim time went back to 0 (Simulator.reset): drop held state, take the new noise seed
-  rebind(model, data)  a model spawned or deleted at run time replaced the model: look ids and addresses up again
+  rebind(model, data)  a model spawned or deleted at run time replaced the model: read ids and addresses again
+                       (a sensor's parts are bound for it: nodes/parts.py)
   close()              the Simulator is closed or the car deleted: free what the node holds (GL contexts, timers)
 
 Timers and subscriptions made through the context's bus and timers are released by the owner when the car is
@@ -16,13 +17,14 @@ subclass `NodeBase`, take the context in `__init__`, and override the hooks that
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import mujoco
 
 from racecar_sim.bus import BusPort
 from racecar_sim.core.names import CarNames
+from racecar_sim.nodes.parts import Parts
 
 if TYPE_CHECKING:
     from racecar_sim.description.controllers import ControllerConfig
@@ -120,6 +122,8 @@ class NodeContext:
     robot, state, controllers: the car's parsed description, its state access and its controller configuration (None
         for a node of the world).
     static_tf: the shared /tf_static publisher.
+    parts: the MuJoCo parts of the node being built, bound to the compiled model (nodes/parts.py); its owner sets
+        them before building each sensor, and binds them again after every recompile.
     """
 
     bus: BusPort
@@ -134,6 +138,7 @@ class NodeContext:
     state: CarState | None = None
     controllers: ControllerConfig | None = None
     static_tf: StaticTf | None = None
+    parts: Parts = field(default_factory=Parts)
 
     @property
     def scheduler(self) -> Timers:

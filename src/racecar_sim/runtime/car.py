@@ -32,7 +32,7 @@ from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import ODOM_RELAY, CarNames
 from racecar_sim.description import DEFAULT_XACRO, Robot, load_robot, package_path, parse_urdf
 from racecar_sim.description.controllers import ControllerConfig, load_controller_config
-from racecar_sim.nodes import Mount, Node, NodeContext, ScopedBus, ScopedTimers, StaticTf, Timers
+from racecar_sim.nodes import Mount, Node, NodeContext, Parts, ScopedBus, ScopedTimers, StaticTf, Timers
 from racecar_sim.nodes.guard import GuardedNode
 from racecar_sim.physics import PhysicsPreset, add_car
 from racecar_sim.physics.state import CarState
@@ -81,7 +81,8 @@ class Car:
     name: its namespace ("" keeps the original names: /scan, base_link, Gazebo model `racecar`; "car2" gives
     /car2/scan, car2/base_link, model `car2`). spawn: its pose (the first car defaults to the world's).
     lidar, camera: False turns off every sensor of that switch in the description (lasers; cameras and depth
-    cameras); `sensors_off` names more switches ("imu"), sensor types or sensor names to leave out.
+    cameras); `sensors_off` names more switches ("imu"), kinds ("range"), sensor types or sensor names to leave out
+    (runtime/plugins.py: `plugins.switches()`).
     nodes: which of the launch files' nodes it runs (`CarNodes`).
     """
 
@@ -166,21 +167,26 @@ class Car:
     @property
     def camera(self) -> CameraPublisher | None:
         """The car's first camera (None when it has none, it is off, or no OpenGL context could be made)."""
-        if not any(p.kind is plugins.SENSORS["camera"] for p in self._planned[1]):
+        if not self.has("camera"):
             return None
         from racecar_sim.sensors.camera import CameraPublisher
 
         return next((n for n in self.sensors if isinstance(n, CameraPublisher)), None)
 
+    def has(self, kind: str) -> bool:
+        """Whether the car has a sensor of the kind named `kind` (runtime/plugins.py: "laser", "range", "camera",
+        "depth_camera", "imu", ...) that is on."""
+        return any(p.kind.name == kind for p in self._planned[1])
+
     @property
     def has_lidar(self) -> bool:
         """Whether the car has a laser that is on."""
-        return any(p.kind is plugins.LASER for p in self._planned[1])
+        return self.has("laser")
 
     @property
     def has_camera(self) -> bool:
         """Whether the car has a camera that is on."""
-        return any(p.kind is plugins.SENSORS["camera"] for p in self._planned[1])
+        return self.has("camera")
 
     @property
     def commands(self) -> Any:
@@ -211,7 +217,7 @@ class Car:
             else:
                 self._robot = load_robot(self.xacro, {**profile.xacro_args, **self.xacro_args})
             self._controllers = load_controller_config(self.controllers_file, self._robot)
-        self._planned = plugins.plan(self.robot, self.off)
+        self._planned = plugins.plan(self.robot, self.off, Mount(self.robot, self.names, self.controllers))
 
     def _load_key(self) -> tuple[object, ...]:
         return (self.profile_name, self.xacro, tuple(sorted(self.xacro_args.items())), self.controllers_file, self.urdf)
@@ -224,7 +230,7 @@ class Car:
         mount = Mount(self.robot, self.names, self.controllers)
         for planned in (*self._planned[0], *self._planned[1]):
             if planned.kind.prepare is not None:
-                planned.kind.prepare(spec, planned.block, mount)
+                planned.kind.prepare(spec, planned.spec, mount)
 
     def start(
         self,
@@ -273,8 +279,10 @@ class Car:
                 )
             )
         model_plugins, sensors = self._planned
+        self._bind_parts(model)
         for planned in model_plugins:
-            node = planned.kind.build(ctx, planned.block)
+            ctx.parts = planned.parts
+            node = planned.kind.build(ctx, planned.spec)
             if node is None:  # it cannot run here, and has said why
                 continue
             self.hold(node)
@@ -293,11 +301,18 @@ class Car:
             )
         kept = []
         for planned in sensors:
-            node = planned.kind.build(ctx, planned.block)
+            ctx.parts = planned.parts
+            node = planned.kind.build(ctx, planned.spec)
             if node is not None:  # a camera without OpenGL has said so, and is left out
                 self.sensors.append(self.hold(node))
                 kept.append(planned)
         self._planned = (model_plugins, kept)
+        ctx.parts = Parts()
+
+    def _bind_parts(self, model: mujoco.MjModel) -> None:
+        """Bind every planned node's MuJoCo parts to a compiled model (nodes/parts.py)."""
+        for planned in (*self._planned[0], *self._planned[1]):
+            planned.parts.bind(model)
 
     def add_node(self, factory: Callable[..., Node], **params: Any) -> Node:
         """Build a node of the car from its context (`factory(ctx, **params)`, e.g. a user's driver class) and hold it
@@ -356,6 +371,7 @@ class Car:
         self.state.rebind(model, data)
         if self._context is not None:
             self._context.model, self._context.data = model, data
+        self._bind_parts(model)  # before the nodes' hooks: they read their parts' new ids
         for node in self.nodes:
             node.rebind(model, data)
 

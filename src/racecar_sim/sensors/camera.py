@@ -48,9 +48,9 @@ def camera_spec(robot: Robot, names: CarNames = CarNames()) -> CameraSpec:
     return named_camera_spec(sensor, names)
 
 
-def named_camera_spec(sensor: Sensor, names: CarNames = CarNames()) -> CameraSpec:
-    """A camera sensor block, parsed, with the car's names."""
-    spec = CameraSpec.from_sensor(sensor)
+def named_camera_spec(sensor: Sensor | CameraSpec, names: CarNames = CarNames()) -> CameraSpec:
+    """A camera sensor block (or its spec, parsed already) with the car's names."""
+    spec = sensor if isinstance(sensor, CameraSpec) else CameraSpec.from_sensor(sensor)
     return dataclasses.replace(
         spec,
         name=names.mj(spec.name),
@@ -61,7 +61,7 @@ def named_camera_spec(sensor: Sensor, names: CarNames = CarNames()) -> CameraSpe
     )
 
 
-def add_camera(spec: mujoco.MjSpec, sensor: Sensor, names: CarNames = CarNames()) -> None:
+def add_camera(spec: mujoco.MjSpec, sensor: Sensor | CameraSpec, names: CarNames = CarNames()) -> None:
     """Add a camera sensor block's MuJoCo camera to `spec` (before compiling): on its link's body, at the sensor pose,
     with the sensor's vertical field of view, and an offscreen buffer large enough for its image."""
     cam = named_camera_spec(sensor, names)
@@ -113,10 +113,11 @@ class CameraPublisher(NodeBase):
     `frames_rendered` (how many frames were drawn: none while nobody listens).
     """
 
-    def __init__(self, ctx: NodeContext, sensor: Sensor) -> None:
+    def __init__(self, ctx: NodeContext, sensor: Sensor | CameraSpec) -> None:
         model, data, noise = ctx.model, ctx.data, ctx.noise
-        self.spec = named_camera_spec(sensor, ctx.names)
-        own_topic = CameraSpec.from_sensor(sensor).image_topic
+        own = sensor if isinstance(sensor, CameraSpec) else CameraSpec.from_sensor(sensor)  # the registry parsed it
+        self.spec = named_camera_spec(own, ctx.names)
+        own_topic = own.image_topic
         self.noise_stream = ctx.noise_stream(NOISE_STREAM if own_topic == ORIGINAL_TOPIC else NOISE_STREAM + own_topic)
         if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, self.spec.name) < 0:
             raise ValueError(

@@ -105,12 +105,13 @@ def _join(namespace: str, topic: str) -> str:
     return "/" + "/".join(part for part in (*namespace.split("/"), *topic.split("/")) if part)
 
 
-def prepare_depth_camera(spec: mujoco.MjSpec, sensor: Sensor, mount: Mount) -> None:
+def prepare_depth_camera(spec: mujoco.MjSpec, sensor: Sensor | DepthSpec, mount: Mount) -> None:
     """Before compiling: a MuJoCo camera at the sensor's pose, and an offscreen buffer as large as its image."""
-    cam = DepthSpec.from_sensor(sensor).with_names(mount.names).camera
+    parsed = sensor if isinstance(sensor, DepthSpec) else DepthSpec.from_sensor(sensor)
+    cam = parsed.with_names(mount.names).camera
     body = spec.body(cam.link)
     if body is None:
-        raise DescriptionError(f"depth sensor '{sensor.name}': link {cam.link} is not in the model")
+        raise DescriptionError(f"depth sensor '{parsed.camera.name}': link {cam.link} is not in the model")
     quat = quat_mul(quat_from_rpy(cam.pose.rpy), LOOK_ALONG_X)
     body.add_camera(name=cam.name, pos=list(cam.pose.xyz), quat=list(quat), fovy=math.degrees(cam.fovy))
     buffer = spec.visual.global_
@@ -120,9 +121,10 @@ def prepare_depth_camera(spec: mujoco.MjSpec, sensor: Sensor, mount: Mount) -> N
 class DepthCamera(NodeBase):
     """gazebo_ros_openni_kinect: colour image, depth image, their camera infos and a point cloud, while heard."""
 
-    def __init__(self, ctx: NodeContext, sensor: Sensor) -> None:
+    def __init__(self, ctx: NodeContext, sensor: Sensor | DepthSpec) -> None:
         self.ctx = ctx
-        self.spec = DepthSpec.from_sensor(sensor).with_names(ctx.names)
+        parsed = sensor if isinstance(sensor, DepthSpec) else DepthSpec.from_sensor(sensor)  # the registry parsed it
+        self.spec = parsed.with_names(ctx.names)
         cam = self.spec.camera
         self.renderer = OffscreenCamera(ctx.model, ctx.data, cam.name, cam.width, cam.height)
         self.frames_rendered = 0
@@ -130,7 +132,7 @@ class DepthCamera(NodeBase):
         # per pixel, the tangents of the ray's angles off the optical axis (pinhole model of the rendered image)
         self._tan_x = ((cols + 0.5 - cam.width / 2.0) / cam.fx).astype(np.float32)
         self._tan_y = ((rows + 0.5 - cam.height / 2.0) / cam.fx).astype(np.float32)
-        self._task = ctx.timers.every(cam.rate_hz, self._tick, f"openni_kinect {sensor.name}")
+        self._task = ctx.timers.every(cam.rate_hz, self._tick, f"openni_kinect {parsed.camera.name}")
 
     def _topics(self) -> tuple[str, ...]:
         s = self.spec

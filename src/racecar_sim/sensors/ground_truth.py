@@ -4,7 +4,8 @@ nav_msgs/Odometry on /<robotNamespace>/<topicName> at <updateRate> Hz (0: every 
 (`world` by default; the world frames world and map are taken, as the original sim's map is Gazebo's world), child
 <bodyName>: the link's pose and twist (world frame, the linear velocity of the link's origin), with <gaussianNoise>
 added to the pose and twist and its square on the covariance diagonals, and <xyzOffsets>/<rpyOffsets> applied to
-the pose as the plugin does. Published only while someone listens.
+the pose as the plugin does, read at every sensor's sampling point (the end of the last physics step,
+sensors/shared_pose.py). Published only while someone listens.
 """
 
 from __future__ import annotations
@@ -30,8 +31,9 @@ from racecar_sim.msgs import (
     TwistWithCovariance,
     Vector3,
 )
-from racecar_sim.nodes import NodeBase, NodeContext
+from racecar_sim.nodes import NodeBase, NodeContext, Parts
 from racecar_sim.sensors.sensor_xml import plugin_number
+from racecar_sim.sensors.shared_pose import SharedPose
 
 P3D_PLUGIN = "libgazebo_ros_p3d.so"
 WORLD_FRAMES = ("world", "/world", WORLD_FRAME, "/" + WORLD_FRAME)
@@ -80,8 +82,10 @@ class GroundTruthOdometry(NodeBase):
         self.seed = ctx.seed
         self.noise = ctx.noise and self.noise_stddev > 0
         self.noise_table = NoiseTable.shared(ctx.noise_stream(f"p3d/{body}"), 12)
-        self._site_name = names.mj(body)
-        self._site = ctx.model.site(self._site_name).id
+        # the link's site, bound by the car (or here, for a p3d built on its own)
+        own = Parts.sites(where, site=names.mj(body))
+        self.parts = ctx.parts if ctx.parts.declares("site") else own.bind(ctx.model)
+        self._owns_parts = self.parts is not ctx.parts
         self._vel = np.zeros(6)
         rate = plugin_number(params, "updateRate", where, 0.0)
         if rate < 0:
@@ -94,12 +98,14 @@ class GroundTruthOdometry(NodeBase):
 
     def measure(self, stamp_ns: int) -> Odometry:
         """The link's odometry now, stamped `stamp_ns`."""
-        model, data = self.ctx.model, self.ctx.data
+        model = self.ctx.model
+        data = SharedPose.of(model, self.ctx.data).forward(self.ctx.data)  # every sensor's sampling point
+        site = self.parts["site"]
         quat = np.empty(4)
-        mujoco.mju_mat2Quat(quat, data.site_xmat[self._site])
-        position = data.site_xpos[self._site] + self._xyz_offset
+        mujoco.mju_mat2Quat(quat, data.site_xmat[site])
+        position = data.site_xpos[site] + self._xyz_offset
         quat = quat_mul(self._rpy_offset, quat)
-        mujoco.mj_objectVelocity(model, data, _SITE, self._site, self._vel, 0)
+        mujoco.mj_objectVelocity(model, data, _SITE, site, self._vel, 0)
         angular, linear = self._vel[:3], self._vel[3:]
         values = np.concatenate([position, quat[1:], [quat[0]], linear, angular])
         if self.noise:
@@ -119,7 +125,8 @@ class GroundTruthOdometry(NodeBase):
         self.seed = seed
 
     def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        self._site = model.site(self._site_name).id
+        if self._owns_parts:
+            self.parts.bind(model)
 
     def close(self) -> None:
         self._task.cancel()

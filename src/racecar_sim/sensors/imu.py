@@ -4,8 +4,8 @@ sensor_msgs/Imu as Gazebo's plugins fill it: the orientation of the sensor in th
 and the linear acceleration in the sensor frame - the proper acceleration, so a car at rest reads +9.81 m/s^2 up -
 with each component's Gaussian noise (gaussianNoise: the same stddev on all ten numbers, as the plugins add it, plus
 the sensor's own per-axis <noise>) and the covariance diagonals set to its variance. MuJoCo measures them: a site at
-the sensor's pose carries an accelerometer, a gyro and a frame quaternion, read after each physics step (they describe
-the start of the last step, as every sensor here does). Noise depends only on (seed, stamp).
+the sensor's pose carries an accelerometer, a gyro and a frame quaternion, read at every sensor's sampling point: the
+end of the last physics step (sensors/shared_pose.py, `forward`). Noise depends only on (seed, stamp).
 
 Names, as the plugins derive them:
   gazebo_ros_imu_sensor   topic <robotNamespace>/<topicName> (default namespace: the model's name; topic imu_data),
@@ -28,8 +28,9 @@ from racecar_sim.core.rng import NoiseTable
 from racecar_sim.core.transforms import quat_from_rpy, quat_mul
 from racecar_sim.description.urdf import Origin, Plugin, Robot, Sensor
 from racecar_sim.msgs import Header, Imu, Quaternion, Vector3
-from racecar_sim.nodes import Mount, NodeBase, NodeContext
-from racecar_sim.sensors.sensor_xml import plugin_number, sensor_number
+from racecar_sim.nodes import NodeBase, NodeContext, Parts
+from racecar_sim.sensors.sensor_xml import join_topic, plugin_number, sensor_number
+from racecar_sim.sensors.shared_pose import SharedPose
 
 SENSOR_PLUGIN = "libgazebo_ros_imu_sensor.so"
 MODEL_PLUGIN = "libgazebo_ros_imu.so"
@@ -63,7 +64,7 @@ class ImuSpec:
         plugin = next((p for p in sensor.plugins if p.filename == SENSOR_PLUGIN), None)
         params = plugin.params if plugin is not None else {}
         namespace = params.get("robotNamespace", f"/{model_name}")
-        topic = _join(namespace, params.get("topicName") or "imu_data")
+        topic = join_topic(namespace, params.get("topicName") or "imu_data")
         frame = params.get("frameName", "")
         if plugin is not None and not frame:
             raise DescriptionError(f"{where}: {SENSOR_PLUGIN} needs <frameName> (the plugin does not load without it)")
@@ -87,6 +88,17 @@ class ImuSpec:
         )
 
     @classmethod
+    def from_sdf(cls, sensor: Sensor) -> ImuSpec:
+        """A `<sensor type="imu">` block by its SDF alone: its rate (0: every physics step) and per-axis noise; the
+        topic and frame are the plugin's to give (ROS 2's gazebo_ros_imu_sensor: sensors/ros2_dialect.py)."""
+        where = f"<sensor type='imu' name='{sensor.name}'> on link {sensor.link}"
+        mean, stddev = _sensor_noise(sensor, where)
+        zero = (0.0, 0.0, 0.0)
+        return cls._checked(
+            sensor.name, sensor.link, sensor.pose, sensor.update_rate, "", sensor.link, mean, stddev, 0.0, zero, where
+        )
+
+    @classmethod
     def from_plugin(cls, plugin: Plugin, robot: Robot) -> ImuSpec:
         """A gazebo_ros_imu model plugin: the IMU at the origin of the link <bodyName>."""
         params = plugin.params
@@ -96,7 +108,7 @@ class ImuSpec:
             raise DescriptionError(f"{where}: <bodyName> '{body}' is not a link of {robot.name}")
         rate = plugin_number(params, "updateRate", where, 0.0)
         gaussian = plugin_number(params, "gaussianNoise", where, 0.0)
-        topic = _join(params.get("robotNamespace", ""), params.get("topicName") or body)
+        topic = join_topic(params.get("robotNamespace", ""), params.get("topicName") or body)
         zeros = (0.0,) * COMPONENTS
         return cls._checked(
             plugin.name or body,
@@ -150,12 +162,6 @@ class ImuSpec:
         )
 
 
-def _join(namespace: str, topic: str) -> str:
-    if topic.startswith("/"):
-        return topic
-    return "/" + "/".join(part for part in (*namespace.split("/"), *topic.split("/")) if part)
-
-
 def _offset(params: dict[str, str], where: str) -> tuple[float, float, float]:
     text = params.get("rpyOffset", "0 0 0")
     try:
@@ -197,6 +203,16 @@ def add_imu_site(spec: mujoco.MjSpec, imu: ImuSpec, names: CarNames) -> None:
         spec.add_sensor(name=f"{site}/{suffix}", type=kind, objtype=mujoco.mjtObj.mjOBJ_SITE, objname=site)
 
 
+_READINGS = (("quat", "quat"), ("gyro", "gyro"), ("accel", "accel"))
+
+
+def imu_parts(imu: ImuSpec, names: CarNames) -> Parts:
+    """The IMU's MuJoCo sensors (frame quaternion, gyro, accelerometer) by role, as add_imu_site names them."""
+    site = names.mj(imu.site)
+    sensor = mujoco.mjtObj.mjOBJ_SENSOR
+    return Parts(f"IMU '{imu.name}'", **{role: (sensor, f"{site}/{suffix}") for role, suffix in _READINGS})
+
+
 class ImuPublisher(NodeBase):
     """gazebo_ros_imu_sensor / gazebo_ros_imu: sensor_msgs/Imu at the IMU's rate, only while someone listens."""
 
@@ -211,14 +227,15 @@ class ImuPublisher(NodeBase):
         variance = self.spec.gaussian_noise**2
         self._covariance = np.diag([variance] * 3).reshape(-1)
         self._covariance.flags.writeable = False
-        self._site = names_site = ctx.names.mj(imu.site)
-        self._adr = self._addresses(ctx.model, names_site)
+        # its MuJoCo sensors, bound by the car (or here, for an IMU built on its own)
+        self.parts = ctx.parts if ctx.parts.declares("gyro") else imu_parts(imu, ctx.names).bind(ctx.model)
+        self._owns_parts = self.parts is not ctx.parts
+        self._adr = self._addresses()
         rate = self.spec.rate_hz if self.spec.rate_hz > 0 else 1e9 / ctx.timers.step_ns
         self._task = ctx.timers.every(rate, self._tick, f"imu {self.spec.name}")
 
-    @staticmethod
-    def _addresses(model: mujoco.MjModel, site: str) -> tuple[int, int, int]:
-        return tuple(int(model.sensor(f"{site}/{suffix}").adr[0]) for suffix in ("quat", "gyro", "accel"))  # type: ignore[return-value]
+    def _addresses(self) -> tuple[int, int, int]:
+        return self.parts.adr("quat"), self.parts.adr("gyro"), self.parts.adr("accel")
 
     def _tick(self, now_ns: int) -> None:
         if self.ctx.bus.has_listeners(self.spec.topic):
@@ -226,7 +243,7 @@ class ImuPublisher(NodeBase):
 
     def measure(self, stamp_ns: int) -> Imu:
         """The IMU's reading now, stamped `stamp_ns` (with that stamp's noise)."""
-        data = self.ctx.data.sensordata
+        data = SharedPose.of(self.ctx.model, self.ctx.data).forward(self.ctx.data).sensordata
         q, g, a = self._adr
         quat = quat_mul(self._offset, data[q : q + 4])  # (w, x, y, z)
         values = np.array([quat[1], quat[2], quat[3], quat[0], *data[g : g + 3], *data[a : a + 3]])
@@ -247,27 +264,9 @@ class ImuPublisher(NodeBase):
         self.seed = seed
 
     def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        self._adr = self._addresses(model, self._site)
+        if self._owns_parts:
+            self.parts.bind(model)
+        self._adr = self._addresses()
 
     def close(self) -> None:
         self._task.cancel()
-
-
-def imu_from_sensor(ctx: NodeContext, sensor: Sensor) -> ImuPublisher:
-    """The node of a `<sensor type="imu">` block."""
-    return ImuPublisher(ctx, ImuSpec.from_sensor(sensor, ctx.names.model))
-
-
-def imu_from_plugin(ctx: NodeContext, plugin: Plugin) -> ImuPublisher:
-    """The node of a gazebo_ros_imu model plugin."""
-    return ImuPublisher(ctx, ImuSpec.from_plugin(plugin, ctx.need_robot("gazebo_ros_imu")))
-
-
-def prepare_imu(spec: mujoco.MjSpec, block: Sensor | Plugin, mount: Mount) -> None:
-    """Before compiling: the site and MuJoCo sensors of a `<sensor type="imu">` block or a gazebo_ros_imu plugin."""
-    imu = (
-        ImuSpec.from_sensor(block, mount.names.model)
-        if isinstance(block, Sensor)
-        else ImuSpec.from_plugin(block, mount.robot)
-    )
-    add_imu_site(spec, imu, mount.names)

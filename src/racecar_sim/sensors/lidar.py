@@ -13,13 +13,12 @@ import dataclasses
 import mujoco
 import numpy as np
 
-from racecar_sim.core.errors import DescriptionError
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.rng import NoiseTable
 from racecar_sim.core.transforms import quat_from_rpy, quat_to_matrix
-from racecar_sim.description.urdf import Robot, Sensor
+from racecar_sim.description.urdf import Sensor
 from racecar_sim.msgs import Header, LaserScan
-from racecar_sim.nodes import NodeBase, NodeContext
+from racecar_sim.nodes import NodeBase, NodeContext, Parts
 from racecar_sim.physics import COLLISION_GROUP
 from racecar_sim.sensors.laser_mount import LaserMount
 from racecar_sim.sensors.laser_spec import LaserSpec
@@ -32,18 +31,9 @@ ORIGINAL_TOPIC = "/scan"  # the laser on it keeps the original noise stream, `sc
 _NO_SOLIDS = Solids(np.zeros(0, np.intp), np.zeros(0, np.intp), np.zeros((0, 3)), np.zeros(0))
 
 
-def laser_spec(robot: Robot, names: CarNames = CarNames()) -> LaserSpec:
-    """The robot's first ray sensor block, parsed, with the car's names (link, topic, frame); DescriptionError if it
-    has none."""
-    sensor = robot.sensor("ray") or robot.sensor("gpu_ray")
-    if sensor is None:
-        raise DescriptionError(f'robot {robot.name} has no <sensor type="ray"> (is DISABLE_GAZEBO_LASER set?)')
-    return named_laser_spec(sensor, names)
-
-
-def named_laser_spec(sensor: Sensor, names: CarNames = CarNames()) -> LaserSpec:
-    """A ray sensor block, parsed, with the car's names (link, topic, frame)."""
-    spec = LaserSpec.from_sensor(sensor)
+def named_laser_spec(sensor: Sensor | LaserSpec, names: CarNames = CarNames()) -> LaserSpec:
+    """A ray sensor block (or its spec, parsed already) with the car's names (link, topic, frame)."""
+    spec = sensor if isinstance(sensor, LaserSpec) else LaserSpec.from_sensor(sensor)
     return dataclasses.replace(
         spec, link=names.mj(spec.link), topic=names.topic(spec.topic), frame_id=names.frame(spec.frame_id)
     )
@@ -51,17 +41,18 @@ def named_laser_spec(sensor: Sensor, names: CarNames = CarNames()) -> LaserSpec:
 
 class LidarPublisher(NodeBase):
     """gazebo_ros_laser: LaserScan at the sensor's rate (40 Hz), frame `laser`, sim-time stamps, for one
-    `<sensor type="ray">` block of the description (a car may have several, each on its own topic).
+    `<sensor type="ray">` block of the description (a car may have several, each on its own topic), given parsed
+    (the registry's spec) or as the block.
 
     The context's `noise=False` publishes the true ranges (still clamped and +inf past range_max). `mode` "3d" makes
     every scan a MuJoCo 3-D cast (the reference; "auto" gives the same ranges, faster).
     """
 
-    def __init__(self, ctx: NodeContext, sensor: Sensor, mode: str = "auto") -> None:
+    def __init__(self, ctx: NodeContext, sensor: Sensor | LaserSpec, mode: str = "auto") -> None:
         names, model, data = ctx.names, ctx.model, ctx.data
         robot = ctx.need_robot("a laser")
-        own = LaserSpec.from_sensor(sensor)
-        self.spec = spec = named_laser_spec(sensor, names)
+        own = sensor if isinstance(sensor, LaserSpec) else LaserSpec.from_sensor(sensor)  # the registry parsed it
+        self.spec = spec = named_laser_spec(own, names)
         self.noise_stream = ctx.noise_stream(NOISE_STREAM if own.topic == ORIGINAL_TOPIC else NOISE_STREAM + own.topic)
         self.bus, self.model, self.data, self.seed, self.mode = ctx.bus, model, data, ctx.seed, mode
         noise = ctx.noise
@@ -72,7 +63,10 @@ class LidarPublisher(NodeBase):
         self._no_intensities.flags.writeable = False  # one array shared by every scan message
         self._ranges = np.empty(spec.samples)  # level_scan's true ranges (scratch)
         self._root = names.mj(robot.root)
-        self._site = self._site_id(model)
+        # the site of its link, bound by the car (or here, for a laser built on its own)
+        self.parts = ctx.parts if ctx.parts.declares("site") else self._own_parts().bind(model)
+        self._owns_parts = self.parts is not ctx.parts
+        self._site = self.parts["site"]
         self._offset = np.array(spec.pose.xyz, dtype=float)
         self._turn = quat_to_matrix(quat_from_rpy(spec.pose.rpy))
         # Scans are cast in an MjData posed from the live qpos: after mj_step the live positions describe the start
@@ -90,17 +84,16 @@ class LidarPublisher(NodeBase):
         self.beams_3d = 0  # beams cast in 3-D by MuJoCo, over every scan
         self._task = ctx.timers.every(spec.update_rate, self._tick, "hokuyo")
 
-    def _site_id(self, model: mujoco.MjModel) -> int:
-        site: int = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, self.spec.link)
-        if site < 0:
-            raise DescriptionError(f"ray sensor '{self.spec.name}': link {self.spec.link} is not in the model")
-        return site
+    def _own_parts(self) -> Parts:
+        return Parts.sites(f"ray sensor '{self.spec.name}'", site=self.spec.link)
 
     def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         """Scan a recompiled model (a model was spawned or deleted): same node, schedule and noise; the caster
         slices the new world again."""
         self.model, self.data = model, data
-        self._site = self._site_id(model)
+        if self._owns_parts:
+            self.parts.bind(model)
+        self._site = self.parts["site"]
         self._shared = SharedPose.of(model, data)
         self._pose = self._shared.pose
         self.mount = LaserMount.of(model, self._site, self._offset, self._turn)

@@ -38,3 +38,18 @@ def plugin_number(params: dict[str, str], tag: str, where: str, default: float) 
     if not math.isfinite(value):
         raise DescriptionError(f"{where}: <{tag}> '{text}' is not a finite number")
     return value
+
+
+def join_topic(namespace: str, topic: str) -> str:
+    """A gazebo_ros plugin's topic as its ros::NodeHandle(namespace) resolves it: an absolute topic as it is, a
+    relative one under the namespace (``imu`` + ``data`` -> ``/imu/data``)."""
+    if topic.startswith("/"):
+        return topic
+    return "/" + "/".join(part for part in (*namespace.split("/"), *topic.split("/")) if part)
+
+
+def topic_and_frame(params: dict[str, str], default_topic: str) -> tuple[str, str]:
+    """A ROS 1 gazebo_ros plugin's topic (<topicName> under <robotNamespace>) and frame (<frameName>, default /world,
+    its leading slash dropped as tf::resolve drops it)."""
+    topic = join_topic(params.get("robotNamespace", ""), params.get("topicName") or default_topic)
+    return topic, (params.get("frameName") or "/world").lstrip("/")

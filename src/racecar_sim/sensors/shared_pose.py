@@ -1,4 +1,9 @@
-"""One MjData posed at the live qpos, shared by every sensor of a simulation.
+"""One MjData posed at the live qpos, shared by every sensor of a simulation: where every sensor samples.
+
+The sampling point, for every sensor: the state at the end of the last physics step (the live qpos, qvel, act and
+controls after mj_step), as Gazebo's sensors update after the world's step. Ray casts read the bodies posed there
+(`update`: mj_kinematics); MuJoCo's own sensors (an IMU's accelerometer and gyro) and body velocities (p3d) read the
+whole forward pass there (`forward`: mj_forward of the same state, in a second shared copy).
 
 After mj_step the live data's positions (geom_xpos, site_xpos) describe the start of the last step, while qpos holds
 its end; a sensor that needs where the bodies are now poses a private MjData from the live qpos with mj_kinematics.
@@ -12,6 +17,7 @@ from __future__ import annotations
 import weakref
 
 import mujoco
+import numpy as np
 
 
 class SharedPose:
@@ -24,6 +30,10 @@ class SharedPose:
         self.pose = mujoco.MjData(model)
         self._key: tuple[bytes, bytes, bytes] | None = None
         self.posed = 0  # how many times it was posed (mj_kinematics calls)
+        self._forwarded: mujoco.MjData | None = None  # made at the first forward() (an IMU, a p3d)
+        self._forward_key: tuple[float, bytes] | None = None
+        self._state = mujoco.mjtState.mjSTATE_INTEGRATION
+        self._buffer = np.empty(mujoco.mj_stateSize(model, self._state))
 
     @classmethod
     def of(cls, model: mujoco.MjModel, data: mujoco.MjData) -> SharedPose:
@@ -45,3 +55,16 @@ class SharedPose:
             self._key = key
             self.posed += 1
         return pose
+
+    def forward(self, data: mujoco.MjData) -> mujoco.MjData:
+        """An MjData holding `data`'s whole state (time, qpos, qvel, act, controls, applied forces, mocap), forwarded:
+        positions, velocities, accelerations and sensordata at the end of the last step (again only if it changed)."""
+        mujoco.mj_getState(self.model, data, self._buffer, self._state)
+        key = (data.time, self._buffer.tobytes())
+        if self._forwarded is None:
+            self._forwarded = mujoco.MjData(self.model)
+        if key != self._forward_key:
+            mujoco.mj_setState(self.model, self._forwarded, self._buffer, self._state)
+            mujoco.mj_forward(self.model, self._forwarded)
+            self._forward_key = key
+        return self._forwarded

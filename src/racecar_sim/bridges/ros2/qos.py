@@ -7,7 +7,7 @@ TRANSIENT_LOCAL publisher serves TRANSIENT_LOCAL and VOLATILE subscriptions. Use
 it) or with `qos_profile_sensor_data` (BEST_EFFORT), and latched topics with TRANSIENT_LOCAL. So:
 
   out (the sim publishes)  always RELIABLE; latched topics TRANSIENT_LOCAL (keep last 1: a late subscriber gets it)
-      sensor data          /scan, camera images and infos, point clouds, IMU: keep last 5
+      sensor data          /scan, camera images, point clouds, IMU, range, GPS (msgs/categories.py): keep last 5
       /tf                  keep last 100 (tf2_ros's TransformBroadcaster)
       /clock               keep last 1 (its readers keep the newest)
       default              keep last 10
@@ -21,6 +21,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from racecar_sim.msgs.categories import is_sensor_data
+
 PROFILES: dict[str, dict[str, Any]] = {
     "sensor_data": {"reliability": "reliable", "durability": "volatile", "depth": 5},
     "tf": {"reliability": "reliable", "durability": "volatile", "depth": 100},
@@ -31,16 +33,6 @@ PROFILES: dict[str, dict[str, Any]] = {
     "command": {"reliability": "best_effort", "durability": "volatile", "depth": 10},
 }
 BY_TOPIC = {"/tf": "tf", "/tf_static": "tf_static", "/clock": "clock"}
-SENSOR_TYPES = frozenset(
-    {
-        "sensor_msgs/msg/LaserScan",
-        "sensor_msgs/msg/Image",
-        "sensor_msgs/msg/CompressedImage",
-        "sensor_msgs/msg/CameraInfo",
-        "sensor_msgs/msg/PointCloud2",
-        "sensor_msgs/msg/Imu",
-    }
-)
 
 
 def profile_name(topic: str, msgtype: str, latched: bool = False, named: str | None = None) -> str:
@@ -52,13 +44,21 @@ def profile_name(topic: str, msgtype: str, latched: bool = False, named: str | N
         return "latched"
     if named is not None:
         return named
-    return "sensor_data" if msgtype in SENSOR_TYPES else "default"
+    return "sensor_data" if _is_sensor_data(msgtype) else "default"
 
 
 def profile(topic: str, msgtype: str, latched: bool = False, named: str | None = None) -> dict[str, Any]:
     """The profile the sim publishes `topic` with: reliability ("reliable" | "best_effort"), durability ("volatile" |
     "transient_local") and depth (keep last)."""
     return dict(PROFILES[profile_name(topic, msgtype, latched, named)])
+
+
+def _is_sensor_data(msgtype: str) -> bool:
+    """A sensor's reading (msgs/categories.py: a stamped sensor_msgs type, read off its definition)."""
+    try:
+        return is_sensor_data(msgtype)
+    except KeyError:  # a type with no shipped definition: not a sensor of ours
+        return False
 
 
 def command_profile() -> dict[str, Any]:

@@ -37,30 +37,44 @@ class MujocoRays:
 
     def cast(self, frame: ScanFrame, beams: np.ndarray | slice = slice(None)) -> np.ndarray:
         """Distances (m) along the chosen beams to their first hit between range_min and range_max (else inf)."""
-        directions = np.ascontiguousarray(frame.directions_3d(beams))
+        fan = frame.fan
+        return self.cast_rays(frame.origin, frame.directions_3d(beams), fan.range_min, fan.range_max)
+
+    def cast_rays(self, origin: np.ndarray, directions: np.ndarray, range_min: float, range_max: float) -> np.ndarray:
+        """Distances (m) from `origin` along world unit `directions` (n, 3) - any beam set: a fan, a cone, the rings of
+        a 3-D lidar - to their first hit between range_min and range_max (else inf)."""
+        directions = np.ascontiguousarray(directions, dtype=float)
         if len(directions) == 0:
             return np.empty(0)
+        origin = np.asarray(origin, dtype=float)
         self.model.geom_group[self.hidden] = self.elsewhere
         try:
-            dist = self._cast(self.model, self.data, frame, directions)
+            dist = self._cast(self.model, self.data, origin, directions, range_min, range_max)
         finally:
             self.model.geom_group[self.hidden] = self.hidden_groups
         if self.walls is not None:
             if self._walls_model is None:  # built at the first 3-D scan of a map (tens of milliseconds)
                 self._walls_model = self.walls.ray_model(self.group)
-            np.minimum(dist, self._cast(*self._walls_model, frame, directions), out=dist)
-        dist[dist > frame.fan.range_max] = np.inf
+            walls = self._cast(*self._walls_model, origin, directions, range_min, range_max)
+            np.minimum(dist, walls, out=dist)
+        dist[dist > range_max] = np.inf
         return dist
 
-    def _cast(self, model: mujoco.MjModel, data: mujoco.MjData, frame: ScanFrame, directions: np.ndarray) -> np.ndarray:
-        fan, n = frame.fan, len(directions)
+    def _cast(
+        self,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
+        origin: np.ndarray,
+        directions: np.ndarray,
+        range_min: float,
+        range_max: float,
+    ) -> np.ndarray:
+        n = len(directions)
         dist, geom = np.empty(n), np.empty(n, np.int32)
-        mujoco.mj_multiRay(
-            model, data, frame.origin, directions.ravel(), self.mask, 1, -1, geom, dist, None, n, fan.range_max
-        )
+        mujoco.mj_multiRay(model, data, origin, directions.ravel(), self.mask, 1, -1, geom, dist, None, n, range_max)
         dist[geom < 0] = np.inf
-        for i in np.flatnonzero(dist < fan.range_min):  # something before the ray start: look past it
-            start = frame.origin + fan.range_min * directions[i]
+        for i in np.flatnonzero(dist < range_min):  # something before the ray start: look past it
+            start = origin + range_min * directions[i]
             d = mujoco.mj_ray(model, data, start, directions[i], self.mask, 1, -1, self._one)
-            dist[i] = fan.range_min + (np.inf if d < 0 else d)
+            dist[i] = range_min + (np.inf if d < 0 else d)
         return dist

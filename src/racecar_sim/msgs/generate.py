@@ -1,0 +1,126 @@
+"""The message classes, made from their ``.msg`` definitions (msgs/definitions): a message type is its file.
+
+``message_type("pkg/msg/Name")`` builds the class once: a ``@dataclass(eq=False, repr=False, slots=True)`` subclass of
+``Message`` with one attribute per field, in wire order, defaulting as ROS 2's Python messages do (0, 0.0, False, "",
+a default nested message, an empty list, ``b""`` for byte arrays, a zero numpy array of the field's dtype for numeric
+arrays, its fixed size or empty) or to the value the definition gives (``float64 w 1``); the definition's constants
+are class attributes. A few types carry methods besides their fields (``Header.at``, ``Time.from_ns``,
+``Image.bgr_pixels``): msgs/extras.py holds them, and the class takes them as a base.
+
+The class belongs to its package's module (``racecar_sim.msgs.sensor_msgs``), which gives it out by name through a
+module ``__getattr__`` (``package_getattr``), so it imports, pickles and prints as a hand-written class would. The
+static types of the classes are stubs written from the same definitions (tools/msg_stubs.py, msgs/typed/).
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+from collections.abc import Callable
+from functools import cache, partial
+from typing import Any
+
+import numpy as np
+
+from racecar_sim.msgs._base import Message
+from racecar_sim.msgs.fields import DTYPES
+from racecar_sim.msgs.idl import FieldSpec, MsgSpec, available_msgtypes, get_spec, normalize_msgtype
+
+BYTE_TYPES = frozenset({"uint8", "byte", "char"})
+"""Element types whose arrays are ``bytes`` (``Image.data``), as the CDR encoder writes them."""
+
+_FLOATS = frozenset({"float32", "float64"})
+
+
+def _scalar(type_name: str, text: str | None) -> Any:
+    """A primitive's value from its text in a definition (a default or a constant), or its zero."""
+    if type_name == "string":
+        return "" if text is None else str(ast.literal_eval(text)) if text[:1] in "'\"" else text
+    if type_name == "bool":
+        return False if text is None else text.strip().lower() in ("true", "1")
+    if type_name in _FLOATS:
+        return 0.0 if text is None else float(text)
+    return 0 if text is None else int(text, 0)
+
+
+def _zeros(size: int, dtype: np.dtype[Any]) -> np.ndarray:
+    return np.zeros(size, dtype=dtype)
+
+
+def _default(spec: FieldSpec) -> tuple[str, Any]:
+    """``("default", value)`` or ``("default_factory", factory)`` for a field."""
+    if not spec.is_array:
+        if spec.is_primitive:
+            return "default", _scalar(spec.type, spec.default)
+        return "default_factory", message_type(spec.type)
+    if spec.type in BYTE_TYPES:
+        return "default", bytes(spec.size or 0)
+    if spec.type in DTYPES:
+        return "default_factory", partial(_zeros, spec.size or 0, DTYPES[spec.type])
+    if spec.size is None:
+        return "default_factory", list
+    if spec.type == "string":
+        return "default_factory", partial(list, [""] * spec.size)
+    element = message_type(spec.type)
+    return "default_factory", lambda: [element() for _ in range(spec.size or 0)]
+
+
+def docstring(msg: MsgSpec) -> str:
+    """The class's docstring: the definition's leading comment, or the type's name and its fields."""
+    lines = msg.text.splitlines()
+    comment = []
+    for line in lines:
+        if not line.startswith("#"):
+            break
+        comment.append(line.lstrip("#").strip())
+    if any(comment):
+        return " ".join(c for c in comment if c)
+    return f"The ROS message {msg.msgtype}, made from its definition."
+
+
+def message_type(msgtype: str) -> type[Message]:
+    """The class of ``msgtype`` (``pkg/msg/Name`` or ``pkg/Name``), made from its definition the first time.
+
+    Raises:
+        KeyError: No definition of that type is shipped.
+    """
+    return _made(normalize_msgtype(msgtype))
+
+
+@cache
+def _made(msgtype: str) -> type[Message]:
+    from racecar_sim.msgs.extras import EXTRAS  # its methods build messages: imported once the package is up
+
+    msg = get_spec(msgtype)
+    pkg, _, name = msg.msgtype.split("/")
+    fields = [(f.name, Any, dataclasses.field(**dict([_default(f)]))) for f in msg.fields]
+    namespace: dict[str, Any] = {"__msgtype__": msg.msgtype, "__doc__": docstring(msg)}
+    namespace.update({const: _scalar(type_name, value) for type_name, const, value in msg.constants})
+    bases = (EXTRAS[msg.msgtype], Message) if msg.msgtype in EXTRAS else (Message,)
+    cls = dataclasses.make_dataclass(name, fields, bases=bases, namespace=namespace, eq=False, repr=False, slots=True)
+    cls.__module__ = f"racecar_sim.msgs.{pkg}"
+    return cls
+
+
+def package_types(package: str) -> dict[str, str]:
+    """The message types of a package that has definitions: class name -> ``pkg/msg/Name``."""
+    prefix = f"{package}/msg/"
+    return {t[len(prefix) :]: t for t in available_msgtypes() if t.startswith(prefix)}
+
+
+def package_getattr(module_name: str) -> Callable[[str], type[Message]]:
+    """The module ``__getattr__`` of ``racecar_sim.msgs.<package>``: a message class by its name, made on first use
+    and then kept in the module, so that later lookups are plain attribute reads."""
+    import sys
+
+    package = module_name.rsplit(".", 1)[-1]
+
+    def getattr_(name: str) -> type[Message]:
+        types = package_types(package)
+        if name not in types:
+            raise AttributeError(f"module {module_name!r} has no attribute {name!r} (no {package}/msg/{name}.msg)")
+        cls = message_type(types[name])
+        setattr(sys.modules[module_name], name, cls)
+        return cls
+
+    return getattr_
