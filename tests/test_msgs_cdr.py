@@ -195,8 +195,8 @@ SAMPLES: dict[str, Callable[[np.random.Generator], Message]] = {
 
 @pytest.fixture(scope="module")
 def typestore() -> Any:
-    """Rosbags' ROS 2 Humble types plus every type it lacks, registered from our .msg files."""
-    store = get_typestore(Stores.ROS2_HUMBLE)
+    """Rosbags' ROS 2 Jazzy types (the wheels' distro) plus every type it lacks, registered from our .msg files."""
+    store = get_typestore(Stores.ROS2_JAZZY)
     missing: dict[str, Any] = {}
     for msgtype in idl.available_msgtypes():
         if msgtype not in store.types:

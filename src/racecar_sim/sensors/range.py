@@ -129,6 +129,7 @@ class RangePublisher(NodeBase):
                 spec.ray.range_min,
                 spec.ray.range_max,
                 self.reading(now_ns),
+                spec.gaussian_noise**2 if self.noise else 0.0,
             ),
         )
 

@@ -284,7 +284,9 @@ class PointField(Message):
 
 class Range(Message):
     """Single range reading from an active ranger that emits energy and reports one range reading that is valid
-    along an arc at the distance measured (sonar, IR): the cone's full angle field_of_view (rad), the range in m."""
+    along an arc at the distance measured (sonar, IR): the cone's full angle field_of_view (rad), the range in m,
+    and its variance (m^2, 0 when unknown) as Jazzy and Kilted define it (Humble's and ROS 1's have no variance;
+    their readers take the fields they know)."""
 
     __msgtype__: ClassVar[str]
     ULTRASOUND: ClassVar[int]
@@ -295,6 +297,7 @@ class Range(Message):
     min_range: float
     max_range: float
     range: float
+    variance: float
     def __init__(
         self,
         header: Header = ...,
@@ -303,6 +306,7 @@ class Range(Message):
         min_range: float = ...,
         max_range: float = ...,
         range: float = ...,
+        variance: float = ...,
     ) -> None: ...
 
 class RegionOfInterest(Message):
