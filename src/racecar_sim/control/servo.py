@@ -5,6 +5,8 @@ Profiles (profiles.yaml):
              `speed` being the ground speed of base_link (the rear-axle centre).
   parallel   the original servo_commands.py: every wheel gets speed * wheel_rate_per_speed rad/s and both
              hinges get the same angle.
+In both, a command faster than a wheel joint's velocity limit allows is slowed as a whole (every wheel rate scaled
+by one factor), never clipped at one wheel.
 
 The law itself is control/servo_law.py (shared with the batch of worlds, envs/batch_command.py); this node reads
 the car's wheels and controller topics off its description and publishes the law's outputs per command.
@@ -56,7 +58,9 @@ class ServoCommands(NodeBase):
                 joint = robot.joints[w.hinge_joint]
                 if joint.type == "revolute" and joint.limit is not None:
                     limits = (joint.limit.lower, joint.limit.upper)
-            wheels.append(ServoWheel((w.centre[0], w.centre[1]), w.hinge_axis_point, limits))
+            wheel_limit = robot.joints[w.joint].limit
+            rate_limit = wheel_limit.velocity if wheel_limit is not None and wheel_limit.velocity > 0 else None
+            wheels.append(ServoWheel((w.centre[0], w.centre[1]), w.hinge_axis_point, limits, rate_limit))
             rate_topics.append(names.topic(controllers.controller(w.joint).command_topic))
         self.law = ServoLaw(mode, wheels, self.geometry.wheelbase, self.geometry.wheel_radius, self.rate_per_speed)
         # the controller command topic of each of the law's outputs, in the order they are published
