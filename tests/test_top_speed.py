@@ -50,12 +50,12 @@ def test_a_command_within_the_limits_is_the_plain_law(law):
     assert rates == [4.0 / GEOMETRY.wheel_radius] * 4
 
 
-def circle_ratio(speed: float, steer: float, profile: str = "seed") -> float:
+def circle_ratio(speed: float, steer: float, vehicle: str = "seed") -> float:
     """R / R0 of the circle driven for 8 s at a constant command, fitted over its last 4 s."""
     from conftest import Log
     from racecar_sim.drivers import ConstantCommand
 
-    sim = Simulator(world="empty", profile=profile, camera=False, lidar=False)
+    sim = Simulator(world="empty", camera=False, lidar=False, vehicle=vehicle)
     log = Log(sim, "/vesc/odom")
     ConstantCommand(sim.bus, sim.scheduler, speed, steer)
     sim.run_until(8.0)
@@ -64,6 +64,7 @@ def circle_ratio(speed: float, steer: float, profile: str = "seed") -> float:
     return radius / (L / math.tan(steer))
 
 
-def test_past_the_top_speed_the_car_keeps_its_line():
-    # before: 6.5 m/s at 0.06 rad gave R/R0 = 3.92 (the outer wheels clipped, the car sliding out)
-    assert circle_ratio(6.5, 0.06) == pytest.approx(circle_ratio(4.8, 0.06), rel=0.05)
+@pytest.mark.parametrize("vehicle", ["seed", "f1tenth"])
+def test_past_the_top_speed_the_car_keeps_its_line(vehicle):
+    # before: 6.5 m/s at 0.06 rad gave R/R0 = 3.92 for seed (the outer wheels clipped, the car sliding out)
+    assert circle_ratio(6.5, 0.06, vehicle) == pytest.approx(circle_ratio(4.8, 0.06, vehicle), rel=0.05)

@@ -25,7 +25,12 @@ from racecar_sim.core.tables import finite_number
 _DIR = Path(__file__).parent / "data" / "vehicles"
 DEFAULT_VEHICLE = "seed"
 _BODY = ("lf", "lr", "h", "m", "I", "width", "length")  # F1TENTH's body: the description's here
-_PACEJKA = {"C_Pf": "pacejka_front", "C_Pr": "pacejka_rear", "C_Pf_model": "pacejka_front", "C_Pr_model": "pacejka_rear"}
+_PACEJKA = {
+    "C_Pf": "pacejka_front",
+    "C_Pr": "pacejka_rear",
+    "C_Pf_model": "pacejka_front",
+    "C_Pr_model": "pacejka_rear",
+}
 
 Pacejka = tuple[float, float, float, float]  # B, C, D, E
 
@@ -107,7 +112,9 @@ def _params(name: str, data: dict[Any, Any], path: Path) -> VehicleParams:
         elif key in known:
             values[key] = finite_number(value, where)
         else:
-            raise ConfigError(f"{path}: unknown field {key!r} (F1TENTH's names: {', '.join(sorted(known | set(_BODY)))})")
+            raise ConfigError(
+                f"{path}: unknown field {key!r} (F1TENTH's names: {', '.join(sorted(known | set(_BODY)))})"
+            )
     for key in ("mu", "C_Sf", "C_Sr", "sv_max", "a_max", "v_max"):
         if key in values and values[key] <= 0:
             raise ConfigError(f"{path}: {key} must be positive, got {values[key]:g}")

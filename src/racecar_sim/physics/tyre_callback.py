@@ -16,7 +16,8 @@ The tyre: slip ratio kappa = -s_x / max(V, v_eps_x) and slip angle alpha = atan(
 velocity of the wheel's material at the contact point along the wheel's heading and across it, V the wheel centre's
 speed along its heading. Force per axis: linear mu C_S F_z x, or Pacejka F_z D sin(C atan(B x - E (B x - atan B x)));
 combined within the friction ellipse (a circle of radius mu F_z, D F_z for Pacejka). v_eps keeps the force bounded and
-the explicit step stable at walking speed (below it the tyre is a viscous contact).
+the explicit step stable at walking speed (below it the tyre is a viscous contact); the longitudinal force per slip
+speed is also capped at half the wheel's spin inertia / (r^2 dt), the stiffest the explicit step keeps stable.
 """
 
 from __future__ import annotations
@@ -34,7 +35,8 @@ MAGIC = 7_311_993.0  # first value of a tyre table
 HEADER = 2  # MAGIC, number of wheels
 STRIDE = 20  # values per wheel
 # per wheel: body, root body, touch sensor address, radius, spin axis in the body frame (3), model (1 linear,
-# 2 Pacejka), mu, C_S, B, C, D, E, v_eps_x, v_eps_y, tyre centre in the body frame (3), unused
+# 2 Pacejka), mu, C_S, B, C, D, E, v_eps_x, v_eps_y, tyre centre in the body frame (3), the
+# largest longitudinal force per slip speed the explicit step keeps stable on the wheel's spin (N s/m)
 LINEAR, PACEJKA = 1.0, 2.0
 
 _DATA_POINTERS = ("xpos", "xmat", "cvel", "subtree_com", "sensordata", "qfrc_passive")
@@ -228,8 +230,12 @@ def callback() -> Any:
                 alpha = math.atan(-slip_y / max(speed, numeric_data[row + 15]))
                 mu = numeric_data[row + 8]
                 if numeric_data[row + 7] == PACEJKA:
-                    b, c, dd, e = (numeric_data[row + 10], numeric_data[row + 11], numeric_data[row + 12],
-                                   numeric_data[row + 13])
+                    b, c, dd, e = (
+                        numeric_data[row + 10],
+                        numeric_data[row + 11],
+                        numeric_data[row + 12],
+                        numeric_data[row + 13],
+                    )
                     fx = load * magic_formula(kappa, b, c, dd, e)
                     fy = load * magic_formula(alpha, b, c, dd, e)
                     peak = load * dd
@@ -237,6 +243,9 @@ def callback() -> Any:
                     stiffness = mu * numeric_data[row + 9] * load
                     fx, fy = stiffness * kappa, stiffness * alpha
                     peak = mu * load
+                # the wheel's spin is integrated explicitly: no stiffer than its inertia allows in one step
+                if abs(fx) > numeric_data[row + 19] * abs(slip_x):
+                    fx = -numeric_data[row + 19] * slip_x
                 total = math.sqrt(fx * fx + fy * fy)
                 if total > peak:
                     fx, fy = fx * peak / total, fy * peak / total

@@ -59,24 +59,6 @@ def prepare_tyres(spec: mujoco.MjSpec, robot: Robot, names: CarNames, params: Ve
     install()
 
 
-def open_differentials(spec: mujoco.MjSpec, robot: Robot, names: CarNames, params: VehicleParams) -> None:
-    """With tyres, the wheels are driven as through open differentials (the 1/10 car's centre, front and rear
-    diffs): every wheel actuator acts on one fixed tendon, the mean of the four wheel joints, so each wheel gets the
-    same torque and the controllers hold the mean wheel rate at the mean of their commands. Per-wheel rates held
-    each to its kinematic value (the seed's law, exact without slip) would steer the car through its tyres' slip
-    and hide the understeer a tyre gives. Call after the controllers' actuators exist; nothing without tyres."""
-    if params.tyre_model == "none":
-        return
-    wheels = [names.mj(w.joint) for w in VehicleGeometry.from_robot(robot).wheels]
-    tendon = spec.add_tendon(name=names.mj("differentials"))
-    for joint in wheels:
-        tendon.wrap_joint(joint, 1.0 / len(wheels))
-    for actuator in spec.actuators:
-        if actuator.trntype == mujoco.mjtTrn.mjTRN_JOINT and actuator.target in wheels:
-            actuator.trntype = mujoco.mjtTrn.mjTRN_TENDON
-            actuator.target = tendon.name
-
-
 def _centre_in_link(robot: Robot, link: str, centre: tuple[float, float, float]) -> list[float]:
     """The tyre centre (base_link frame) in the wheel link's own frame."""
     from racecar_sim.core.transforms import quat_rotate
@@ -114,4 +96,6 @@ def fill_tyre_table(model: mujoco.MjModel, robot: Robot, names: CarNames, params
             row[9] = params.C_Sf if front else params.C_Sr
         row[14], row[15] = V_EPS_LONGITUDINAL, V_EPS_LATERAL
         row[16:19] = _centre_in_link(robot, wheel.link, wheel.centre)
+        spin_inertia = float(model.body_inertia[body.id].max())  # a wheel's largest principal axis is its spin axis
+        row[19] = 0.5 * spin_inertia / (geometry.wheel_radius**2 * model.opt.timestep)
     model.numeric_data[numeric.adr[0] : numeric.adr[0] + len(table)] = table
