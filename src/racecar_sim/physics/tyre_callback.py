@@ -9,8 +9,9 @@ point with mj_applyFT to qfrc_passive.
 
 The callback reaches mjModel and mjData fields through their C struct's layout. The bindings do not publish the
 offsets, so they are measured once per process from probe models: a pointer field is where the struct holds the
-address of the array the bindings show (in every probe; the last of a run of empty arrays sharing the address), a size field where it changes as a probe's size
-does. A layout the probe cannot pin down is an error naming the field, never a guess.
+address of the array the bindings show (in every probe; the last of a run of empty arrays sharing the address),
+a size field where it changes as a probe's size does. A layout the probe cannot pin down is an error naming the
+field, never a guess.
 
 The tyre: slip ratio kappa = -s_x / max(V, v_eps_x) and slip angle alpha = atan(-s_y / max(V, v_eps_y)), s the
 velocity of the wheel's material at the contact point along the wheel's heading and across it, V the wheel centre's
@@ -171,7 +172,7 @@ def callback() -> Any:
         return d * math.sin(c * math.atan(bx - e * (bx - math.atan(bx))))
 
     def tyres(m: Any, d: Any) -> None:
-        nnumeric = load_int(m, off_nnumeric)
+        nnumeric: int = load_int(m, off_nnumeric)  # type: ignore[call-arg]  # typed by numba, not mypy
         if nnumeric <= 0:
             return
         numeric_adr = ints(load_word(m, off_numeric_adr))
@@ -218,7 +219,7 @@ def callback() -> Any:
                 px, py, pz = cx - radius * dx / dn, cy - radius * dy / dn, cz - radius * dz / dn
                 # velocity of the centre and of the wheel's material at the contact point (cvel: about subtree_com)
                 wx, wy, wz = cvel[6 * body], cvel[6 * body + 1], cvel[6 * body + 2]
-                vx, vy, vz = cvel[6 * body + 3], cvel[6 * body + 4], cvel[6 * body + 5]
+                vx, vy = cvel[6 * body + 3], cvel[6 * body + 4]
                 ox, oy, oz = com[3 * root], com[3 * root + 1], com[3 * root + 2]
                 rx, ry, rz = cx - ox, cy - oy, cz - oz
                 vcx, vcy = vx + wy * rz - wz * ry, vy + wz * rx - wx * rz

@@ -36,8 +36,8 @@ from racecar_sim.description.vehicle_params import DEFAULT_VEHICLE, VehicleParam
 from racecar_sim.nodes import Mount, Node, NodeContext, ScopedBus, ScopedTimers, StaticTf, Timers
 from racecar_sim.physics import PhysicsPreset, add_car
 from racecar_sim.physics.builder import friction_min_rule
-from racecar_sim.physics.tyres import fill_tyre_table, prepare_tyres
 from racecar_sim.physics.state import CarState
+from racecar_sim.physics.tyres import fill_tyre_table, prepare_tyres
 from racecar_sim.runtime import plugins
 from racecar_sim.sensors.odometry import FRAMES, OdometryPublisher
 from racecar_sim.sensors.robot_state import RobotStatePublisher
