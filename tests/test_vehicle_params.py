@@ -57,3 +57,20 @@ def test_a_bad_file_is_one_line_naming_file_and_field(tmp_path: Path, text: str,
 def test_an_unknown_name_lists_the_sets():
     with pytest.raises(ConfigError, match="f1tenth"):
         load_vehicle("gokart")
+
+
+def test_the_cli_takes_a_vehicle_and_names_a_bad_file_in_one_line(tmp_path: Path):
+    import subprocess
+    import sys
+
+    bad = tmp_path / "car.yaml"
+    bad.write_text("mu: lots\n")
+    result = subprocess.run(
+        [sys.executable, "-m", "racecar_sim", "run", "--world", "empty", "--duration", "0.1", "--vehicle", str(bad)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and str(bad) in lines[0] and "mu" in lines[0]
