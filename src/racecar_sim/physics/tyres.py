@@ -59,6 +59,39 @@ def prepare_tyres(spec: mujoco.MjSpec, robot: Robot, names: CarNames, params: Ve
     install()
 
 
+CARRIER_INERTIA = 1e-4  # kg m^2: the differentials' carrier (the motor's side of the drive train), small beside a car
+
+
+def open_differentials(spec: mujoco.MjSpec, robot: Robot, names: CarNames, params: VehicleParams) -> None:
+    """With tyres, the wheels are driven through open differentials (the 1/10 car's centre, front and rear diffs):
+    a carrier joint in the chassis turns at the mean of the four wheel rates (an equality constraint on a fixed
+    tendon, so MuJoCo's solver carries it), and every wheel's velocity controller acts on the carrier. Each wheel
+    then gets the same torque, and the mean wheel rate follows the mean of the commands; per-wheel rates each held
+    to its kinematic value (the seed's law, exact without slip) would steer the car through its tyres and hide the
+    understeer a tyre gives. (A tendon actuator would do the same, but MuJoCo's implicit step keeps only the diagonal
+    of its damping across sibling wheels, and the rest made the 2.5 ms step unstable.) Call after the controllers'
+    actuators exist; nothing without tyres."""
+    if params.tyre_model == "none":
+        return
+    wheels = [names.mj(w.joint) for w in VehicleGeometry.from_robot(robot).wheels]
+    chassis = spec.body(names.mj(robot.root))
+    carrier_body = chassis.add_body(name=names.mj("drive_carrier"), mass=1e-6, inertia=[CARRIER_INERTIA] * 3)
+    carrier = carrier_body.add_joint(name=names.mj("drive_carrier_joint"), type=mujoco.mjtJoint.mjJNT_HINGE)
+    carrier.axis = [0.0, 1.0, 0.0]
+    tendon = spec.add_tendon(name=names.mj("differentials"))
+    for joint in wheels:
+        tendon.wrap_joint(joint, 1.0 / len(wheels))
+    tendon.wrap_joint(carrier.name, -1.0)
+    spec.add_equality(
+        name=names.mj("differentials"), type=mujoco.mjtEq.mjEQ_TENDON, name1=tendon.name, objtype=mujoco.mjtObj.mjOBJ_TENDON
+    )
+    for actuator in spec.actuators:
+        if actuator.trntype == mujoco.mjtTrn.mjTRN_JOINT and actuator.target in wheels:
+            actuator.target = carrier.name
+    # MuJoCo's sleeping (builder: static geoms placed once) does not take tendon equalities yet
+    spec.option.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_SLEEP)
+
+
 def _centre_in_link(robot: Robot, link: str, centre: tuple[float, float, float]) -> list[float]:
     """The tyre centre (base_link frame) in the wheel link's own frame."""
     from racecar_sim.core.transforms import quat_rotate

@@ -37,7 +37,7 @@ from racecar_sim.nodes import Mount, Node, NodeContext, ScopedBus, ScopedTimers,
 from racecar_sim.physics import PhysicsPreset, add_car
 from racecar_sim.physics.builder import friction_min_rule
 from racecar_sim.physics.state import CarState
-from racecar_sim.physics.tyres import fill_tyre_table, prepare_tyres
+from racecar_sim.physics.tyres import fill_tyre_table, open_differentials, prepare_tyres
 from racecar_sim.runtime import plugins
 from racecar_sim.sensors.odometry import FRAMES, OdometryPublisher
 from racecar_sim.sensors.robot_state import RobotStatePublisher
@@ -234,6 +234,7 @@ class Car:
         for planned in (*self._planned[0], *self._planned[1]):
             if planned.kind.prepare is not None:
                 planned.kind.prepare(spec, planned.block, mount)
+        open_differentials(spec, self.robot, self.names, self.vehicle)
 
     def start(
         self,
