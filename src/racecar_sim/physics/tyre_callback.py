@@ -39,9 +39,10 @@ STRIDE = 20  # values per wheel
 # 2 Pacejka), mu, C_S, B, C, D, E, v_eps_x, v_eps_y, tyre centre in the body frame (3), the
 # largest longitudinal force per slip speed the explicit step keeps stable on the wheel's spin (N s/m)
 LINEAR, PACEJKA = 1.0, 2.0
+DYNPRM_SIZE = mujoco.mjNDYN
 
-_DATA_POINTERS = ("xpos", "xmat", "cvel", "subtree_com", "sensordata", "qfrc_passive")
-_MODEL_POINTERS = ("numeric_adr", "numeric_data")
+_DATA_POINTERS = ("xpos", "xmat", "cvel", "subtree_com", "sensordata", "qfrc_passive", "ctrl", "act")
+_MODEL_POINTERS = ("numeric_adr", "numeric_data", "actuator_actadr", "actuator_dynprm")
 
 
 class LayoutError(RuntimeError):
@@ -75,7 +76,8 @@ def _probe_model(n: int) -> mujoco.MjModel:
     numerics = "".join(f"<numeric name='n{i:03d}' data='1 2 3 4 5 6 7'/>" for i in range(n))
     return mujoco.MjModel.from_xml_string(
         "<mujoco><worldbody><body><freejoint/><geom size='.1'/><site name='s' size='.2'/></body>"
-        f"<body pos='1 0 0'><joint axis='0 0 1'/><geom size='.1'/></body></worldbody>"
+        "<body pos='1 0 0'><joint name='j' axis='0 0 1'/><geom size='.1'/></body></worldbody>"
+        "<actuator><motor joint='j'/><general joint='j' dyntype='integrator'/></actuator>"
         f"<sensor><touch site='s'/><framepos objtype='site' objname='s'/></sensor><custom>{numerics}</custom></mujoco>"
     )
 
@@ -103,16 +105,11 @@ def _mujoco_library() -> ctypes.CDLL:
 
 
 @cache
-def callback() -> Any:
-    """The compiled callback (numba cfunc), built once per process."""
-    from numba import carray, cfunc, njit, types  # numba loads in ~0.3 s: only when a vehicle has tyres
+def _intrinsics() -> tuple[Any, Any, Any, Any]:
+    """numba intrinsics reading C structs: load_word(base, offset) (a pointer field as an integer),
+    load_int(base, offset) (an int field), doubles(address) and ints(address) (an integer address as double* / int*)."""
+    from numba import types  # numba loads in ~0.3 s: only when a vehicle needs it
     from numba.extending import intrinsic
-
-    offsets = layout()
-    apply_ft = _mujoco_library().mj_applyFT
-    # pointers passed as integers: the same registers on every 64-bit ABI MuJoCo ships for
-    apply_ft.argtypes = [ctypes.c_void_p, ctypes.c_void_p] + [ctypes.c_size_t] * 3 + [ctypes.c_int, ctypes.c_size_t]
-    apply_ft.restype = None
 
     @intrinsic
     def load_word(typingctx: Any, base: Any, offset: Any) -> Any:
@@ -157,6 +154,21 @@ def callback() -> Any:
             return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
 
         return sig, codegen
+
+    return load_word, load_int, doubles, ints
+
+
+@cache
+def callback() -> Any:
+    """The compiled tyre callback (numba cfunc), built once per process."""
+    from numba import carray, cfunc, njit, types
+
+    load_word, load_int, doubles, ints = _intrinsics()
+    offsets = layout()
+    apply_ft = _mujoco_library().mj_applyFT
+    # pointers passed as integers: the same registers on every 64-bit ABI MuJoCo ships for
+    apply_ft.argtypes = [ctypes.c_void_p, ctypes.c_void_p] + [ctypes.c_size_t] * 3 + [ctypes.c_int, ctypes.c_size_t]
+    apply_ft.restype = None
 
     off_nnumeric, off_numeric_adr, off_numeric_data = (
         offsets["nnumeric"],
@@ -271,3 +283,38 @@ def install() -> None:
     if current is not None:
         raise RuntimeError("tyres: MuJoCo's mjcb_passive is set already by other code; the tyre model needs it")
     mujoco.set_mjcb_passive(compiled.ctypes)
+
+
+@cache
+def actuator_dynamics() -> Any:
+    """The compiled actuator dynamics (numba cfunc) of MuJoCo's `user` dyntype: the activation (the setpoint the
+    servo follows) moves towards the control at a bounded rate, act_dot = clip((ctrl - act) / dt, lo, hi), with
+    (lo, hi, dt) the actuator's dynprm[0:3]: a steering-rate limit (rad/s) on a hinge's angle setpoint, an
+    acceleration limit (rad/s^2 of wheel rate) on a wheel-rate setpoint."""
+    from numba import cfunc, types
+
+    load_word, _, doubles, ints = _intrinsics()
+    offsets = layout()
+    off_ctrl, off_act = offsets["ctrl"], offsets["act"]
+    off_actadr, off_dynprm = offsets["actuator_actadr"], offsets["actuator_dynprm"]
+    ndyn = DYNPRM_SIZE
+
+    def rate_limited(m: Any, d: Any, i: int) -> float:
+        ctrl = doubles(load_word(d, off_ctrl))[i]
+        act = doubles(load_word(d, off_act))[ints(load_word(m, off_actadr))[i]]
+        prm = doubles(load_word(m, off_dynprm))
+        lo, hi, dt = prm[ndyn * i], prm[ndyn * i + 1], prm[ndyn * i + 2]
+        return min(max((ctrl - act) / dt, lo), hi)
+
+    return cfunc(types.float64(types.voidptr, types.voidptr, types.int32))(rate_limited)
+
+
+def install_actuator_dynamics() -> None:
+    """Make the rate limit MuJoCo's mjcb_act_dyn (once per process; called only for `user` dyntype actuators)."""
+    compiled = actuator_dynamics()
+    current = mujoco.get_mjcb_act_dyn()
+    if current is compiled.ctypes:
+        return
+    if current is not None:
+        raise RuntimeError("actuation: MuJoCo's mjcb_act_dyn is set already by other code; the rate limits need it")
+    mujoco.set_mjcb_act_dyn(compiled.ctypes)

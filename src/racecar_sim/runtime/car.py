@@ -35,6 +35,7 @@ from racecar_sim.description.controllers import ControllerConfig, load_controlle
 from racecar_sim.description.vehicle_params import DEFAULT_VEHICLE, VehicleParams, load_vehicle
 from racecar_sim.nodes import Mount, Node, NodeContext, ScopedBus, ScopedTimers, StaticTf, Timers
 from racecar_sim.physics import PhysicsPreset, add_car
+from racecar_sim.physics.actuation import limit_actuators
 from racecar_sim.physics.builder import friction_min_rule
 from racecar_sim.physics.state import CarState
 from racecar_sim.physics.tyres import fill_tyre_table, open_differentials, prepare_tyres
@@ -235,6 +236,7 @@ class Car:
             if planned.kind.prepare is not None:
                 planned.kind.prepare(spec, planned.block, mount)
         open_differentials(spec, self.robot, self.names, self.vehicle)
+        limit_actuators(spec, self.robot, self.names, self.vehicle)
 
     def start(
         self,
