@@ -82,9 +82,15 @@ def open_differentials(spec: mujoco.MjSpec, robot: Robot, names: CarNames, param
     for joint in wheels:
         tendon.wrap_joint(joint, 1.0 / len(wheels))
     tendon.wrap_joint(carrier.name, -1.0)
-    spec.add_equality(
-        name=names.mj("differentials"), type=mujoco.mjtEq.mjEQ_TENDON, name1=tendon.name, objtype=mujoco.mjtObj.mjOBJ_TENDON
+    differentials = spec.add_equality(
+        name=names.mj("differentials"),
+        type=mujoco.mjtEq.mjEQ_TENDON,
+        name1=tendon.name,
+        objtype=mujoco.mjtObj.mjOBJ_TENDON,
     )
+    # stiffer than MuJoCo's default 0.02 s (the diffs wound up under hard acceleration and the rear wheels ran
+    # backwards), softer than 2 steps (the car then weaved on a straight)
+    differentials.solref = [4 * spec.option.timestep, 1.0]
     for actuator in spec.actuators:
         if actuator.trntype == mujoco.mjtTrn.mjTRN_JOINT and actuator.target in wheels:
             actuator.target = carrier.name
