@@ -68,3 +68,19 @@ def circle_ratio(speed: float, steer: float, vehicle: str = "seed") -> float:
 def test_past_the_top_speed_the_car_keeps_its_line(vehicle):
     # before: 6.5 m/s at 0.06 rad gave R/R0 = 3.92 for seed (the outer wheels clipped, the car sliding out)
     assert circle_ratio(6.5, 0.06, vehicle) == pytest.approx(circle_ratio(4.8, 0.06, vehicle), rel=0.05)
+
+
+def test_a_vehicle_sets_steering_and_speed_ranges_clamp_the_command(tmp_path):
+    path = tmp_path / "slow.yaml"
+    path.write_text("s_min: -0.4189\ns_max: 0.4189\nv_min: -1.0\nv_max: 2.0\n")  # F1TENTH's steering, slow speeds
+    sim = Simulator(world="empty", camera=False, lidar=False, vehicle=path)
+    law = sim.car.servo.law
+    sim.close()
+    # F1TENTH's s_max = 0.4189 rad: a sharper command steers as s_max does (the seed's hinges would take 0.6)
+    assert law.command(1.0, 0.6)[0] == law.command(1.0, 0.4189)[0]
+    assert law.command(1.0, -0.6)[0] == law.command(1.0, -0.4189)[0]
+    # within the range, the plain law
+    assert law.command(1.0, 0.3)[0] != law.command(1.0, 0.4189)[0]
+    # v_min..v_max = -1..2 m/s, well within the wheels' 5 m/s
+    assert law.command(3.0, 0.2)[0] == law.command(2.0, 0.2)[0] != law.command(1.9, 0.2)[0]
+    assert law.command(-3.0, 0.2)[0] == law.command(-1.0, 0.2)[0]

@@ -103,12 +103,21 @@ class ServoLaw:
     """
 
     def __init__(
-        self, mode: str, wheels: Sequence[ServoWheel], wheelbase: float, wheel_radius: float, rate_per_speed: float
+        self,
+        mode: str,
+        wheels: Sequence[ServoWheel],
+        wheelbase: float,
+        wheel_radius: float,
+        rate_per_speed: float,
+        steer_range: tuple[float, float] | None = None,
+        speed_range: tuple[float, float] | None = None,
     ) -> None:
         if mode not in MODES:
             raise ValueError(f"servo mode '{mode}' is not ackermann or parallel")
         self.mode, self.wheels = mode, tuple(wheels)
         self.wheelbase, self.wheel_radius, self.rate_per_speed = wheelbase, wheel_radius, rate_per_speed
+        # a vehicle set's command limits (F1TENTH's s_min..s_max, v_min..v_max); None: as the seed, none
+        self.steer_range, self.speed_range = steer_range, speed_range
         steered = [i for i, w in enumerate(self.wheels) if w.hinge is not None]
         if mode == "ackermann":
             outputs = [row for i in range(len(self.wheels)) for row in [(i, True)] * (i in steered) + [(i, False)]]
@@ -139,6 +148,10 @@ class ServoLaw:
 
     def _law(self, speed: Any, steer: Any, op: _Elementwise) -> tuple[list[Any], Any]:
         """The law, with `op`'s functions for floats or arrays (the arithmetic is the same on both)."""
+        if self.steer_range is not None:
+            steer = op.minimum(op.maximum(steer, self.steer_range[0]), self.steer_range[1])
+        if self.speed_range is not None:
+            speed = op.minimum(op.maximum(speed, self.speed_range[0]), self.speed_range[1])
         if self.mode == "parallel":
             rate = speed * self.rate_per_speed
             never = op.abs(speed) < 0.0  # False (per command): the parallel mode takes any angle

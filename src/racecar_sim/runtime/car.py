@@ -283,6 +283,7 @@ class Car:
                     self.profile.wheel_rate_per_speed,
                     now,
                     names,
+                    self.vehicle,
                 )
             )
         model_plugins, sensors = self._planned
