@@ -13,6 +13,7 @@ from racecar_sim import Simulator
 from racecar_sim.description import VehicleGeometry, load_robot
 from racecar_sim.description.vehicle_params import VehicleParams, load_vehicle
 from racecar_sim.msgs import AckermannDriveStamped
+from racecar_sim.physics.actuation import STEER_KP, STEER_KV
 
 G = 9.81
 L = VehicleGeometry.from_robot(load_robot()).wheelbase
@@ -142,3 +143,59 @@ def test_a_sine_steer_follows_the_single_track_model():
     reference = single_track_yaw_rate(params, body_of(params), speed, lambda t: steer(t + start), window[:, 0] - start)
     rmse = float(np.sqrt(np.mean((window[:, 2] - reference) ** 2)))
     assert rmse <= 0.15 * np.abs(reference).max()
+
+
+def hinge_and_speed(
+    vehicle, speed: float, steer: float, start: float = 1.0, duration: float = 2.5, rolling: bool = False
+) -> np.ndarray:
+    """(t, left hinge, right hinge, forward speed, left hinge setpoint, right hinge setpoint) at 200 Hz with a command
+    stepping from rest at `start` (rolling: driving straight at `speed` before, only the steering steps). The setpoint
+    is the hinge actuator's activation where it has one (a rate-limited set), else its control."""
+    sim = Simulator(world="empty", camera=False, lidar=False, vehicle=vehicle)
+    model, data = sim.model, sim.data
+    hinges = [model.jnt_qposadr[model.joint(f"{side}_steering_hinge_joint").id] for side in ("left", "right")]
+    servos = [model.actuator(f"{side}_steering_hinge_position_controller").id for side in ("left", "right")]
+    rows: list[list[float]] = []
+
+    def setpoint(servo: int) -> float:
+        adr = model.actuator_actadr[servo]
+        return float(data.act[adr] if adr >= 0 else data.ctrl[servo])
+
+    def command(now: int) -> None:
+        msg = AckermannDriveStamped()
+        on = now * 1e-9 > start
+        msg.drive.speed, msg.drive.steering_angle = (speed, steer) if on else (speed if rolling else 0.0, 0.0)
+        sim.bus.publish(NAVIGATION, msg)
+
+    def sample(now: int) -> None:
+        linear, _ = sim.car.state.base_velocity(local=True)
+        rows.append([now * 1e-9, *data.qpos[hinges], float(linear[0]), *(setpoint(s) for s in servos)])
+
+    sim.scheduler.every(50.0, command, "driver")
+    sim.scheduler.every(200.0, sample, "probe")
+    sim.run_until(duration)
+    sim.close()
+    return np.array(rows)
+
+
+def test_the_steering_turns_no_faster_than_sv_max():
+    sv_max = load_vehicle("f1tenth").sv_max
+    rows = hinge_and_speed("f1tenth", 2.0, 0.4, start=2.0, duration=3.0, rolling=True)
+    setpoint_rates = np.abs(np.diff(rows[:, 4:6], axis=0)) / np.diff(rows[:, 0])[:, None]
+    assert setpoint_rates.max() <= sv_max * (1 + 1e-9)  # the command's rate limit
+    # and the hinges follow it: a servo's lag behind a ramp, rate * kv / kp, and the tyres' torque aside
+    assert np.abs(rows[:, 1:3] - rows[:, 4:6]).max() < sv_max * STEER_KV / STEER_KP + 0.02
+    # and it does turn at the limit: the inner (left) hinge's ~0.5 rad in about 0.5 / 3.2 s, not the seed's 0.5 s lag
+    reached = rows[np.argmax(rows[:, 1] > 0.9 * rows[-1, 1]), 0] - 2.02  # the first command after 2 s: 2.02 s
+    assert reached < 0.9 * rows[-1, 1] / sv_max + 0.05
+
+
+def test_the_car_accelerates_no_faster_than_a_max(tmp_path):
+    path = tmp_path / "gentle.yaml"
+    path.write_text("mu: 1.0489\nC_Sf: 4.718\nC_Sr: 5.4562\na_max: 2.0\n")  # F1TENTH's tyres, a gentle motor
+    rows = hinge_and_speed(path, 4.0, 0.0, duration=3.0)
+    t, v = rows[:, 0], rows[:, 3]
+    window = 100  # 0.5 s: the launch from rest shakes the car for a moment on its tyres
+    acceleration = (v[window:] - v[:-window]) / (t[window:] - t[:-window])
+    assert acceleration.max() <= 1.1 * 2.0
+    assert v[np.argmin(np.abs(t - 2.02))] == pytest.approx(2.0, rel=0.15)  # 1 s at 2 m/s^2
