@@ -184,7 +184,7 @@ def callback() -> Any:
         return d * math.sin(c * math.atan(bx - e * (bx - math.atan(bx))))
 
     def tyres(m: Any, d: Any) -> None:
-        nnumeric: int = load_int(m, off_nnumeric)  # type: ignore[call-arg]  # typed by numba, not mypy
+        nnumeric: int = load_int(m, off_nnumeric)
         if nnumeric <= 0:
             return
         numeric_adr = ints(load_word(m, off_numeric_adr))
