@@ -123,6 +123,11 @@ def add_xacro_arguments(p: argparse.ArgumentParser) -> None:
         metavar="NAME:=VALUE",
         help="xacro argument of the car, repeatable (over the profile's own)",
     )
+    add_vehicle_argument(p)
+
+
+def add_vehicle_argument(p: argparse.ArgumentParser) -> None:
+    """--vehicle NAME|FILE.yaml: the car's tyre and actuator parameter set."""
     p.add_argument(
         "--vehicle",
         type=vehicle_set,
