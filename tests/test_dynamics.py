@@ -63,6 +63,19 @@ def test_understeer_gradient_in_the_linear_range(vehicle: str, expected: float |
         assert abs(gradient) < 0.003  # no slip below the limit: the kinematic radius
 
 
+def test_understeer_gradient_of_a_pacejka_file(tmp_path):
+    # ForzaETH's NUC2 fit; in the linear range the magic formula's cornering stiffness is B C D per rad (normalised by
+    # the load), so the single-track gradient is 1/(B C D)_front - 1/(B C D)_rear = 0.094 rad/g
+    path = tmp_path / "nuc2.yaml"
+    path.write_text("C_Pf: [4.80, 2.16, 0.650, 0.373]\nC_Pr: [20.0, 1.5, 0.618, 0.0]\n")
+    expected = 1 / (4.80 * 2.16 * 0.650) - 1 / (20.0 * 1.5 * 0.618)
+    points = [steady_turn(str(path), speed, 0.1) for speed in (1.0, 1.5, 2.0, 2.5)]
+    a_y = np.array([p[0] for p in points])
+    assert a_y.max() < 0.4 * 0.618
+    gradient = np.polyfit(a_y, [p[1] for p in points], 1)[0]
+    assert gradient == pytest.approx(expected, rel=0.2)
+
+
 def body_of(vehicle: VehicleParams) -> dict[str, float]:
     """The car's own m, I_z (about its centre of mass), lf, lr and CG height, from the compiled model at rest."""
     sim = Simulator(world="empty", camera=False, lidar=False, vehicle=vehicle)

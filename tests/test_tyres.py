@@ -62,6 +62,13 @@ def test_a_car_sliding_sideways_decelerates_at_mu_g():
     assert lateral_deceleration("f1tenth") == pytest.approx(load_vehicle("f1tenth").mu * G, rel=0.05)
 
 
+def test_a_pacejka_tyre_sliding_gives_d_g(tmp_path):
+    # the magic formula with C = 1, E = 0 is D sin(atan(B alpha)): at a slip angle near 90 degrees and B = 20, D
+    path = tmp_path / "flat_top.yaml"
+    path.write_text("C_Pf: [20.0, 1.0, 0.8, 0.0]\nC_Pr: [20.0, 1.0, 0.8, 0.0]\n")
+    assert lateral_deceleration(str(path)) == pytest.approx(0.8 * G, rel=0.05)
+
+
 def com_acceleration_peak(vehicle: str, steer: float, top: float = 6.0, ramp: float = 6.0) -> float:
     """Peak horizontal acceleration (g) of the car's centre of mass averaged over 0.5 s: a constant-steer circle with
     the speed command ramped up to past the top speed, then braking in the turn (command 0)."""

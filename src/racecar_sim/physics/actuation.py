@@ -19,8 +19,8 @@ from racecar_sim.description.vehicle import VehicleGeometry
 from racecar_sim.description.vehicle_params import VehicleParams
 from racecar_sim.physics.tyre_callback import install_actuator_dynamics
 
-STEER_KP = 20.0  # N m/rad: the hinge's natural frequency ~35 Hz with its ~4e-4 kg m^2 about the kingpin
-STEER_KV = 0.3  # N m s/rad: about critically damped
+STEER_KP = 40.0  # N m/rad: the hinge's natural frequency ~50 Hz with its ~4e-4 kg m^2 about the kingpin
+STEER_KV = 0.4  # N m s/rad: a little over critically damped; 10 ms behind a ramp
 
 
 def limit_actuators(spec: mujoco.MjSpec, robot: Robot, names: CarNames, params: VehicleParams) -> None:

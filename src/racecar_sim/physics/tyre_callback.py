@@ -13,12 +13,14 @@ address of the array the bindings show (in every probe; the last of a run of emp
 a size field where it changes as a probe's size does. A layout the probe cannot pin down is an error naming the
 field, never a guess.
 
-The tyre: slip ratio kappa = -s_x / max(V, v_eps_x) and slip angle alpha = atan(-s_y / max(V, v_eps_y)), s the
-velocity of the wheel's material at the contact point along the wheel's heading and across it, V the wheel centre's
-speed along its heading. Force per axis: linear mu C_S F_z x, or Pacejka F_z D sin(C atan(B x - E (B x - atan B x)));
-combined within the friction ellipse (a circle of radius mu F_z, D F_z for Pacejka). v_eps keeps the force bounded and
-the explicit step stable at walking speed (below it the tyre is a viscous contact); the longitudinal force per slip
-speed is also capped at half the wheel's spin inertia / (r^2 dt), the stiffest the explicit step keeps stable.
+The tyre: slip ratio kappa = -s_x / max(V, |omega r|, v_eps_x) (bounded: a spinning or locked wheel is |kappa| = 1,
+where a Pacejka curve fitted for slip angles has not turned negative yet) and slip angle
+alpha = atan(-s_y / max(V, v_eps_y)), s the velocity of the wheel's material at the contact point along the wheel's
+heading and across it, V the wheel centre's speed along its heading. Force per axis: linear mu C_S F_z x, or Pacejka
+F_z D sin(C atan(B x - E (B x - atan B x))); combined within the friction ellipse (a circle of radius mu F_z, D F_z for
+Pacejka). v_eps keeps the force bounded and the explicit step stable at walking speed (below it the tyre is a viscous
+contact); the longitudinal force per slip speed is also capped at half the wheel's spin inertia / (r^2 dt), the
+stiffest the explicit step keeps stable.
 """
 
 from __future__ import annotations
@@ -239,7 +241,8 @@ def callback() -> Any:
                 vpx, vpy = vx + wy * rz - wz * ry, vy + wz * rx - wx * rz
                 speed = abs(vcx * xx + vcy * xy)
                 slip_x, slip_y = vpx * xx + vpy * xy, vpx * yx + vpy * yy
-                kappa = -slip_x / max(speed, numeric_data[row + 14])
+                rolling = abs(vcx * xx + vcy * xy - slip_x)  # the rim's speed, omega r
+                kappa = -slip_x / max(speed, rolling, numeric_data[row + 14])
                 alpha = math.atan(-slip_y / max(speed, numeric_data[row + 15]))
                 mu = numeric_data[row + 8]
                 if numeric_data[row + 7] == PACEJKA:

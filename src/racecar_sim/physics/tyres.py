@@ -59,7 +59,7 @@ def prepare_tyres(spec: mujoco.MjSpec, robot: Robot, names: CarNames, params: Ve
     install()
 
 
-CARRIER_INERTIA = 1e-4  # kg m^2: the differentials' carrier (the motor's side of the drive train), small beside a car
+CARRIER_INERTIA = 2e-3  # kg m^2 about the mean wheel axis: the motor and gears seen through the drive train
 
 
 def open_differentials(spec: mujoco.MjSpec, robot: Robot, names: CarNames, params: VehicleParams) -> None:
@@ -94,6 +94,13 @@ def open_differentials(spec: mujoco.MjSpec, robot: Robot, names: CarNames, param
     for actuator in spec.actuators:
         if actuator.trntype == mujoco.mjtTrn.mjTRN_JOINT and actuator.target in wheels:
             actuator.target = carrier.name
+            if actuator.dyntype == mujoco.mjtDyn.mjDYN_NONE:
+                # the P velocity servo as a plain velocity actuator (MuJoCo's pid gain type on the carrier joint
+                # pushed against its command): force = kv ctrl - kv qdot
+                kv = -actuator.biasprm[2]
+                actuator.gaintype, actuator.biastype = mujoco.mjtGain.mjGAIN_FIXED, mujoco.mjtBias.mjBIAS_AFFINE
+                actuator.gainprm[:3] = [kv, 0.0, 0.0]
+                actuator.biasprm[:3] = [0.0, 0.0, -kv]
     # MuJoCo's sleeping (builder: static geoms placed once) does not take tendon equalities yet
     spec.option.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_SLEEP)
 
