@@ -9,9 +9,9 @@ point with mj_applyFT to qfrc_passive.
 
 The callback reaches mjModel and mjData fields through their C struct's layout. The bindings do not publish the
 offsets, so they are measured once per process from probe models: a pointer field is where the struct holds the
-address of the array the bindings show (in every probe; the last of a run of empty arrays sharing the address),
-a size field where it changes as a probe's size does. A layout the probe cannot pin down is an error naming the
-field, never a guess.
+address of the array the bindings show (in every probe; the last of a run of empty arrays sharing the address;
+read a chunk at a time, never far past the field), a size field where it changes as a probe's size does. A layout
+the probe cannot pin down is an error naming the field, never a guess.
 
 The tyre: slip ratio kappa = -s_x / max(V, |omega r|, v_eps_x) (bounded: a spinning or locked wheel is |kappa| = 1,
 where a Pacejka curve fitted for slip angles has not turned negative yet) and slip angle
@@ -55,23 +55,46 @@ def _raw(address: int, size: int) -> np.ndarray:
     return np.frombuffer(ctypes.string_at(address, size), np.int64)
 
 
-def _pointer_offsets(structs: list[Any], names: tuple[str, ...], size: int) -> dict[str, int]:
-    """Byte offset of each pointer field `names` in the structs (all of one type), found in every probe."""
-    raws = [_raw(s._address, size) for s in structs]
-    offsets = {}
+_CHUNK = 256  # bytes read at a time: a scan stops within one chunk past the last field it looks for
+_LIMIT = 1 << 20  # bytes: no struct of MuJoCo's is this large
+
+
+def _struct_offsets(struct: Any, names: tuple[str, ...]) -> dict[str, int]:
+    """Byte offset of each pointer field `names` in one struct: where it holds the address of the array the bindings
+    show. Empty arrays just before a field share its address (MuJoCo's arena): the field is the last of that run.
+    The struct is read a chunk at a time, and no further than a chunk past the run of the last field (reading past
+    the end of the struct's memory would crash the process)."""
+    wanted = {name: getattr(struct, name).ctypes.data for name in names}
+    runs: dict[str, list[int]] = {}  # consecutive word indices holding the address
+    done: set[str] = set()
+    offset = 0
+    while len(done) < len(wanted):
+        if offset >= _LIMIT:
+            missing = ", ".join(sorted(set(wanted) - done))
+            raise LayoutError(f"mujoco {mujoco.__version__}: cannot locate field {missing} of the C struct")
+        words = _raw(struct._address + offset, _CHUNK)
+        for name, address in wanted.items():
+            if name in done:
+                continue
+            hits = (np.nonzero(words == address)[0] + offset // 8).tolist()
+            run = runs.setdefault(name, [])
+            if run and (not hits or hits[0] != run[-1] + 1):
+                done.add(name)  # the run of equal addresses ended at the chunk's edge
+                continue
+            run += hits
+            if hits and hits[-1] < offset // 8 + len(words) - 1:
+                done.add(name)  # ... or within the chunk
+        offset += _CHUNK
+    return {name: 8 * max(run) for name, run in runs.items()}
+
+
+def _pointer_offsets(structs: list[Any], names: tuple[str, ...]) -> dict[str, int]:
+    """Byte offset of each pointer field `names` in the structs (all of one type): the same in every probe."""
+    found = [_struct_offsets(s, names) for s in structs]
     for name in names:
-        found = None
-        for raw, s in zip(raws, structs):
-            hits = set(np.nonzero(raw == getattr(s, name).ctypes.data)[0].tolist())
-            found = hits if found is None else found & hits
-        if not found:
-            raise LayoutError(f"mujoco {mujoco.__version__}: cannot locate field {name} of the C struct")
-        # empty arrays just before it share its address (MuJoCo's arena); the field itself is the last of the run
-        last = max(found)
-        if any(hit < last - 64 for hit in found):
+        if len({f[name] for f in found}) != 1:
             raise LayoutError(f"mujoco {mujoco.__version__}: field {name} of the C struct is ambiguous")
-        offsets[name] = 8 * last
-    return offsets
+    return found[0]
 
 
 def _probe_model(n: int) -> mujoco.MjModel:
@@ -90,13 +113,13 @@ def layout() -> dict[str, int]:
     _DATA_POINTERS (mjData)."""
     models = [_probe_model(n) for n in (3, 11, 29)]
     data = [mujoco.MjData(m) for m in models]
-    offsets = _pointer_offsets(models, _MODEL_POINTERS, 1 << 15)
+    offsets = _pointer_offsets(models, _MODEL_POINTERS)
     sizes = [_raw(m._address, 4096).view(np.int32) for m in models]
     hits = [i for i in range(len(sizes[0])) if all(s[i] == m.nnumeric for s, m in zip(sizes, models))]
     if len(hits) != 1:
         raise LayoutError(f"mujoco {mujoco.__version__}: cannot locate field nnumeric of the C struct")
     offsets["nnumeric"] = 4 * hits[0]
-    data_offsets = _pointer_offsets(data, _DATA_POINTERS, 1 << 20)
+    data_offsets = _pointer_offsets(data, _DATA_POINTERS)
     return {**offsets, **data_offsets}
 
 
