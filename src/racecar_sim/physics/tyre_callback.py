@@ -26,16 +26,21 @@ stiffest the explicit step keeps stable.
 from __future__ import annotations
 
 import ctypes
-import math
+import hashlib
+import importlib.util
 import os
+import sys
+import tempfile
 from functools import cache
+from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 import mujoco
 import numpy as np
 
 MAGIC = 7_311_993.0  # first value of a tyre table
-HEADER = 2  # MAGIC, number of wheels
+HEADER = 3  # MAGIC, number of wheels, the address of mj_applyFT
 STRIDE = 20  # values per wheel
 # per wheel: body, root body, touch sensor address, radius, spin axis in the body frame (3), model (1 linear,
 # 2 Pacejka), mu, C_S, B, C, D, E, v_eps_x, v_eps_y, tyre centre in the body frame (3), the
@@ -129,180 +134,49 @@ def _mujoco_library() -> ctypes.CDLL:
     return ctypes.CDLL(os.path.join(folder, name))
 
 
-@cache
-def _intrinsics() -> tuple[Any, Any, Any, Any]:
-    """numba intrinsics reading C structs: load_word(base, offset) (a pointer field as an integer),
-    load_int(base, offset) (an int field), doubles(address) and ints(address) (an integer address as double* / int*)."""
-    from numba import types  # numba loads in ~0.3 s: only when a vehicle needs it
-    from numba.extending import intrinsic
-
-    @intrinsic
-    def load_word(typingctx: Any, base: Any, offset: Any) -> Any:
-        """The 8 bytes at base + offset, as an integer (a pointer field)."""
-        sig = types.intp(types.voidptr, types.intp)
-
-        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-            address = builder.gep(args[0], [args[1]])
-            word = context.get_value_type(types.intp)
-            return builder.load(builder.bitcast(address, word.as_pointer()))
-
-        return sig, codegen
-
-    @intrinsic
-    def load_int(typingctx: Any, base: Any, offset: Any) -> Any:
-        """The 4 bytes at base + offset, as an int32 (a size field)."""
-        sig = types.int32(types.voidptr, types.intp)
-
-        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-            address = builder.gep(args[0], [args[1]])
-            word = context.get_value_type(types.int32)
-            return builder.load(builder.bitcast(address, word.as_pointer()))
-
-        return sig, codegen
-
-    @intrinsic
-    def doubles(typingctx: Any, address: Any) -> Any:
-        """An integer address as a double*."""
-        sig = types.CPointer(types.float64)(types.intp)
-
-        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-            return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
-
-        return sig, codegen
-
-    @intrinsic
-    def ints(typingctx: Any, address: Any) -> Any:
-        """An integer address as an int*."""
-        sig = types.CPointer(types.int32)(types.intp)
-
-        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-            return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
-
-        return sig, codegen
-
-    return load_word, load_int, doubles, ints
+def _cache_folder() -> Path:
+    """Where the kernels' generated copies (and numba's cache of them) live."""
+    root = os.environ.get("RACECAR_SIM_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "racecar_sim")
+    return Path(root) / "kernels"
 
 
 @cache
-def callback() -> Any:
-    """The compiled tyre callback (numba cfunc), built once per process."""
-    from numba import carray, cfunc, njit, types
-
-    load_word, load_int, doubles, ints = _intrinsics()
+def kernels() -> ModuleType:
+    """tyre_kernels.py with this MuJoCo's struct offsets filled in, imported from a copy in the cache folder (named
+    by a hash of the offsets, MuJoCo's version and the template), so numba compiles its cfuncs once per machine."""
+    template = (Path(__file__).parent / "tyre_kernels.py").read_text()
     offsets = layout()
-    apply_ft = _mujoco_library().mj_applyFT
-    # pointers passed as integers: the same registers on every 64-bit ABI MuJoCo ships for
-    apply_ft.argtypes = [ctypes.c_void_p, ctypes.c_void_p] + [ctypes.c_size_t] * 3 + [ctypes.c_int, ctypes.c_size_t]
-    apply_ft.restype = None
+    source = template.replace("OFFSETS: dict[str, int] = {}", f"OFFSETS: dict[str, int] = {offsets!r}", 1)
+    digest = hashlib.sha1(f"{mujoco.__version__}\n{source}".encode()).hexdigest()[:16]
+    folder = _cache_folder()
+    path = folder / f"racecar_tyre_kernels_{digest}.py"
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        if not path.exists():
+            scratch = path.with_suffix(f".{os.getpid()}.tmp")
+            scratch.write_text(source)
+            scratch.replace(path)  # atomic: processes starting together see the whole file or none
+    except OSError:  # a read-only home: a private folder, compiled in this process only
+        path = Path(tempfile.mkdtemp(prefix="racecar_sim_kernels_")) / path.name
+        path.write_text(source)
+    spec = importlib.util.spec_from_file_location(path.stem, path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[path.stem] = module  # numba's cache finds the module by name
+    spec.loader.exec_module(module)
+    assert (module.MAGIC, module.HEADER, module.STRIDE, module.DYNPRM_SIZE) == (MAGIC, HEADER, STRIDE, DYNPRM_SIZE)
+    return module
 
-    off_nnumeric, off_numeric_adr, off_numeric_data = (
-        offsets["nnumeric"],
-        offsets["numeric_adr"],
-        offsets["numeric_data"],
-    )
-    off_xpos, off_xmat, off_cvel = offsets["xpos"], offsets["xmat"], offsets["cvel"]
-    off_com, off_sensor, off_qfrc = offsets["subtree_com"], offsets["sensordata"], offsets["qfrc_passive"]
 
-    @njit(inline="always")
-    def magic_formula(x: float, b: float, c: float, d: float, e: float) -> float:
-        bx = b * x
-        return d * math.sin(c * math.atan(bx - e * (bx - math.atan(bx))))
-
-    def tyres(m: Any, d: Any) -> None:
-        nnumeric: int = load_int(m, off_nnumeric)
-        if nnumeric <= 0:
-            return
-        numeric_adr = ints(load_word(m, off_numeric_adr))
-        numeric_data = doubles(load_word(m, off_numeric_data))
-        for k in range(nnumeric):
-            table = carray(doubles(load_word(m, off_numeric_data) + 8 * numeric_adr[k]), (HEADER,))
-            if table[0] != MAGIC:
-                continue
-            wheels = int(table[1])
-            start = numeric_adr[k] + HEADER
-            xpos, xmat = doubles(load_word(d, off_xpos)), doubles(load_word(d, off_xmat))
-            cvel, com = doubles(load_word(d, off_cvel)), doubles(load_word(d, off_com))
-            sensordata = doubles(load_word(d, off_sensor))
-            qfrc = load_word(d, off_qfrc)
-            buffer = np.zeros(9)
-            for w in range(wheels):
-                row = start + w * STRIDE
-                body, root = int(numeric_data[row]), int(numeric_data[row + 1])
-                load = sensordata[int(numeric_data[row + 2])]
-                if load <= 0.0:
-                    continue
-                radius = numeric_data[row + 3]
-                # spin axis in the world: xmat (row-major) times the axis in the body frame
-                ax = ay = az = 0.0
-                cx, cy, cz = xpos[3 * body], xpos[3 * body + 1], xpos[3 * body + 2]
-                for j in range(3):
-                    local = numeric_data[row + 4 + j]
-                    ax += xmat[9 * body + j] * local
-                    ay += xmat[9 * body + 3 + j] * local
-                    az += xmat[9 * body + 6 + j] * local
-                    offset = numeric_data[row + 16 + j]
-                    cx += xmat[9 * body + j] * offset
-                    cy += xmat[9 * body + 3 + j] * offset
-                    cz += xmat[9 * body + 6 + j] * offset
-                # heading across (e_y: the axis in the ground plane) and along (e_x = e_y x up)
-                norm = math.sqrt(ax * ax + ay * ay)
-                if norm < 1e-6:
-                    continue  # the wheel lies flat
-                yx, yy = ax / norm, ay / norm
-                xx, xy = yy, -yx
-                # contact point: the rim's lowest point, below the centre across the axis
-                dx, dy, dz = -az * ax, -az * ay, 1.0 - az * az  # up minus its part along the axis
-                dn = math.sqrt(dx * dx + dy * dy + dz * dz)
-                px, py, pz = cx - radius * dx / dn, cy - radius * dy / dn, cz - radius * dz / dn
-                # velocity of the centre and of the wheel's material at the contact point (cvel: about subtree_com)
-                wx, wy, wz = cvel[6 * body], cvel[6 * body + 1], cvel[6 * body + 2]
-                vx, vy = cvel[6 * body + 3], cvel[6 * body + 4]
-                ox, oy, oz = com[3 * root], com[3 * root + 1], com[3 * root + 2]
-                rx, ry, rz = cx - ox, cy - oy, cz - oz
-                vcx, vcy = vx + wy * rz - wz * ry, vy + wz * rx - wx * rz
-                rx, ry, rz = px - ox, py - oy, pz - oz
-                vpx, vpy = vx + wy * rz - wz * ry, vy + wz * rx - wx * rz
-                speed = abs(vcx * xx + vcy * xy)
-                slip_x, slip_y = vpx * xx + vpy * xy, vpx * yx + vpy * yy
-                rolling = abs(vcx * xx + vcy * xy - slip_x)  # the rim's speed, omega r
-                kappa = -slip_x / max(speed, rolling, numeric_data[row + 14])
-                alpha = math.atan(-slip_y / max(speed, numeric_data[row + 15]))
-                mu = numeric_data[row + 8]
-                if numeric_data[row + 7] == PACEJKA:
-                    b, c, dd, e = (
-                        numeric_data[row + 10],
-                        numeric_data[row + 11],
-                        numeric_data[row + 12],
-                        numeric_data[row + 13],
-                    )
-                    fx = load * magic_formula(kappa, b, c, dd, e)
-                    fy = load * magic_formula(alpha, b, c, dd, e)
-                    peak = load * dd
-                else:
-                    stiffness = mu * numeric_data[row + 9] * load
-                    fx, fy = stiffness * kappa, stiffness * alpha
-                    peak = mu * load
-                # the wheel's spin is integrated explicitly: no stiffer than its inertia allows in one step
-                if abs(fx) > numeric_data[row + 19] * abs(slip_x):
-                    fx = -numeric_data[row + 19] * slip_x
-                total = math.sqrt(fx * fx + fy * fy)
-                if total > peak:
-                    fx, fy = fx * peak / total, fy * peak / total
-                buffer[0] = fx * xx + fy * yx
-                buffer[1] = fx * xy + fy * yy
-                buffer[2] = 0.0
-                buffer[3] = buffer[4] = buffer[5] = 0.0
-                buffer[6], buffer[7], buffer[8] = px, py, pz
-                base = buffer.ctypes.data
-                apply_ft(m, d, base, base + 24, base + 48, body, qfrc)
-
-    return cfunc(types.void(types.voidptr, types.voidptr))(tyres)
+def apply_ft_address() -> int:
+    """The address of MuJoCo's mj_applyFT in this process (the tyre table carries it to the kernel)."""
+    return ctypes.cast(_mujoco_library().mj_applyFT, ctypes.c_void_p).value or 0
 
 
 def install() -> None:
     """Make the compiled callback MuJoCo's mjcb_passive (once per process; it adds nothing to models without tyres).
     A passive callback of someone else's is an error rather than silently replaced."""
-    compiled = callback()
+    compiled = kernels().tyres
     current = mujoco.get_mjcb_passive()
     if current is compiled.ctypes:
         return
@@ -311,33 +185,9 @@ def install() -> None:
     mujoco.set_mjcb_passive(compiled.ctypes)
 
 
-@cache
-def actuator_dynamics() -> Any:
-    """The compiled actuator dynamics (numba cfunc) of MuJoCo's `user` dyntype: the activation (the setpoint the
-    servo follows) moves towards the control at a bounded rate, act_dot = clip((ctrl - act) / dt, lo, hi), with
-    (lo, hi, dt) the actuator's dynprm[0:3]: a steering-rate limit (rad/s) on a hinge's angle setpoint, an
-    acceleration limit (rad/s^2 of wheel rate) on a wheel-rate setpoint."""
-    from numba import cfunc, types
-
-    load_word, _, doubles, ints = _intrinsics()
-    offsets = layout()
-    off_ctrl, off_act = offsets["ctrl"], offsets["act"]
-    off_actadr, off_dynprm = offsets["actuator_actadr"], offsets["actuator_dynprm"]
-    ndyn = DYNPRM_SIZE
-
-    def rate_limited(m: Any, d: Any, i: int) -> float:
-        ctrl = doubles(load_word(d, off_ctrl))[i]
-        act = doubles(load_word(d, off_act))[ints(load_word(m, off_actadr))[i]]
-        prm = doubles(load_word(m, off_dynprm))
-        lo, hi, dt = prm[ndyn * i], prm[ndyn * i + 1], prm[ndyn * i + 2]
-        return min(max((ctrl - act) / dt, lo), hi)
-
-    return cfunc(types.float64(types.voidptr, types.voidptr, types.int32))(rate_limited)
-
-
 def install_actuator_dynamics() -> None:
     """Make the rate limit MuJoCo's mjcb_act_dyn (once per process; called only for `user` dyntype actuators)."""
-    compiled = actuator_dynamics()
+    compiled = kernels().rate_limited
     current = mujoco.get_mjcb_act_dyn()
     if current is compiled.ctypes:
         return

@@ -16,7 +16,7 @@ from racecar_sim.core.names import CarNames
 from racecar_sim.description.urdf import Robot
 from racecar_sim.description.vehicle import VehicleGeometry
 from racecar_sim.description.vehicle_params import VehicleParams
-from racecar_sim.physics.tyre_callback import HEADER, LINEAR, MAGIC, PACEJKA, STRIDE, install
+from racecar_sim.physics.tyre_callback import HEADER, LINEAR, MAGIC, PACEJKA, STRIDE, apply_ft_address, install
 
 V_EPS_LONGITUDINAL = 1.0  # m/s: below it slip ratio is taken over this speed (the wheel's spin stays stable)
 V_EPS_LATERAL = 0.3  # m/s: likewise for the slip angle
@@ -122,7 +122,7 @@ def fill_tyre_table(model: mujoco.MjModel, robot: Robot, names: CarNames, params
     geometry = VehicleGeometry.from_robot(robot)
     numeric = model.numeric(table_name(names))
     table = np.zeros(HEADER + STRIDE * len(geometry.wheels))
-    table[0], table[1] = MAGIC, len(geometry.wheels)
+    table[0], table[1], table[2] = MAGIC, len(geometry.wheels), apply_ft_address()
     for i, wheel in enumerate(geometry.wheels):
         body = model.body(names.mj(wheel.link))
         sensor = model.sensor(_touch_name(names, wheel.link))
