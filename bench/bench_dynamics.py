@@ -7,7 +7,8 @@ For `seed` and `f1tenth`, in the empty world:
              circles ramped past the top speed and then braking in the turn: dynamics_gg.png, with the mu circle
   understeer steering beyond the kinematic angle (delta - atan(L kappa)) against a_lat over steady circles:
              dynamics_understeer.png, with the single-track line K a_lat of the set's tyres
-  cost       real-time factor of one car (lidar on, camera off) with and without tyres, and of a fleet of 4
+  cost       real-time factor of one car (lidar on, camera off) with and without tyres, and a fleet of 4's against
+             bare MuJoCo's on the same model (mj_step alone); medians of interleaved rounds
 Pictures go to --out (default docs/).
 """
 
@@ -186,12 +187,19 @@ def main() -> None:
     fig.savefig(args.out / "dynamics_understeer.png", dpi=120)
     print(f"wrote {args.out / 'dynamics_gg.png'} and {args.out / 'dynamics_understeer.png'}")
 
-    seed_rtf, tyre_rtf = real_time_factor("seed"), real_time_factor("f1tenth")
+    # interleaved rounds, medians: a shared machine's load drifts by more than the difference measured
+    rounds = 3 if args.quick else 5
+    one = {vehicle: [] for vehicle in SETS}
+    fleets = {vehicle: [] for vehicle in SETS}
+    for _ in range(rounds):
+        for vehicle in SETS:
+            one[vehicle].append(real_time_factor(vehicle))
+            fleets[vehicle].append(real_time_factor(vehicle, cars=4) / bare_mujoco_factor(vehicle, cars=4))
+    seed_rtf, tyre_rtf = float(np.median(one["seed"])), float(np.median(one["f1tenth"]))
     ratio = tyre_rtf / seed_rtf
     print(f"one car (lidar, no camera): seed {seed_rtf:.1f}x, f1tenth {tyre_rtf:.1f}x real time, ratio {ratio:.2f}")
     for vehicle in SETS:
-        whole, bare = real_time_factor(vehicle, cars=4), bare_mujoco_factor(vehicle, cars=4)
-        print(f"fleet of 4, {vehicle}: {whole:.1f}x real time, bare MuJoCo {bare:.1f}x, ratio {whole / bare:.2f}")
+        print(f"fleet of 4, {vehicle}: real-time factor / bare MuJoCo's {float(np.median(fleets[vehicle])):.2f}")
 
 
 if __name__ == "__main__":
