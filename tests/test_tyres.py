@@ -40,8 +40,16 @@ def lateral_deceleration(vehicle: str) -> float:
     slides."""
     sim = Simulator(world="empty", camera=False, lidar=False, vehicle=vehicle)
     sim.run_until(0.5)  # settled on its wheels, the tyres loaded
+    deceleration = lateral_deceleration_of(sim)
+    sim.close()
+    return deceleration
+
+
+def lateral_deceleration_of(sim: Simulator) -> float:
+    """lateral_deceleration() of a car already at rest in `sim`."""
     body = sim.car.state.body_id
     dof, root = sim.model.jnt_dofadr[sim.model.body_jntadr[body]], sim.model.body_rootid[body]
+    start_time = sim.time_ns * 1e-9
     sim.data.qvel[dof + 1] = 3.0
 
     def centre_of_mass_velocity() -> float:
@@ -49,12 +57,10 @@ def lateral_deceleration(vehicle: str) -> float:
         mujoco.mj_subtreeVel(sim.model, sim.data)
         return float(sim.data.subtree_linvel[root, 1])
 
-    sim.run_until(0.55)  # past the first contact transient (the chassis rolls onto its outer wheels)
+    sim.run_until(start_time + 0.05)  # past the first contact transient (the chassis rolls onto its outer wheels)
     start = centre_of_mass_velocity()
-    sim.run_until(0.7)
-    deceleration = (start - centre_of_mass_velocity()) / 0.15
-    sim.close()
-    return float(deceleration)
+    sim.run_until(start_time + 0.2)
+    return (start - centre_of_mass_velocity()) / 0.15
 
 
 def test_a_car_sliding_sideways_decelerates_at_mu_g():
@@ -118,4 +124,26 @@ def test_tyres_take_over_the_wheel_friction():
     geoms = [g for g in range(sim.model.ngeom) if sim.model.geom_bodyid[g] == wheel.id and sim.model.geom_contype[g]]
     assert geoms and all(sim.model.geom_condim[g] == 1 for g in geoms)
     mujoco.mj_forward(sim.model, sim.data)
+    sim.close()
+
+
+def test_tyres_go_on_after_a_model_is_spawned_and_the_model_recompiled():
+    from racecar_sim.msgs import Point, Pose, Quaternion
+    from racecar_sim.msgs.gazebo_msgs import SpawnModelRequest
+
+    box = """<sdf version="1.6"><model name="box"><static>true</static><link name="link">
+      <collision name="c"><geometry><box><size>0.5 0.5 0.5</size></box></geometry></collision>
+    </link></model></sdf>"""
+    sim = Simulator(world="empty", camera=False, lidar=False, vehicle="f1tenth")
+    sim.run_until(0.5)
+    request = SpawnModelRequest("box1", box, "", Pose(Point(5.0, 5.0, 0.25), Quaternion(0.0, 0.0, 0.0, 1.0)))
+    assert sim.bus.call("/gazebo/spawn_sdf_model", request).success
+    sim.run_until(0.6)
+    model, data = sim.model, sim.data
+    loads = [
+        data.sensordata[model.sensor_adr[i]] for i in range(model.nsensor) if model.sensor(i).name.endswith("_load")
+    ]
+    weight = model.body_subtreemass[model.body_rootid[sim.car.state.body_id]] * -model.opt.gravity[2]
+    assert len(loads) == 4 and sum(loads) == pytest.approx(weight, rel=0.02)  # at rest on its four tyres
+    assert lateral_deceleration_of(sim) == pytest.approx(load_vehicle("f1tenth").mu * G, rel=0.05)
     sim.close()
