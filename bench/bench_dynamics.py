@@ -7,8 +7,9 @@ For `seed` and `f1tenth`, in the empty world:
              circles ramped past the top speed and then braking in the turn: dynamics_gg.png, with the mu circle
   understeer steering beyond the kinematic angle (delta - atan(L kappa)) against a_lat over steady circles:
              dynamics_understeer.png, with the single-track line K a_lat of the set's tyres
-  cost       real-time factor of one car (lidar on, camera off) with and without tyres, and a fleet of 4's against
-             bare MuJoCo's on the same model (mj_step alone); medians of interleaved rounds
+  cost       real-time factor of one car (lidar on, camera off) with and without tyres, in the empty world and in
+             bench_maps' basement-like map, and a fleet of 4's against bare MuJoCo's on the same model (mj_step
+             alone); medians of interleaved rounds
 Pictures go to --out (default docs/).
 """
 
@@ -16,11 +17,13 @@ from __future__ import annotations
 
 import argparse
 import math
+import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
+from bench_maps import basement_like
 from racecar_sim.description import VehicleGeometry, load_robot
 from racecar_sim.description.vehicle_params import load_vehicle
 from racecar_sim.msgs import AckermannDriveStamped
@@ -115,9 +118,9 @@ def fleet(vehicle: str, cars: int) -> Simulator:
     )
 
 
-def real_time_factor(vehicle: str, cars: int = 1, seconds: float = 10.0) -> float:
-    """Sim seconds per wall second of the simulator, nodes and lidar included."""
-    sim = Simulator(world="empty", camera=False, vehicle=vehicle) if cars == 1 else fleet(vehicle, cars)
+def real_time_factor(vehicle: str, cars: int = 1, seconds: float = 10.0, world: str = "empty") -> float:
+    """Sim seconds per wall second of the simulator, nodes and lidar included (the car at rest)."""
+    sim = Simulator(world=world, camera=False, vehicle=vehicle) if cars == 1 else fleet(vehicle, cars)
     sim.run_until(0.5)
     start = time.perf_counter()
     sim.run_until(0.5 + seconds)
@@ -189,15 +192,19 @@ def main() -> None:
 
     # interleaved rounds, medians: a shared machine's load drifts by more than the difference measured
     rounds = 3 if args.quick else 5
-    one = {vehicle: [] for vehicle in SETS}
-    fleets = {vehicle: [] for vehicle in SETS}
+    one: dict[str, list[float]] = {vehicle: [] for vehicle in SETS}
+    mapped: dict[str, list[float]] = {vehicle: [] for vehicle in SETS}
+    fleets: dict[str, list[float]] = {vehicle: [] for vehicle in SETS}
+    basement = str(basement_like(Path(tempfile.mkdtemp()), 0))
     for _ in range(rounds):
         for vehicle in SETS:
             one[vehicle].append(real_time_factor(vehicle))
+            mapped[vehicle].append(real_time_factor(vehicle, world=basement))
             fleets[vehicle].append(real_time_factor(vehicle, cars=4) / bare_mujoco_factor(vehicle, cars=4))
-    seed_rtf, tyre_rtf = float(np.median(one["seed"])), float(np.median(one["f1tenth"]))
-    ratio = tyre_rtf / seed_rtf
-    print(f"one car (lidar, no camera): seed {seed_rtf:.1f}x, f1tenth {tyre_rtf:.1f}x real time, ratio {ratio:.2f}")
+    for label, runs in (("one car (lidar, no camera)", one), ("one car in a basement-like map", mapped)):
+        seed_rtf, tyre_rtf = float(np.median(runs["seed"])), float(np.median(runs["f1tenth"]))
+        ratio = tyre_rtf / seed_rtf
+        print(f"{label}: seed {seed_rtf:.1f}x, f1tenth {tyre_rtf:.1f}x real time, ratio {ratio:.2f}")
     for vehicle in SETS:
         print(f"fleet of 4, {vehicle}: real-time factor / bare MuJoCo's {float(np.median(fleets[vehicle])):.2f}")
 
