@@ -113,3 +113,20 @@ def test_gpu_bench_without_a_gpu_is_one_line():
     assert result.stdout == ""
     (line,) = result.stderr.splitlines()
     assert line.startswith("bench_gpu.py: error: ") and "[gpu]" in line, line
+
+
+def test_dynamics_bench_runs_and_draws_its_pictures(tmp_path):
+    """bench/bench_dynamics.py --quick: the circle table, the g-g diagram and understeer curve, the tyres' cost."""
+    bench = Path(__file__).resolve().parents[1] / "bench" / "bench_dynamics.py"
+    result = subprocess.run(
+        [sys.executable, str(bench), "--quick", "--out", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=900,
+        check=False,
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    for line in ("| seed | 0.1 | 4 |", "| f1tenth | 0.3 | 2 |", "understeer f1tenth", "one car", "fleet of 4, f1tenth"):
+        assert line in result.stdout, line
+    assert (tmp_path / "dynamics_gg.png").stat().st_size > 10_000
+    assert (tmp_path / "dynamics_understeer.png").stat().st_size > 10_000

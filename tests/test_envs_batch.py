@@ -143,3 +143,33 @@ def test_batched_cast_of_tilted_scans_matches_mujoco_rays():
     assert len(fallback) == 0  # all answered by the batched cast, none by a RayCaster
     assert ranges[-1][0] < level[-1][0] - 0.5  # tail pitched down 15 degrees: the rear beams meet the floor's top
     batch.close()
+
+
+def test_a_batch_with_tyres_matches_single_envs_with_tyres():
+    """The tyre model and the rate limits run in MuJoCo's callbacks, so every world of the native batch gets them:
+    a batch of f1tenth cars follows single f1tenth DriveEnvs, bit for bit (and differs from the seed's car)."""
+    n, steps = 3, 30
+    actions = np.random.default_rng(9).uniform(-1, 1, size=(steps, n, 2))
+    batch = DriveBatch(n, world="walker", seeds=list(range(n)), max_episode_steps=None, vehicle="f1tenth")
+    batch.reset()
+    for k in range(steps):
+        batch.step(actions[k])
+    for w in range(n):
+        env = DriveEnv(world="walker", vehicle="f1tenth")
+        env.reset(seed=w)
+        for k in range(steps):
+            env.step(actions[k, w])
+        np.testing.assert_allclose(batch.qpos[w], env.sim.data.qpos, rtol=0, atol=1e-9)
+        env.close()
+    seed = DriveEnv(world="walker")
+    seed.reset(seed=0)
+    for k in range(steps):
+        seed.step(actions[k, 0])
+    assert not np.allclose(seed.sim.data.qpos[:3], batch.qpos[0][:3], atol=1e-3)
+    seed.close()
+    batch.close()
+
+
+def test_the_warp_batch_refuses_tyres_in_one_line():
+    with pytest.raises(ConfigError, match="tyre model"):
+        DriveBatch(2, world="walker", device="warp", vehicle="f1tenth")

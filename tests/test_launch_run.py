@@ -299,3 +299,13 @@ def test_sim_drivers_and_keyboard_teleop_from_the_launch(tmp_path):
         run.sim.run_until(0.4)  # within the key's hold time
         assert run.sim.car.chain.in_control() == "Teleoperation"
         assert run.sim.car.state.base_pose()[0][0] < -0.02
+
+
+def test_a_launch_with_a_vehicle_set_gives_every_car_its_tyres(fleet_launch):
+    setup = map_plan(load_launch(fleet_launch), vehicle="f1tenth")
+    assert [car.vehicle.name for car in setup.cars] == ["f1tenth"] * len(setup.cars) and len(setup.cars) == 2
+    with LaunchRun(setup) as run:
+        sim = run.sim
+        tables = [sim.model.numeric(i).name for i in range(sim.model.nnumeric)]
+        assert sorted(t for t in tables if t.endswith("tyre_table")) == ["car1/tyre_table", "car2/tyre_table"]
+        sim.run_until(0.5)

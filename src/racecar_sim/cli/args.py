@@ -13,6 +13,7 @@ from typing import Any, TypedDict
 
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.description.ros_packages import add_model_path, add_package_path
+from racecar_sim.description.vehicle_params import VehicleParams, load_vehicle
 from racecar_sim.worlds import DEFAULT_WALL_HEIGHT, Spawn
 from racecar_sim.worlds.world import MAX_COORDINATE
 
@@ -122,6 +123,26 @@ def add_xacro_arguments(p: argparse.ArgumentParser) -> None:
         metavar="NAME:=VALUE",
         help="xacro argument of the car, repeatable (over the profile's own)",
     )
+    add_vehicle_argument(p)
+
+
+def add_vehicle_argument(p: argparse.ArgumentParser) -> None:
+    """--vehicle NAME|FILE.yaml: the car's tyre and actuator parameter set."""
+    p.add_argument(
+        "--vehicle",
+        type=vehicle_set,
+        default=None,
+        metavar="NAME|FILE.yaml",
+        help="tyre and actuator parameters: seed (default, no tyre model), f1tenth, or a YAML file in F1TENTH's names",
+    )
+
+
+def vehicle_set(text: str) -> VehicleParams:
+    """A vehicle set by name or YAML file, read now so that a bad one is a one-line usage error."""
+    try:
+        return load_vehicle(text)
+    except ConfigError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 class XacroOptions(TypedDict, total=False):
@@ -129,6 +150,7 @@ class XacroOptions(TypedDict, total=False):
 
     xacro: Path
     xacro_args: dict[str, str]
+    vehicle: VehicleParams
 
 
 def xacro_options(args: argparse.Namespace) -> XacroOptions:
@@ -138,6 +160,8 @@ def xacro_options(args: argparse.Namespace) -> XacroOptions:
         options["xacro"] = Path(args.xacro)
     if args.xacro_args:
         options["xacro_args"] = dict(args.xacro_args)
+    if getattr(args, "vehicle", None) is not None:
+        options["vehicle"] = args.vehicle
     return options
 
 

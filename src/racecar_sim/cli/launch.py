@@ -21,6 +21,7 @@ from racecar_sim.cli.args import (
     add_driver_arguments,
     add_ros_path_options,
     add_run_options,
+    add_vehicle_argument,
     apply_ros_path_options,
     per_car,
     positive_float,
@@ -79,6 +80,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         help="folder holding model:// models, searched before GAZEBO_MODEL_PATH (repeatable)",
     )
     add_ros_path_options(p)
+    add_vehicle_argument(p)
     add_driver_arguments(p, "Default: the drivers the launch file starts (each car's own --driver is over them)")
     add_run_options(
         p,
@@ -119,8 +121,14 @@ def main(args: argparse.Namespace) -> int:
     if args.ros and not has_car(plan):
         return _run_ros_only(args, plan)
     sensors = sensor_options(args)
+    vehicle = {} if args.vehicle is None else {"vehicle": args.vehicle}
     setup = map_plan(
-        plan, ros=args.ros, lidar=sensors["lidar"], camera=sensors["camera"], sensors_off=sensors["sensors_off"]
+        plan,
+        ros=args.ros,
+        lidar=sensors["lidar"],
+        camera=sensors["camera"],
+        sensors_off=sensors["sensors_off"],
+        **vehicle,
     )
     with LaunchRun(
         setup,

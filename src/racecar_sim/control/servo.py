@@ -5,6 +5,8 @@ Profiles (profiles.yaml):
              `speed` being the ground speed of base_link (the rear-axle centre).
   parallel   the original servo_commands.py: every wheel gets speed * wheel_rate_per_speed rad/s and both
              hinges get the same angle.
+In both, a command faster than a wheel joint's velocity limit allows is slowed as a whole (every wheel rate scaled
+by one factor), never clipped at one wheel.
 
 The law itself is control/servo_law.py (shared with the batch of worlds, envs/batch_command.py); this node reads
 the car's wheels and controller topics off its description and publishes the law's outputs per command.
@@ -13,6 +15,7 @@ the car's wheels and controller topics off its description and publishes the law
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable
 
 from racecar_sim.bus import BusPort
@@ -23,6 +26,7 @@ from racecar_sim.core.names import CarNames
 from racecar_sim.core.throttle import ThrottledWarning
 from racecar_sim.description.urdf import Robot
 from racecar_sim.description.vehicle import VehicleGeometry
+from racecar_sim.description.vehicle_params import VehicleParams
 from racecar_sim.msgs import AckermannDriveStamped, Float64
 from racecar_sim.nodes import NodeBase
 
@@ -42,6 +46,7 @@ class ServoCommands(NodeBase):
         wheel_rate_per_speed: float | None = None,
         now: Callable[[], int] = lambda: 0,
         names: CarNames = CarNames(),
+        vehicle: VehicleParams | None = None,
     ) -> None:
         if mode not in ("ackermann", "parallel"):
             raise ValueError(f"servo mode '{mode}' is not ackermann or parallel")
@@ -56,9 +61,19 @@ class ServoCommands(NodeBase):
                 joint = robot.joints[w.hinge_joint]
                 if joint.type == "revolute" and joint.limit is not None:
                     limits = (joint.limit.lower, joint.limit.upper)
-            wheels.append(ServoWheel((w.centre[0], w.centre[1]), w.hinge_axis_point, limits))
+            wheel_limit = robot.joints[w.joint].limit
+            rate_limit = wheel_limit.velocity if wheel_limit is not None and wheel_limit.velocity > 0 else None
+            wheels.append(ServoWheel((w.centre[0], w.centre[1]), w.hinge_axis_point, limits, rate_limit))
             rate_topics.append(names.topic(controllers.controller(w.joint).command_topic))
-        self.law = ServoLaw(mode, wheels, self.geometry.wheelbase, self.geometry.wheel_radius, self.rate_per_speed)
+        self.law = ServoLaw(
+            mode,
+            wheels,
+            self.geometry.wheelbase,
+            self.geometry.wheel_radius,
+            self.rate_per_speed,
+            _range(vehicle.s_min, vehicle.s_max) if vehicle else None,
+            _range(vehicle.v_min, vehicle.v_max) if vehicle else None,
+        )
         # the controller command topic of each of the law's outputs, in the order they are published
         self.topics = tuple(hinge_topics[i] if hinge else rate_topics[i] for i, hinge in self.law.outputs)
         self._warned = False
@@ -89,3 +104,10 @@ class ServoCommands(NodeBase):
                 steer,
             )
         return list(zip(self.topics, values))
+
+
+def _range(low: float | None, high: float | None) -> tuple[float, float] | None:
+    """A vehicle set's (low, high) command limits; None where it gives neither."""
+    if low is None and high is None:
+        return None
+    return (low if low is not None else -math.inf, high if high is not None else math.inf)

@@ -12,6 +12,12 @@ Modes (a driving profile's `servo`, profiles.yaml):
   parallel   the original servo_commands.py: every wheel at speed * rate_per_speed rad/s, both hinges at the
              steering angle.
 
+Top speed (both modes): where a wheel's rate would pass its joint's velocity limit, every wheel rate is scaled by
+the same factor, so that the fastest wheel runs at its limit and the others keep their ratios to it: the car drives
+the commanded path at the highest speed its wheels allow, as if the command's speed had been lowered. Clipping the
+one wheel instead (what ros_control's clamp alone would do) makes the wheels fight and the car slide out of the
+bend. A command every wheel can follow is left exactly as it was.
+
 The transcendental functions are libm's (Python's math; over arrays applied element by element): numpy's own tan,
 arctan2, cos and sin differ from libm's in the last bit for some inputs, and a wheel rate one ulp off would make a
 batch world drift from the single car it mirrors. A float command is computed with Python's operators (a numpy call
@@ -77,12 +83,14 @@ ARRAYS = _Elementwise(
 
 @dataclass(frozen=True)
 class ServoWheel:
-    """One wheel as the law sees it: its tyre centre in base_link (x, y) at zero steer, and for a steered wheel the
-    point (x, y) where its steering axis meets the ground and the hinge joint's limits (None: a continuous hinge)."""
+    """One wheel as the law sees it: its tyre centre in base_link (x, y) at zero steer, for a steered wheel the
+    point (x, y) where its steering axis meets the ground and the hinge joint's limits (None: a continuous hinge),
+    and the wheel joint's velocity limit in rad/s (None: unlimited)."""
 
     centre: tuple[float, float]
     hinge: tuple[float, float] | None = None
     hinge_limits: tuple[float, float] | None = None
+    rate_limit: float | None = None
 
 
 class ServoLaw:
@@ -95,12 +103,21 @@ class ServoLaw:
     """
 
     def __init__(
-        self, mode: str, wheels: Sequence[ServoWheel], wheelbase: float, wheel_radius: float, rate_per_speed: float
+        self,
+        mode: str,
+        wheels: Sequence[ServoWheel],
+        wheelbase: float,
+        wheel_radius: float,
+        rate_per_speed: float,
+        steer_range: tuple[float, float] | None = None,
+        speed_range: tuple[float, float] | None = None,
     ) -> None:
         if mode not in MODES:
             raise ValueError(f"servo mode '{mode}' is not ackermann or parallel")
         self.mode, self.wheels = mode, tuple(wheels)
         self.wheelbase, self.wheel_radius, self.rate_per_speed = wheelbase, wheel_radius, rate_per_speed
+        # a vehicle set's command limits (F1TENTH's s_min..s_max, v_min..v_max); None: as the seed, none
+        self.steer_range, self.speed_range = steer_range, speed_range
         steered = [i for i, w in enumerate(self.wheels) if w.hinge is not None]
         if mode == "ackermann":
             outputs = [row for i in range(len(self.wheels)) for row in [(i, True)] * (i in steered) + [(i, False)]]
@@ -131,10 +148,15 @@ class ServoLaw:
 
     def _law(self, speed: Any, steer: Any, op: _Elementwise) -> tuple[list[Any], Any]:
         """The law, with `op`'s functions for floats or arrays (the arithmetic is the same on both)."""
+        if self.steer_range is not None:
+            steer = op.minimum(op.maximum(steer, self.steer_range[0]), self.steer_range[1])
+        if self.speed_range is not None:
+            speed = op.minimum(op.maximum(speed, self.speed_range[0]), self.speed_range[1])
         if self.mode == "parallel":
             rate = speed * self.rate_per_speed
             never = op.abs(speed) < 0.0  # False (per command): the parallel mode takes any angle
-            return [steer if hinge else rate for _, hinge in self.outputs], never
+            rates = self._top_speed([rate] * len(self.wheels), op)
+            return [steer if hinge else rates[i] for i, hinge in self.outputs], never
         kappa = op.tan(steer) / self.wheelbase  # path curvature of base_link, 1/R
         clamped = op.abs(kappa) > self.max_curvature
         kappa = op.select(clamped, op.copysign(self.max_curvature, kappa), kappa)
@@ -157,4 +179,21 @@ class ServoLaw:
             # velocity of the tyre's ground point, projected on the wheel's heading
             vx, vy = speed - yaw_rate * cy, yaw_rate * cx
             out.append((vx * c + vy * s) / self.wheel_radius)
-        return out, clamped
+        rates = self._top_speed([out[k] for k, (_, hinge) in enumerate(self.outputs) if not hinge], op)
+        wheel_rates = iter(rates)
+        return [value if hinge else next(wheel_rates) for value, (_, hinge) in zip(out, self.outputs)], clamped
+
+    def _top_speed(self, rates: list[Any], op: _Elementwise) -> list[Any]:
+        """The wheel rates (one per wheel, in order) scaled together so that none passes its velocity limit; rates
+        within every limit are returned as they are (not multiplied by 1.0, which is the same, but by no operation)."""
+        limited = [w.rate_limit is not None for w in self.wheels]
+        if not any(limited):
+            return rates
+        scale: Any = 1.0
+        for rate, w in zip(rates, self.wheels):
+            if w.rate_limit is not None:
+                magnitude = op.abs(rate)
+                over = magnitude > w.rate_limit
+                scale = op.minimum(scale, op.select(over, w.rate_limit / op.select(over, magnitude, 1.0), 1.0))
+        over_any = scale < 1.0
+        return [op.select(over_any, rate * scale, rate) for rate in rates]

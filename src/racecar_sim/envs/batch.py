@@ -54,6 +54,7 @@ from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.rng import check_seed
 from racecar_sim.core.throttle import is_finite_number
 from racecar_sim.core.time import NS_PER_S, ceil_to_step, to_ns
+from racecar_sim.description.vehicle_params import DEFAULT_VEHICLE, VehicleParams, load_vehicle
 from racecar_sim.envs.agent import servo_geometry
 from racecar_sim.envs.batch_command import BatchCommands
 from racecar_sim.envs.batch_lidar import BatchLidar
@@ -139,8 +140,15 @@ class DriveBatch(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         device: str = "cpu",
         num_worlds: int | None = None,
         lidar_on: str = "host",
+        vehicle: str | Path | VehicleParams = DEFAULT_VEHICLE,
     ) -> None:
         n = _world_count(num_envs, num_worlds)
+        params = load_vehicle(vehicle)
+        if device != "cpu" and params.tyre_model != "none":
+            raise ConfigError(
+                f"DriveBatch device={device!r}: the {params.name} set's tyre model runs in MuJoCo's passive-force "
+                "callback, which MuJoCo Warp does not call yet; use device='cpu' (the native batch) for it"
+            )
         if device not in DEVICES:
             raise ConfigError(f"DriveBatch device={device!r} is not one of {', '.join(DEVICES)}")
         if lidar_on not in LIDAR_ON:
@@ -195,6 +203,7 @@ class DriveBatch(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
             lidar=lidar,
             sensor_noise=sensor_noise,
             near_walls=False,
+            vehicle=params,
         )
         self.model, car = sim.model, sim.car
         self.period_ns, self.step_ns = to_ns(1.0 / control_rate), sim.step_ns
@@ -223,6 +232,9 @@ class DriveBatch(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         sim.reset(0)
         self._state0 = np.empty(mujoco.mj_stateSize(self.model, _STATE))
         mujoco.mj_getState(self.model, sim.data, self._state0, _STATE)
+        # the sensors of the last step are no part of MuJoCo's state, but a tyre model reads its wheel loads from them
+        # (physics/tyre_callback.py): kept per world as the state is
+        self._sensordata0 = sim.data.sensordata.copy()
         nq, nv = self.model.nq, self.model.nv
         # Each world's state is kept in arrays and stepped on its thread's one MjData (an MjData per world: twice the
         # memory at 1024 worlds, each one's working memory pulled through the cache). Only what mj_step changes is
@@ -234,6 +246,7 @@ class DriveBatch(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         mujoco.mj_getState(self.model, self._rest, self._extra0, _EXTRA)
         self._extra = np.zeros((n, len(self._extra0)))
         self._mj_time, self._act, self._warmstart = np.zeros(n), np.zeros((n, self.model.na)), np.zeros((n, nv))
+        self._sensordata = np.tile(self._sensordata0, (n, 1))
         self._scratch = threading.local()
         self.qpos, self.qvel, self.speed = np.zeros((n, nq)), np.zeros((n, nv)), np.zeros(n)
         self.ctrl = np.zeros((n, self.model.nu))
@@ -398,6 +411,7 @@ class DriveBatch(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         """An MjData at the reset state (every world's state at the start of an episode)."""
         d = mujoco.MjData(self.model)
         mujoco.mj_setState(self.model, d, self._state0, _STATE)
+        d.sensordata[:] = self._sensordata0
         return d
 
     def _reset_mask(self, value: object) -> np.ndarray:
@@ -420,10 +434,12 @@ class DriveBatch(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         try:
             state = np.empty_like(self._state0)
             mujoco.mj_getState(self.model, sim.data, state, _STATE)
+            sensordata = sim.data.sensordata.copy()
         finally:
             sim.reset(0)
         d = mujoco.MjData(self.model)
         mujoco.mj_setState(self.model, d, state, _STATE)
+        d.sensordata[:] = sensordata
         return d
 
     def _next_seed(self, world: int) -> int:
@@ -450,6 +466,7 @@ class DriveBatch(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
     def _reset_worlds(self, worlds: np.ndarray, seeds: np.ndarray, rest: mujoco.MjData) -> None:
         self._mj_time[worlds], self.qpos[worlds], self.qvel[worlds] = rest.time, rest.qpos, rest.qvel
         self._act[worlds], self._warmstart[worlds], self.ctrl[worlds] = rest.act, rest.qacc_warmstart, rest.ctrl
+        self._sensordata[worlds] = rest.sensordata
         self._extra[worlds] = self._extra0
         self.seeds[worlds] = seeds
         self.time_ns[worlds] = 0
@@ -500,7 +517,7 @@ class DriveBatch(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
                 if not crashed[i] and table.crashed(d):
                     crashed[i] = True
             self._mj_time[i], self.qpos[i], self.qvel[i], self._act[i] = d.time, d.qpos, d.qvel, d.act
-            self._warmstart[i] = d.qacc_warmstart
+            self._warmstart[i], self._sensordata[i] = d.qacc_warmstart, d.sensordata
             if extra.shape[1]:
                 mujoco.mj_getState(m, d, extra[i], _EXTRA)
             # DriveEnv's speed: mj_objectVelocity on the data as mj_step leaves it
@@ -564,7 +581,7 @@ class DriveBatch(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
     def _load(self, d: mujoco.MjData, i: int) -> None:
         """World i's state (and its ctrl) into d."""
         d.time, d.qpos[:], d.qvel[:], d.act[:] = self._mj_time[i], self.qpos[i], self.qvel[i], self._act[i]
-        d.qacc_warmstart[:], d.ctrl[:] = self._warmstart[i], self.ctrl[i]
+        d.qacc_warmstart[:], d.ctrl[:], d.sensordata[:] = self._warmstart[i], self.ctrl[i], self._sensordata[i]
         if self._extra.shape[1]:
             mujoco.mj_setState(self.model, d, self._extra[i], _EXTRA)
 

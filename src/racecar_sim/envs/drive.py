@@ -18,6 +18,7 @@ from gymnasium import spaces
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.throttle import is_finite_number
 from racecar_sim.core.time import NS_PER_S, to_ns
+from racecar_sim.description.vehicle_params import DEFAULT_VEHICLE, VehicleParams, load_vehicle
 from racecar_sim.envs.agent import CarAgent, servo_geometry
 from racecar_sim.envs.crash import CHECK_RATE, CrashMonitor
 from racecar_sim.envs.reward import world_centerline
@@ -71,7 +72,7 @@ class DriveEnv(gym.Env):
     action: "normalized" (Box(-1, 1)) or "raw" (m/s, rad); max_speed, max_steering: the command range.
     centerline: a CSV the progress reward follows (default: the world's own, see reward.py).
     time_limit: seconds of sim time after which the episode is truncated (None: only max_episode_steps).
-    camera: add the camera image to the observation. profile, physics, sensor_noise: as for Simulator.
+    camera: add the camera image to the observation. profile, physics, sensor_noise, vehicle: as for Simulator.
     """
 
     metadata: dict[str, Any] = {"render_modes": ["rgb_array", "human"], "render_fps": CONTROL_RATE}
@@ -92,6 +93,7 @@ class DriveEnv(gym.Env):
         physics: str = "default",
         sensor_noise: bool = True,
         render_mode: str | None = None,
+        vehicle: str | Path | VehicleParams = DEFAULT_VEHICLE,
     ) -> None:
         if not (isinstance(control_rate, (int, float)) and 0 < control_rate < float("inf")):
             raise ConfigError(f"env control_rate must be a positive number of Hz, got {control_rate!r}")
@@ -116,6 +118,7 @@ class DriveEnv(gym.Env):
         self.crash_penalty = float(crash_penalty)
         self.time_limit_ns = None if time_limit is None else to_ns(time_limit)
         self.camera, self.profile, self.physics, self.sensor_noise = camera, profile, physics, sensor_noise
+        self.vehicle = load_vehicle(vehicle)
         self.render_mode = render_mode
         self._centerline_arg = centerline
         self._view: EnvView | None = None
@@ -131,7 +134,12 @@ class DriveEnv(gym.Env):
         and camera)."""
         loaded = load_world(world)
         self.sim = sim = Simulator(
-            world=loaded, profile=self.profile, physics=self.physics, camera=self.camera, sensor_noise=self.sensor_noise
+            world=loaded,
+            profile=self.profile,
+            physics=self.physics,
+            camera=self.camera,
+            sensor_noise=self.sensor_noise,
+            vehicle=self.vehicle,
         )
         self._world_key = str(world)
         self.agent = CarAgent(

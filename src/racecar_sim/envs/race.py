@@ -20,6 +20,7 @@ from pettingzoo import ParallelEnv
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.rng import check_seed
 from racecar_sim.core.time import NS_PER_S, to_ns
+from racecar_sim.description.vehicle_params import DEFAULT_VEHICLE, VehicleParams
 from racecar_sim.envs.agent import CarAgent, servo_geometry
 from racecar_sim.envs.crash import CHECK_RATE, CrashMonitor
 from racecar_sim.envs.drive import (
@@ -78,6 +79,7 @@ class RaceEnv(ParallelEnv):
         sensor_noise: bool = True,
         car_spacing: float = CAR_SPACING,
         render_mode: str | None = None,
+        vehicle: str | Path | VehicleParams = DEFAULT_VEHICLE,
     ) -> None:
         if isinstance(num_cars, bool) or not isinstance(num_cars, int) or num_cars < 1:
             raise ConfigError(f"race env num_cars must be a whole number >= 1, got {num_cars!r}")
@@ -105,7 +107,13 @@ class RaceEnv(ParallelEnv):
             raise ConfigError(f"race env spawns: {len(spawns)} poses for {num_cars} cars")
         self.possible_agents = [f"car{i + 1}" for i in range(num_cars)]
         cars = [
-            Car(name, profile=profile, spawn=spawn_pose(s, what=f"race env spawns[{i}]"), camera=camera)
+            Car(
+                name,
+                profile=profile,
+                spawn=spawn_pose(s, what=f"race env spawns[{i}]"),
+                camera=camera,
+                vehicle=vehicle,
+            )
             for i, (name, s) in enumerate(zip(self.possible_agents, spawns))
         ]
         self.sim = sim = Simulator(world=loaded, physics=physics, sensor_noise=sensor_noise, cars=cars)

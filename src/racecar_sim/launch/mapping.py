@@ -28,6 +28,7 @@ from racecar_sim.control.joy_teleop import JoyCommand, JoyTeleop, parse_commands
 from racecar_sim.control.mux import load_mux_inputs
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import NAVIGATION, ODOM, TELEOP, CarNames
+from racecar_sim.description.vehicle_params import DEFAULT_VEHICLE, VehicleParams
 from racecar_sim.launch.errors import LaunchError
 from racecar_sim.launch.plan import LaunchPlan, NodeSpec
 from racecar_sim.launch.rosnames import SEP, canonical, global_ns, strip_ns
@@ -176,10 +177,11 @@ def map_plan(
     odometry: str = "original",
     scratch: Path | None = None,
     sensors_off: tuple[str, ...] = (),
+    vehicle: str | Path | VehicleParams = DEFAULT_VEHICLE,
 ) -> SimSetup:
     """The sim that runs `plan`; `ros`: nodes without a sim equivalent go to the bridge. `scratch`: a folder for
     controller YAMLs built from the parameter tree (a temporary one by default). `lidar`, `camera`, `sensors_off`:
-    the sensor switches of each car (runtime/plugins.py)."""
+    the sensor switches of each car (runtime/plugins.py). `vehicle`: every car's tyre and actuator set."""
     world = world_of(plan)
     spawns = [parse_spawn(plan, n) for n in plan.nodes_of("gazebo_ros", "spawn_model")]
     if not spawns:
@@ -216,6 +218,7 @@ def map_plan(
             odometry=odometry,
             nodes=_car_nodes(plan, part),
             sensors_off=sensors_off,
+            vehicle=vehicle,
         )
         car.urdf = part.spawn.urdf
         setup.cars.append(car)

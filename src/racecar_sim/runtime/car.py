@@ -32,10 +32,14 @@ from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import ODOM_RELAY, CarNames
 from racecar_sim.description import DEFAULT_XACRO, Robot, load_robot, package_path, parse_urdf
 from racecar_sim.description.controllers import ControllerConfig, load_controller_config
+from racecar_sim.description.vehicle_params import DEFAULT_VEHICLE, VehicleParams, load_vehicle
 from racecar_sim.nodes import Mount, Node, NodeContext, Parts, ScopedBus, ScopedTimers, StaticTf, Timers
 from racecar_sim.nodes.guard import GuardedNode
 from racecar_sim.physics import PhysicsPreset, add_car
+from racecar_sim.physics.actuation import limit_actuators
+from racecar_sim.physics.builder import friction_min_rule
 from racecar_sim.physics.state import CarState
+from racecar_sim.physics.tyres import fill_tyre_table, open_differentials, prepare_tyres
 from racecar_sim.runtime import plugins
 from racecar_sim.sensors.odometry import FRAMES, OdometryPublisher
 from racecar_sim.sensors.robot_state import RobotStatePublisher
@@ -84,6 +88,8 @@ class Car:
     cameras); `sensors_off` names more switches ("imu"), kinds ("range"), sensor types or sensor names to leave out
     (runtime/plugins.py: `plugins.switches()`).
     nodes: which of the launch files' nodes it runs (`CarNodes`).
+    vehicle: its tyre and actuator parameter set (description/vehicle_params.py): a shipped set's name (`seed`,
+    `f1tenth`), a YAML file in F1TENTH's names, or a VehicleParams.
     """
 
     def __init__(
@@ -99,8 +105,10 @@ class Car:
         odometry: str = "original",
         nodes: CarNodes = CarNodes(),
         sensors_off: Iterable[str] = (),
+        vehicle: str | Path | VehicleParams = DEFAULT_VEHICLE,
     ) -> None:
         self.names = CarNames(name)
+        self.vehicle = load_vehicle(vehicle)
         self.name = name
         self.xacro = Path(xacro)
         self.xacro_args = dict(xacro_args or {})
@@ -226,11 +234,16 @@ class Car:
         """Put the car into the scene's MjSpec at `spawn`, with what each of its nodes needs in the model (actuators,
         cameras, sensor sites); rank_friction=False leaves builder.friction_min_rule to the caller (once, after the
         last car of a fleet)."""
-        add_car(spec, self.robot, spawn, preset, self.names, rank_friction)
+        add_car(spec, self.robot, spawn, preset, self.names, rank_friction=False)
+        prepare_tyres(spec, self.robot, self.names, self.vehicle)
+        if rank_friction:
+            friction_min_rule(spec)
         mount = Mount(self.robot, self.names, self.controllers)
         for planned in (*self._planned[0], *self._planned[1]):
             if planned.kind.prepare is not None:
                 planned.kind.prepare(spec, planned.spec, mount)
+        open_differentials(spec, self.robot, self.names, self.vehicle)
+        limit_actuators(spec, self.robot, self.names, self.vehicle)
 
     def start(
         self,
@@ -247,6 +260,7 @@ class Car:
         was deleted). Their timers start now (a car spawned at t = 2 s scans at 2.025 s..., as a Gazebo sensor counts
         from its load), and everything they hold on the bus is kept for stop()."""
         self._state = state = CarState(model, data, self.robot.root, self.names)
+        fill_tyre_table(model, self.robot, self.names, self.vehicle)
         ctx = self._context = NodeContext(
             ScopedBus(bus),
             ScopedTimers(timers, now()),
@@ -276,6 +290,7 @@ class Car:
                     self.profile.wheel_rate_per_speed,
                     now,
                     names,
+                    self.vehicle,
                 )
             )
         model_plugins, sensors = self._planned
@@ -369,6 +384,7 @@ class Car:
     def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         """Go on in a recompiled model (a model was spawned or deleted): the same nodes, new ids and addresses."""
         self.state.rebind(model, data)
+        fill_tyre_table(model, self.robot, self.names, self.vehicle)
         if self._context is not None:
             self._context.model, self._context.data = model, data
         self._bind_parts(model)  # before the nodes' hooks: they read their parts' new ids

@@ -23,6 +23,7 @@ from racecar_sim.core.throttle import is_finite_number
 from racecar_sim.core.time import NS_PER_S, to_ns
 from racecar_sim.description import DEFAULT_XACRO
 from racecar_sim.description.vehicle import VehicleGeometry
+from racecar_sim.description.vehicle_params import DEFAULT_VEHICLE, VehicleParams
 from racecar_sim.nodes import Node
 from racecar_sim.physics import check_spawn, load_preset, route_mujoco_warnings
 from racecar_sim.physics.scene import Scene
@@ -93,13 +94,24 @@ class Simulator:
         near_walls: bool = True,
         sensors_off: Sequence[str] = (),
         start_line: Sequence[float] | None = None,
+        vehicle: str | Path | VehicleParams = DEFAULT_VEHICLE,
     ) -> None:
         self.seed = check_seed(seed)
         self.sensor_noise = sensor_noise
         if cars is None:
             cars = [
                 Car(
-                    "", xacro, xacro_args, profile, controllers, spawn, lidar, camera, odometry, sensors_off=sensors_off
+                    "",
+                    xacro,
+                    xacro_args,
+                    profile,
+                    controllers,
+                    spawn,
+                    lidar,
+                    camera,
+                    odometry,
+                    sensors_off=sensors_off,
+                    vehicle=vehicle,
                 )
             ]
         else:
@@ -115,6 +127,7 @@ class Simulator:
                     ("lidar", lidar, True),
                     ("camera", camera, True),
                     ("sensors_off", tuple(sensors_off), ()),
+                    ("vehicle", vehicle, DEFAULT_VEHICLE),
                 )
                 if value != default
             ]
