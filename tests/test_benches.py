@@ -28,18 +28,39 @@ def test_speed_benches_run_and_print_their_tables():
     out = result.stdout
     for header in ("1. main job", "2. lidar pipeline", "3. start-up", "4. real maps", "5. scaling", "6. fleets"):
         assert f"=== {header}" in out
+    assert out.startswith("CPU "), out[:200]  # the machine the figures belong to
     for line in (
         "main job (camera, noise, MCAP, video)",
         "tunnel ",
         "walker ",
         "start -> first physics step",
         "import racecar_sim.msgs",
+        "floor: import numpy, mujoco",
         "basement-like (generated)",
         "lidar beams (tunnel)",
         "cars in empty",
         "world    cars  real-time factor  bare MuJoCo  ratio  car-s per wall s",
         "track       4",
     ):
+        assert line in out, line
+
+
+def test_startup_bench_quick_prints_the_ratios_to_the_floor():
+    """bench/bench_startup.py --quick: the CPU model, the numpy + mujoco floor, and both short runs (empty without
+    the camera, walker with it) start to exit and as a ratio to the floor."""
+    bench = Path(__file__).resolve().parents[1] / "bench" / "bench_startup.py"
+    result = subprocess.run(
+        [sys.executable, str(bench), "--quick"], capture_output=True, text=True, timeout=600, check=False
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    out = result.stdout
+    assert out.startswith("CPU "), out
+    floor = re.search(r"\(r\) floor: import numpy, mujoco; compile a one-geom model +([0-9.]+) s", out)
+    assert floor is not None and float(floor[1]) > 0, out
+    for world in ("empty", "walker"):
+        row = re.search(rf"\({world[0]}\) {world}.* start -> exit +([0-9.]+) s .* x([0-9.]+) the floor", out)
+        assert row is not None and float(row[1]) > 0 and float(row[2]) > 0, out
+    for line in ("start -> first physics step", "import racecar_sim.msgs", "whole command, start -> exit"):
         assert line in out, line
 
 
