@@ -238,3 +238,12 @@ def test_run_help_and_worlds_load_neither_numba_nor_matplotlib(argv):
     assert out["code"] == 0
     assert ("--duration" in out["printed"]) if argv[0] == "run" else ("walker" in out["printed"])
     assert out["loaded"] == [], out["loaded"]
+
+
+def test_the_ros_help_texts_name_the_bridges_own_address():
+    """cli/ros_env.py repeats the ROS 1 bridge's loopback address and master port for its help texts, so that a run
+    without --ros imports none of the bridge."""
+    from racecar_sim.bridges.ros1 import environment, master
+    from racecar_sim.cli import ros_env
+
+    assert (ros_env.LOOPBACK, ros_env.DEFAULT_PORT) == (environment.LOOPBACK, master.DEFAULT_PORT)

@@ -9,10 +9,8 @@ from collections.abc import Iterator, Mapping
 from importlib import resources
 from pathlib import Path
 
-import xacro
-import xacro.substitution_args as substitution_args
-
 from racecar_sim.core.errors import DescriptionError, RacecarSimError
+from racecar_sim.description import xacro_cache
 from racecar_sim.description.ros_packages import SHIPPED_ROOTS, PackageNotFound, find_package
 from racecar_sim.description.urdf import Robot, parse_urdf
 
@@ -41,27 +39,39 @@ def _shipped_package_of(path: Path) -> Path | None:
     return None
 
 
+def _find(package: str, asker: str) -> str:
+    """`$(find package)` asked by the file `asker`."""
+    own = _shipped_package_of(Path(asker))
+    if own is not None and own.name == package:
+        return str(own)  # the shipped car's own includes stay its own, whatever the user's path shadows
+    return str(find_package(package, needed_by=asker))
+
+
 class _PackageFinder:
     """Stands in for xacro's `$(find)` (ament_index_python, not on PyPI) with rospack's crawl; keeps the first
-    PackageNotFound, which xacro would otherwise wrap into a message of its own."""
+    PackageNotFound, which xacro would otherwise wrap into a message of its own, and every answer (for the cache)."""
 
     def __init__(self, top: Path) -> None:
         self.top = top
         self.error: PackageNotFound | None = None
+        self.found: xacro_cache.Finds = []
 
     def __call__(self, package: str) -> str:
-        asker = xacro.filestack[-1] if getattr(xacro, "filestack", None) and xacro.filestack[-1] else self.top
-        own = _shipped_package_of(Path(asker))
-        if own is not None and own.name == package:
-            return str(own)  # the shipped car's own includes stay its own, whatever the user's path shadows
+        import xacro
+
+        asker = str(xacro.filestack[-1] if getattr(xacro, "filestack", None) and xacro.filestack[-1] else self.top)
         try:
-            return str(find_package(package, needed_by=asker))
+            folder = _find(package, asker)
         except PackageNotFound as exc:
             self.error = self.error or exc
             raise
+        self.found.append((package, asker, folder))
+        return folder
 
     @contextlib.contextmanager
     def installed(self) -> Iterator[None]:
+        import xacro.substitution_args as substitution_args
+
         original = substitution_args._eval_find
         substitution_args._eval_find = self
         try:
@@ -71,15 +81,21 @@ class _PackageFinder:
 
 
 def expand_xacro(path: str | Path = DEFAULT_XACRO, args: Mapping[str, str] | None = None) -> str:
-    """Expand a xacro file (with `xacro:arg` mappings) to a URDF string."""
+    """Expand a xacro file (with `xacro:arg` mappings) to a URDF string (kept on disk: xacro_cache.py)."""
     path = Path(path)
     if not path.is_file():
         raise DescriptionError(f"{path}: xacro file not found")
     mappings = {k: str(v) for k, v in (args or {}).items()}
+    kept = xacro_cache.lookup(path, mappings, _find)
+    if kept is not None:
+        return kept
+    import xacro  # ~30 ms with its YAML: only when nothing is kept
+
     finder = _PackageFinder(path)
+    first_read = len(xacro.all_includes)
     try:
         with finder.installed():
-            doc = xacro.process_file(str(path), mappings=mappings)
+            doc = xacro.process_file(str(path), mappings=dict(mappings))  # xacro adds to the dict it is given
     except RacecarSimError:
         raise
     except Exception as exc:  # xacro raises XacroException, XML errors, NameError, ...
@@ -87,7 +103,9 @@ def expand_xacro(path: str | Path = DEFAULT_XACRO, args: Mapping[str, str] | Non
             raise finder.error from None
         message = " ".join(str(exc).split())
         raise DescriptionError(f"{path}: xacro expansion failed: {message}") from None
-    return doc.toprettyxml(indent="  ")
+    text = doc.toprettyxml(indent="  ")
+    xacro_cache.store(path, mappings, text, map(str, xacro.all_includes[first_read:]), finder.found)
+    return text
 
 
 def load_robot(path: str | Path = DEFAULT_XACRO, args: Mapping[str, str] | None = None) -> Robot:
