@@ -17,9 +17,9 @@ from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import TELEOP
 
 if TYPE_CHECKING:  # the keys' teleop is imported with the viewer that drives it (start-up)
+    from racecar_sim.bridges.foxglove.bridge import FoxgloveBridge
     from racecar_sim.control.teleop import KeyboardTeleop
     from racecar_sim.msgs import LaserScan
-    from racecar_sim.bridges.foxglove.bridge import FoxgloveBridge
     from racecar_sim.runtime import Simulator
     from racecar_sim.viz.viewer import CarViewer
 
