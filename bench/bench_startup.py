@@ -30,6 +30,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import shutil
 import statistics
 import subprocess
@@ -98,13 +99,23 @@ def _env(src: str | None) -> dict[str, str]:
     return {**env, "PYTHONPATH": os.pathsep.join(paths)}
 
 
+def _children_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+CPU: dict[str, list[float]] = {}  # CPU seconds (user + system) of each command's runs, by its arguments
+
+
 def wall(code: str, args: list[str], workdir: Path, src: str | None = None) -> float:
-    """Seconds from start to exit of `python -c code args...` in a fresh process (SystemExit on failure)."""
-    start = time.monotonic()
+    """Seconds from start to exit of `python -c code args...` in a fresh process (SystemExit on failure); its CPU
+    seconds go to CPU (less moved than wall time by other processes on a shared machine)."""
+    start, cpu = time.monotonic(), _children_cpu()
     result = subprocess.run(
         [sys.executable, "-c", code, *args], capture_output=True, text=True, cwd=workdir, env=_env(src), check=False
     )
     seconds = time.monotonic() - start
+    CPU.setdefault(" ".join([str(src), *args[:8]]), []).append(_children_cpu() - cpu)
     if result.returncode != 0:
         raise SystemExit(
             f"{' '.join(args) or 'the floor process'} failed ({result.returncode}): {result.stderr.strip()[-2000:]}"
@@ -182,6 +193,7 @@ def main() -> None:
         for src in figures:  # untimed: bytecode and numba's cache written, as after an install and a first run
             for run_args in pairs.values():
                 floor_pair(run_args, workdir, src)
+        CPU.clear()
         for _ in range(repeats):  # interleaved, so load from other processes falls on all figures alike
             for src, fig in figures.items():
                 for key, run_args in pairs.items():
@@ -189,6 +201,7 @@ def main() -> None:
                     floor.append(ref)
                     fig[key].append(cli)
                     fig[key + "/"].append(cli / ref)
+                    fig[key + " cpu"] = CPU[" ".join([str(src), *run_args[:8]])]
                 first, whole = first_step(workdir, src)
                 fig["first"].append(first)
                 fig["wall"].append(whole)
@@ -202,7 +215,11 @@ def main() -> None:
     quick = " (--quick: a check that it runs, not figures to quote)" if args.quick else ""
     print(machine_line())
     print(f"{repeats} runs each, medians; python -c pass {median(bare):.3f} s{quick}")
-    print(f"  (r) floor: import numpy, mujoco; compile a one-geom model   {median(floor):6.3f} s")
+    floor_cpu = CPU[str(None)]
+    print(
+        f"  (r) floor: import numpy, mujoco; compile a one-geom model   {median(floor):6.3f} s   "
+        f"(CPU {median(floor_cpu):.3f} s)"
+    )
 
     def show(fig: dict, key: str) -> str:
         ratio = "" if fig is reference else f"  x{median(fig[key]) / median(reference[key]):.2f}"
@@ -213,6 +230,7 @@ def main() -> None:
         for key, label in (("empty", "(e) empty, no camera, 0.01 s"), ("walker", "(w) walker, camera, 0.1 s  ")):
             print(
                 f"  {label}  start -> exit {show(fig, key)}   x{median(fig[key + '/']):.2f} the floor   "
+                f"(CPU {median(fig[key + ' cpu']):.3f} s, x{median(fig[key + ' cpu']) / median(floor_cpu):.2f})   "
                 f"`racecar-sim {' '.join(pairs[key])}`"
             )
         print(f"  (a) start -> first physics step   {show(fig, 'first')}   `racecar-sim {' '.join(RUN_ARGS)}`")

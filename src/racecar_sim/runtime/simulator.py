@@ -29,6 +29,7 @@ from racecar_sim.physics.scene import Scene
 from racecar_sim.runtime.car import Car
 from racecar_sim.runtime.clock import CLOCK_RATE, ClockPublisher
 from racecar_sim.runtime.collisions import COLLISIONS, Collision, Crash, Crashes, WatchedCar
+from racecar_sim.runtime.compiled import load_numba
 from racecar_sim.runtime.event_loop import EventLoop
 from racecar_sim.runtime.fleet import car_index, checked_fleet, spawn_poses
 from racecar_sim.runtime.gazebo_api import GazeboApi
@@ -162,6 +163,16 @@ class Simulator:
         self.laps = self._lap_counter(start_line)
         if self.laps is not None:
             self.world_nodes.append(self.laps)
+        self._load_compiled()
+
+    def _load_compiled(self) -> None:
+        """numba, and the compiled scan of a world with walls, loaded by the build: a one-time cost of the start, not
+        of the first scan inside the run (a camera loads its own kernels with its first frame, numba loaded here)."""
+        lidars = [car.lidar for car in self.cars if car.lidar is not None and car.lidar.caster.compiled]
+        if lidars or any(car.camera is not None for car in self.cars):
+            load_numba()
+        if lidars:
+            lidars[0].warm()  # the kernels load once a process: one lidar loads them for the fleet
 
     # --- the parts, under the names the API always had -----------------------------------------------------
     @property

@@ -229,6 +229,14 @@ class LidarPublisher(NodeBase):
         ranges = np.where(hit, np.clip(ranges, spec.range_min, spec.range_max), np.inf)
         return ranges.astype(np.float32)
 
+    def warm(self) -> None:
+        """Load now what a scan loads on first use (numba's cached kernels, a map's flat walls): one scan cast at the
+        present pose and dropped, its counts put back (the simulator's build calls it: a one-time cost of the start,
+        not of the first tick)."""
+        counts = self.scans_cast, self.one_call_scans, self.beams_3d, self.caster.last_3d_beams
+        self.scan(0)
+        self.scans_cast, self.one_call_scans, self.beams_3d, self.caster.last_3d_beams = counts
+
     def publish(self, ranges: np.ndarray, seeds: np.ndarray, stamps_ns: np.ndarray) -> np.ndarray:
         """The published ranges (float32, N x beams) of true ranges (float64, N x beams, inf: no hit) of scans
         stamped `stamps_ns` in runs seeded `seeds`: scan()'s rule, compiled (laser_kernel.py), for many at once."""
