@@ -1,23 +1,22 @@
 """Expanded xacro files kept on disk, so that a run does not expand (nor import) xacro every time it starts.
 
 Expanding the shipped car takes ~0.1 s of a 0.5 s start, and importing xacro and its YAML ~0.03 s more. An entry is
-the URDF text with what it was made from: the file, the `xacro:arg` mappings, ROS_PACKAGE_PATH, the xacro version,
-every file read (by content hash), every `$(find pkg)` answered and every variable `$(env NAME)` / `$(optenv NAME)`
-reads (the shipped car's DISABLE_GAZEBO_LASER and DISABLE_GAZEBO_CAMERA). It is used only while all of these are the
-same; a file whose variable names are not plain words is never kept, nor a failed expansion. The entries live in
-~/.cache/racecar-sim/xacro/ (or under $XDG_CACHE_HOME); RACECAR_SIM_XACRO_CACHE=0 turns the cache off, and a cache
-that cannot be written is simply not kept.
+the URDF text with what it was made from: the file, the `xacro:arg` mappings, ROS_PACKAGE_PATH, the xacro install,
+every file read (its whole content: a few kB, compared byte for byte), every `$(find pkg)` answered and every
+variable `$(env NAME)` / `$(optenv NAME)` reads (the shipped car's DISABLE_GAZEBO_LASER and DISABLE_GAZEBO_CAMERA).
+It is used only while all of these are the same; a file whose variable names are not plain words is never kept, nor
+a failed expansion. The entries live in ~/.cache/racecar-sim/xacro/ (or under $XDG_CACHE_HOME);
+RACECAR_SIM_XACRO_CACHE=0 turns the cache off, and a cache that cannot be written is simply not kept.
 """
 
 from __future__ import annotations
 
-import hashlib
+import importlib.util
 import json
 import os
 import re
-import tempfile
+import zlib
 from collections.abc import Callable, Iterable, Mapping
-from importlib import metadata
 from pathlib import Path
 
 FORMAT = 1  # bump when what an entry holds, or how the text is made from xacro's document, changes
@@ -38,21 +37,28 @@ def enabled() -> bool:
     return os.environ.get(OFF_VARIABLE, "1") != "0"
 
 
-def _xacro_version() -> str:
+def _xacro_install() -> list[object]:
+    """Which xacro would expand: its file, size and time (importlib.metadata's version costs ~15 ms to ask)."""
+    spec = importlib.util.find_spec("xacro")
+    if spec is None or spec.origin is None:
+        return []
+    stat = os.stat(spec.origin)
+    return [spec.origin, stat.st_size, stat.st_mtime_ns]
+
+
+def _what(path: Path, mappings: Mapping[str, str]) -> list[object]:
+    """Everything but the files' contents that the text depends on (an entry holds it whole: no false hit)."""
+    env = os.environ.get("ROS_PACKAGE_PATH", "")
+    return json.loads(json.dumps([FORMAT, str(path.resolve()), sorted(mappings.items()), env, _xacro_install()]))
+
+
+def _entry(what: list[object]) -> Path:
+    return cache_dir() / f"{zlib.crc32(json.dumps(what).encode()):08x}.json"
+
+
+def _content(path: str) -> str | None:
     try:
-        return metadata.version("xacro")
-    except metadata.PackageNotFoundError:
-        return "unknown"
-
-
-def _key(path: Path, mappings: Mapping[str, str]) -> str:
-    what = [FORMAT, str(path.resolve()), sorted(mappings.items()), os.environ.get("ROS_PACKAGE_PATH", "")]
-    return hashlib.sha256(json.dumps([*what, _xacro_version()]).encode()).hexdigest()[:32]
-
-
-def _digest(path: str) -> str | None:
-    try:
-        return hashlib.sha1(Path(path).read_bytes()).hexdigest()
+        return Path(path).read_bytes().decode("latin-1")  # bytes as text, one for one, for JSON
     except OSError:
         return None
 
@@ -62,14 +68,15 @@ def lookup(path: Path, mappings: Mapping[str, str], find: Callable[[str, str], s
     `find(package, asker)` answers `$(find package)` as the expansion would now."""
     if not enabled():
         return None
+    what = _what(path, mappings)
     try:
-        entry = json.loads((cache_dir() / f"{_key(path, mappings)}.json").read_text())
+        entry = json.loads(_entry(what).read_text())
         files, finds, env, text = entry["files"], entry["finds"], entry["env"], entry["text"]
     except (OSError, ValueError, KeyError, TypeError):
         return None
-    if any(os.environ.get(name) != value for name, value in env.items()):
+    if entry.get("what") != what or any(os.environ.get(name) != value for name, value in env.items()):
         return None
-    if any(_digest(name) != digest for name, digest in files):
+    if any(_content(name) != content for name, content in files):
         return None
     try:
         if any(find(package, asker) != folder for package, asker, folder in finds):
@@ -93,15 +100,18 @@ def store(path: Path, mappings: Mapping[str, str], text: str, read: Iterable[str
         if len(names) != len(ENV_READ.findall(data)):
             return  # a variable named by a substitution: what the text depends on is not known here
         env.update({v.decode(): os.environ.get(v.decode()) for v in names})
-        files.append((name, hashlib.sha1(data).hexdigest()))
-    folder = cache_dir()
+        files.append((name, data.decode("latin-1")))
+    import tempfile
+
+    what = _what(path, mappings)
+    target = _entry(what)
     try:
-        folder.mkdir(parents=True, exist_ok=True)
-        with tempfile.NamedTemporaryFile("w", dir=folder, suffix=".tmp", delete=False) as f:
-            json.dump({"files": files, "finds": finds, "env": env, "text": text}, f)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile("w", dir=target.parent, suffix=".tmp", delete=False) as f:
+            json.dump({"what": what, "files": files, "finds": finds, "env": env, "text": text}, f)
     except OSError:
         return
     try:
-        os.replace(f.name, folder / f"{_key(path, mappings)}.json")  # whole or not at all, for a run started beside
+        os.replace(f.name, target)  # whole or not at all, for a run started beside this one
     except OSError:
         Path(f.name).unlink(missing_ok=True)

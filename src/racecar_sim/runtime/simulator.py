@@ -154,6 +154,8 @@ class Simulator:
         self.poses_changed()
         self.static_tf = StaticTransforms(self.bus)
         self.clock = ClockPublisher(self.bus, self.scheduler)
+        if any(car.has_camera for car in self.cars):
+            load_numba()  # before the cameras load their frame finishing (numba) as they start
         for car in self.cars:
             self._start_car(car)
         self.collisions = Crashes(self.bus, lambda: self.loop.time_ns)
@@ -167,11 +169,10 @@ class Simulator:
 
     def _load_compiled(self) -> None:
         """numba, and the compiled scan of a world with walls, loaded by the build: a one-time cost of the start, not
-        of the first scan inside the run (a camera loads its own kernels with its first frame, numba loaded here)."""
+        of the first scan inside the run (cameras load their kernels as they start)."""
         lidars = [car.lidar for car in self.cars if car.lidar is not None and car.lidar.caster.compiled]
-        if lidars or any(car.camera is not None for car in self.cars):
-            load_numba()
         if lidars:
+            load_numba()
             lidars[0].warm()  # the kernels load once a process: one lidar loads them for the fleet
 
     # --- the parts, under the names the API always had -----------------------------------------------------
