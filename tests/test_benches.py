@@ -41,6 +41,8 @@ def test_speed_benches_run_and_print_their_tables():
         "cars in empty",
         "world    cars  real-time factor  bare MuJoCo  ratio  car-s per wall s",
         "track       4",
+        "racecar-sim run --world empty --cars N --driver constant --speed 1",  # the fleet as users run it
+        "recording  cars  real-time factor  bare MuJoCo  ratio",
     ):
         assert line in out, line
 
