@@ -112,3 +112,14 @@ def test_a_failed_expansion_is_not_kept(cache, tmp_path):
     with pytest.raises(Exception, match="undefined"):
         expand_xacro(top)
     assert not cache.exists() or not list(cache.glob("*.json"))
+
+
+def test_the_file_named_relative_or_absolute_keeps_xacros_own_banner(cache, tmp_path, monkeypatch):
+    top = _write(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv(xacro_cache.OFF_VARIABLE, "0")
+    fresh = {name: expand_xacro(name) for name in ("car.xacro", str(top))}
+    monkeypatch.delenv(xacro_cache.OFF_VARIABLE)
+    assert fresh["car.xacro"] != fresh[str(top)]  # the banner names the file as given
+    for _ in range(2):  # kept, then from the cache
+        assert {name: expand_xacro(name) for name in fresh} == fresh

@@ -49,7 +49,8 @@ def _xacro_install() -> list[object]:
 def _what(path: Path, mappings: Mapping[str, str]) -> list[object]:
     """Everything but the files' contents that the text depends on (an entry holds it whole: no false hit)."""
     env = os.environ.get("ROS_PACKAGE_PATH", "")
-    return json.loads(json.dumps([FORMAT, str(path.resolve()), sorted(mappings.items()), env, _xacro_install()]))
+    given = [str(path), str(path.resolve())]  # xacro's banner names the file as given
+    return json.loads(json.dumps([FORMAT, *given, sorted(mappings.items()), env, _xacro_install()]))
 
 
 def _entry(what: list[object]) -> Path:
@@ -91,7 +92,7 @@ def store(path: Path, mappings: Mapping[str, str], text: str, read: Iterable[str
     if not enabled():
         return
     files, env = [], {}
-    for name in dict.fromkeys([str(path), *read]):
+    for name in dict.fromkeys(os.path.abspath(name) for name in [str(path), *read]):
         try:
             data = Path(name).read_bytes()
         except OSError:
