@@ -123,3 +123,19 @@ def test_the_file_named_relative_or_absolute_keeps_xacros_own_banner(cache, tmp_
     assert fresh["car.xacro"] != fresh[str(top)]  # the banner names the file as given
     for _ in range(2):  # kept, then from the cache
         assert {name: expand_xacro(name) for name in fresh} == fresh
+
+
+def test_an_expansion_that_warns_is_not_kept(cache, tmp_path, monkeypatch, capsys):
+    """What xacro says on stderr (as its warning() does) is said again by the next run: such an expansion is not
+    kept."""
+    top = _write(tmp_path)
+    original = xacro.process_file
+
+    def warns(*args: object, **kwargs: object) -> object:
+        xacro.color.warning("deprecated: something in this file")  # xacro's own warning, to sys.stderr
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(xacro, "process_file", warns)
+    assert expand_xacro(top) == expand_xacro(top)
+    assert capsys.readouterr().err.count("deprecated: something in this file") == 2
+    assert not cache.exists() or not list(cache.glob("*.json"))

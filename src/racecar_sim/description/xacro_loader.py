@@ -5,8 +5,11 @@ stay its own, so that a user's racecar_description on the path changes the user'
 from __future__ import annotations
 
 import contextlib
+import io
+import sys
 from collections.abc import Iterator, Mapping
 from pathlib import Path
+from typing import TextIO
 
 from racecar_sim.core.errors import DescriptionError, RacecarSimError
 from racecar_sim.description import xacro_cache
@@ -79,6 +82,37 @@ class _PackageFinder:
             substitution_args._eval_find = original
 
 
+class _Said:
+    """Whether xacro (or a warning) wrote anything to stdout or stderr while watching; what it writes goes through."""
+
+    def __init__(self) -> None:
+        self.anything = False
+
+    @contextlib.contextmanager
+    def watching(self) -> Iterator[None]:
+        streams = sys.stdout, sys.stderr
+        sys.stdout, sys.stderr = (_Tee(stream, self) for stream in streams)
+        try:
+            yield
+        finally:
+            sys.stdout, sys.stderr = streams
+
+
+class _Tee(io.TextIOBase):
+    def __init__(self, stream: TextIO, said: _Said) -> None:
+        self.stream, self.said = stream, said
+
+    def write(self, text: str) -> int:
+        self.said.anything = self.said.anything or bool(text)
+        return self.stream.write(text)
+
+    def flush(self) -> None:
+        self.stream.flush()
+
+    def isatty(self) -> bool:
+        return self.stream.isatty()
+
+
 def expand_xacro(path: str | Path = DEFAULT_XACRO, args: Mapping[str, str] | None = None) -> str:
     """Expand a xacro file (with `xacro:arg` mappings) to a URDF string (kept on disk: xacro_cache.py)."""
     path = Path(path)
@@ -92,8 +126,9 @@ def expand_xacro(path: str | Path = DEFAULT_XACRO, args: Mapping[str, str] | Non
 
     finder = _PackageFinder(path)
     first_read = len(xacro.all_includes)
+    said = _Said()
     try:
-        with finder.installed():
+        with finder.installed(), said.watching():
             doc = xacro.process_file(str(path), mappings=dict(mappings))  # xacro adds to the dict it is given
     except RacecarSimError:
         raise
@@ -103,7 +138,8 @@ def expand_xacro(path: str | Path = DEFAULT_XACRO, args: Mapping[str, str] | Non
         message = " ".join(str(exc).split())
         raise DescriptionError(f"{path}: xacro expansion failed: {message}") from None
     text = doc.toprettyxml(indent="  ")
-    xacro_cache.store(path, mappings, text, map(str, xacro.all_includes[first_read:]), finder.found)
+    if not said.anything:  # an expansion that warned is not kept: the next run warns again
+        xacro_cache.store(path, mappings, text, map(str, xacro.all_includes[first_read:]), finder.found)
     return text
 
 
