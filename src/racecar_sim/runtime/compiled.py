@@ -53,4 +53,4 @@ def load_numba() -> None:
         sys.meta_path.remove(blocker)
     arraymath = sys.modules.get("numba.np.arraymath")
     if arraymath is not None and hasattr(arraymath, "_HAVE_BLAS"):
-        arraymath._HAVE_BLAS = importlib.util.find_spec("scipy") is not None
+        setattr(arraymath, "_HAVE_BLAS", importlib.util.find_spec("scipy") is not None)  # noqa: B010 (numba's own)
