@@ -39,6 +39,37 @@ def test_a_world_with_walls_loads_the_compiled_scan_at_build():
     assert out["after"] == [out["published"], out["published"]] and out["published"] >= 2
 
 
+def test_the_main_job_compiles_nothing_inside_the_run():
+    """walker, the camera on and listened to, wall-follow: every kernel the run calls (scan, wall fit, frame finish,
+    culling) is loaded by the build and the driver's attach; none is loaded or compiled inside the run."""
+    out = _child("""
+        import gc, json
+        import numba.core.dispatcher as dispatcher
+        from racecar_sim import Simulator
+        from racecar_sim.runtime.driving import attach_driver
+
+        def loaded():
+            return {f"{o.py_func.__module__}.{o.py_func.__name__}": len(o.overloads)
+                    for o in gc.get_objects() if isinstance(o, dispatcher.Dispatcher) and o.overloads}
+
+        sim = Simulator(world="walker")
+        attach_driver(sim, sim.car, "wall-follow", {})
+        frames = []
+        sim.subscribe(sim.car.camera.spec.image_topic, frames.append)
+        built = loaded()
+        sim.run_until(0.5)
+        print(json.dumps({"built": built, "after": loaded(), "frames": len(frames)}))
+    """)
+    assert out["frames"] >= 10
+    assert {name.rsplit(".", 1)[1] for name in out["built"]} >= {
+        "level_scan",
+        "fit_wall",
+        "finish_frame",
+        "cull_records",
+    }
+    assert out["after"] == out["built"]
+
+
 def test_an_empty_world_without_camera_does_not_load_numba():
     out = _child("""
         import json, sys
