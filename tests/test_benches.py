@@ -7,6 +7,7 @@ from __future__ import annotations
 import importlib.util
 import os
 import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -14,6 +15,7 @@ from pathlib import Path
 import pytest
 
 from racecar_sim.bridges.ros1 import ros_available
+from racecar_sim.core.machine import cpu_model
 
 
 def test_speed_benches_run_and_print_their_tables():
@@ -136,3 +138,23 @@ def test_gpu_bench_without_a_gpu_is_one_line():
     assert result.stdout == ""
     (line,) = result.stderr.splitlines()
     assert line.startswith("bench_gpu.py: error: ") and "[gpu]" in line, line
+
+
+def test_the_rtf_bench_names_the_cpu_it_ran_on():
+    """`racecar-sim bench` prints the CPU model above its figures: the one the kernel reports (lscpu's Model name,
+    where lscpu is installed)."""
+    result = subprocess.run(
+        [sys.executable, "-m", "racecar_sim", "bench", "--no-camera", "--duration", "0.2", "--repeat", "1"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    first = result.stdout.splitlines()[0]
+    assert first.startswith(f"CPU {cpu_model()}, ") and " cores (" in first, first
+    if shutil.which("lscpu"):
+        lscpu = subprocess.run(["lscpu"], capture_output=True, text=True, check=True, env={"LC_ALL": "C"}).stdout
+        names = [line.split(":", 1)[1].strip() for line in lscpu.splitlines() if line.startswith("Model name:")]
+        if names:
+            assert " ".join(names[0].split()) == cpu_model()
