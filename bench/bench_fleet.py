@@ -11,9 +11,13 @@ one-time costs of a first scan: loading the compiled kernels, slicing the world)
   - track:  --track-cars (default 30) cars in a row round a generated oval track CSV (98 m of centerline, 2.4 m
             wide), as `racecar-sim run --world TRACK.csv --cars N` places them, pure-pursuit each on the centerline.
 Printed per fleet: the real-time factor, bare MuJoCo's on the same model, the median of the per-round ratios
-(pipeline / bare), and car-seconds simulated per wall second (the real-time factor times N). Then the cost of
-`sim.reset()` for the whole stack (physics, every node's reset hook, the scheduler), averaged over --resets calls
-made after a little driving, for 1 and 4 cars in `empty`.
+(pipeline / bare), and car-seconds simulated per wall second (the real-time factor times N). Then the CLI as users run
+it: `racecar-sim run --world empty --cars N --driver constant --speed 1 --no-camera --no-video --no-summary
+--duration D` (--cli-cars, --cli-duration; --no-record, and with the recording on), a fresh process timed from start
+to exit (its start-up and one-time costs included), against bare mj_step of the same N-car model replaying the same
+run's controls from the start (recorded from the same fleet built in-process: the CLI's row, its constant command).
+Then the cost of `sim.reset()` for the whole stack (physics, every node's reset hook, the scheduler), averaged over
+--resets calls made after a little driving, for 1 and 4 cars in `empty`.
 
 Uses only APIs present before issue 25 (Simulator, Car, Spawn, attach_driver, starting_row, ConstantCommand,
 load_world), so `PYTHONPATH=/path/to/old/src python bench/bench_fleet.py` gives the before figures from the same
@@ -24,7 +28,10 @@ from __future__ import annotations
 
 import argparse
 import math
+import shutil
 import statistics
+import subprocess
+import sys
 import tempfile
 import time
 from collections.abc import Callable
@@ -92,6 +99,52 @@ def row_fleet(world: str, count: int, driver: str) -> Simulator:
     for car in sim.cars:
         attach_driver(sim, car, driver, {})
     return listened(sim)
+
+
+def cli_row(count: int) -> Simulator:
+    """The fleet of `racecar-sim run --world empty --cars N --driver constant --speed 1`, built in-process: the CLI's
+    row (CAR_SPACING apart along the spawn heading), each car its own constant command, every scan listened to (the
+    run's log listens, as here)."""
+    spawns = starting_row(load_world("empty"), count)
+    sim = Simulator(world="empty", cars=[Car(f"car{k + 1}", spawn=s, camera=False) for k, s in enumerate(spawns)])
+    for car in sim.cars:
+        attach_driver(sim, car, "constant", {"speed": 1.0})
+    return listened(sim)
+
+
+CLI_ARGS = ["run", "--world", "empty", "--driver", "constant", "--speed", "1", "--no-camera", "--no-video"]
+
+
+def cli_seconds(count: int, duration: float, record: bool, folder: Path) -> float:
+    """Wall seconds of `racecar-sim run` with `count` cars for `duration` sim s, a fresh process from start to exit."""
+    out = folder / "cli-run"
+    shutil.rmtree(out, ignore_errors=True)
+    args = [*CLI_ARGS, "--cars", str(count), "--duration", f"{duration:g}", "--no-summary", "--out", str(out)]
+    if not record:
+        args.append("--no-record")
+    code = "import sys; from racecar_sim.cli.main import main; sys.argv[0] = 'racecar-sim'; sys.exit(main())"
+    start = time.perf_counter()
+    result = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, check=False)
+    wall = time.perf_counter() - start
+    if result.returncode != 0:
+        raise RuntimeError(f"racecar-sim {' '.join(args)} failed: {result.stderr.strip()[-2000:]}")
+    return wall
+
+
+def measure_cli(count: int, duration: float, rounds: int, record: bool, folder: Path) -> dict[str, float]:
+    """The CLI's real-time factor (start-up included), bare MuJoCo's on its model and the median per-round ratio."""
+    controls = recorded_controls(lambda: cli_row(count), duration)
+    sim = cli_row(count)
+    model = sim.model
+    sim.close()
+    cli, bare, ratio = [], [], []
+    for _ in range(rounds):
+        wall = cli_seconds(count, duration, record, folder)
+        bare_wall = bare_seconds(model, controls, 0)
+        cli.append(duration / wall)
+        bare.append(duration / bare_wall)
+        ratio.append(bare_wall / wall)
+    return {"rtf": statistics.median(cli), "bare": statistics.median(bare), "ratio": statistics.median(ratio)}
 
 
 def recorded_controls(make: Make, duration: float) -> list[tuple[int, np.ndarray]]:
@@ -186,10 +239,15 @@ def main() -> None:
     p.add_argument("--rounds", type=int, default=3, help="interleaved pipeline/bare rounds (default 3)")
     p.add_argument("--resets", type=int, default=500, help="reset() calls averaged (default 500)")
     p.add_argument("--reset-cars", type=int, nargs="*", default=[1, 4], help="fleet sizes for the reset cost")
+    p.add_argument(
+        "--cli-cars", type=int, nargs="*", default=[1, 4, 8], help="fleet sizes run by the CLI (default 1 4 8)"
+    )
+    p.add_argument("--cli-duration", type=float, default=60.0, help="sim seconds of each CLI run (default 60)")
     p.add_argument("--quick", action="store_true", help="1 and 2 cars, 4 on the track, 1 s, 1 round: a check it runs")
     args = p.parse_args()
     if args.quick:
         args.cars, args.track_cars, args.duration, args.rounds, args.resets = [1, 2], 4, 1.0, 1, 20
+        args.cli_cars, args.cli_duration = [2], 1.0
     print(
         f"racecar_sim from {Path(racecar_sim.__file__).parent}; lidar on, camera off, every /scan listened to; "
         f"{args.duration:g} sim s, median of {args.rounds} interleaved rounds against bare mj_step of the same model"
@@ -212,6 +270,21 @@ def main() -> None:
                 f"{world:<8}{count:>5}{r['rtf']:>17.1f}x{r['bare']:>12.1f}x{r['ratio']:>7.2f}{r['rtf'] * count:>18.1f}",
                 flush=True,
             )
+        if args.cli_cars:
+            print(
+                f"racecar-sim run --world empty --cars N --driver constant --speed 1 --no-camera --no-video "
+                f"--no-summary --duration {args.cli_duration:g}: a fresh process, start to exit, against bare mj_step "
+                f"replaying its controls from the start; median of {args.rounds} interleaved rounds"
+            )
+            print(f"{'recording':<10}{'cars':>5}{'real-time factor':>18}{'bare MuJoCo':>13}{'ratio':>7}")
+            for record in (False, True):
+                for count in args.cli_cars:
+                    r = measure_cli(count, args.cli_duration, args.rounds, record, Path(folder))
+                    print(
+                        f"{'on' if record else 'off':<10}{count:>5}{r['rtf']:>17.1f}x{r['bare']:>12.1f}x"
+                        f"{r['ratio']:>7.2f}",
+                        flush=True,
+                    )
     print(f"sim.reset() in empty, lidar on, camera off, mean of {args.resets} calls")
     for count in args.reset_cars:
         cost = reset_cost(count, args.resets)

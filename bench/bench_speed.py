@@ -5,7 +5,7 @@ Runs, one after the other, the benches behind each figure and prints their table
 its own run (interleaved rounds, medians):
   1. the main job (camera, recording, video)     bench_mainjob.py   real-time factor, and against the bare job
   2. the lidar pipeline (camera off)             bench_pipeline.py  against bare MuJoCo stepping, tunnel and walker
-  3. start-up                                    bench_startup.py   process start to the first physics step
+  3. start-up                                    bench_startup.py   short runs against the numpy + mujoco floor
   4. real maps                                   bench_maps.py      a basement-like map against the empty world
   5. scaling                                     bench_scaling.py   against beams, static geoms and cars
   6. fleets (1-8 cars, 30 on a track)            bench_fleet.py     against bare MuJoCo stepping the same N-car model
@@ -21,6 +21,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from racecar_sim.core.machine import machine_line
+
 HERE = Path(__file__).resolve().parent
 
 
@@ -31,7 +33,7 @@ def sections(quick: bool) -> list[tuple[str, str, list[str], bool]]:
     return [
         ("1. main job: camera, recording, video", "bench_mainjob.py", ["--duration", d, "--rounds", r], True),
         ("2. lidar pipeline against bare MuJoCo", "bench_pipeline.py", ["--duration", d, "--rounds", r], False),
-        ("3. start-up", "bench_startup.py", ["--repeats", "2" if quick else "5"], True),
+        ("3. start-up", "bench_startup.py", ["--quick"] if quick else ["--repeats", "7"], True),
         ("4. real maps against the empty world", "bench_maps.py", ["--duration", short, "--rounds", rounds], False),
         ("5. scaling: beams, static geoms, cars", "bench_scaling.py", ["--duration", short, "--rounds", rounds], False),
         (
@@ -77,6 +79,7 @@ def main(argv: list[str] | None = None) -> int:
         problem = compare_problem(args.compare, Path(src))
         if problem:
             parser.exit(2, f"{parser.prog}: error: --compare {args.compare}: {problem}\n")
+    print(machine_line(), flush=True)  # absolute figures belong to a machine: the ratios travel, the rates do not
     for title, script, extra, compares in sections(args.quick):
         print(f"\n=== {title} ({script}) ===", flush=True)
         if args.compare and compares:

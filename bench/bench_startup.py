@@ -1,9 +1,17 @@
-"""Start-up: seconds from process start to the first physics step of `racecar-sim run --no-camera`, and import costs.
+"""Start-up: seconds from process start to exit of short `racecar-sim run`s against Python and MuJoCo's own floor,
+to the first physics step, and import costs.
 
-Prints, each the median of --repeats fresh processes (interleaved):
+Prints the CPU model, then, each the median of --repeats fresh processes (interleaved):
+  (r) the floor: a process that imports numpy and mujoco and compiles a one-geom model;
+  (e) `racecar-sim run --world empty --no-camera --no-record --no-video --no-summary --duration 0.01`, start to exit,
+      and its ratio to (r): each run paired with a floor process right before it, the median of the pairs' ratios;
+  (w) the same in walker with the camera, `--duration 0.1` (it renders, scans and loads the compiled kernels);
   (a) process start -> first mj_step of `racecar-sim run --no-camera --world empty --duration 1`;
   (b) `import racecar_sim.msgs` alone, and whether it imported mujoco, trimesh or scipy;
   (c) the whole command's wall time (to exit: the run, run.mcap and summary.png).
+Every child runs as an installed package does: with its bytecode cached (PYTHONDONTWRITEBYTECODE is dropped from
+its environment) and after one untimed run of each command (numba's cache filled, as after a first run).
+`--quick` runs each once: a check that the bench runs, not figures to quote.
 
 The first step is seen from outside the product: the child process puts a finder on sys.meta_path that wraps
 `mujoco.mj_step` as soon as mujoco is imported and writes the monotonic clock at its first call to a file. Only
@@ -22,6 +30,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import shutil
 import statistics
 import subprocess
@@ -30,7 +39,15 @@ import tempfile
 import time
 from pathlib import Path
 
+from racecar_sim.core.machine import machine_line
+
 RUN_ARGS = ["run", "--no-camera", "--world", "empty", "--duration", "1"]
+QUIET = ["--no-record", "--no-video", "--no-summary"]
+EMPTY_ARGS = ["run", "--world", "empty", "--no-camera", *QUIET, "--duration", "0.01"]
+WALKER_ARGS = ["run", "--world", "walker", *QUIET, "--duration", "0.1"]
+FLOOR = """import numpy, mujoco
+mujoco.MjModel.from_xml_string("<mujoco><worldbody><geom size='1'/></worldbody></mujoco>")"""
+CLI = "import sys; from racecar_sim.cli.main import main; sys.argv[0] = 'racecar-sim'; sys.exit(main())"
 HEAVY = ("mujoco", "trimesh", "scipy", "matplotlib")
 
 # the child: mark the first mj_step, then run the CLI exactly as the console script does
@@ -73,12 +90,45 @@ print(json.dumps({"seconds": dt, "loaded": [m for m in HEAVY if m in sys.modules
 """.replace("HEAVY", repr(HEAVY))
 
 
-def _env(src: str | None) -> dict[str, str] | None:
-    """The environment of a child importing racecar_sim from `src` (None: as this process would)."""
+def _env(src: str | None) -> dict[str, str]:
+    """The environment of a child importing racecar_sim from `src` (None: as this process would), bytecode cached."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
     if src is None:
-        return None
+        return env
     paths = [str(Path(src).resolve()), *filter(None, os.environ.get("PYTHONPATH", "").split(os.pathsep))]
-    return {**os.environ, "PYTHONPATH": os.pathsep.join(paths)}
+    return {**env, "PYTHONPATH": os.pathsep.join(paths)}
+
+
+def _children_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+CPU: dict[str, list[float]] = {}  # CPU seconds (user + system) of each command's runs, by its arguments
+
+
+def wall(code: str, args: list[str], workdir: Path, src: str | None = None) -> float:
+    """Seconds from start to exit of `python -c code args...` in a fresh process (SystemExit on failure); its CPU
+    seconds go to CPU (less moved than wall time by other processes on a shared machine)."""
+    start, cpu = time.monotonic(), _children_cpu()
+    result = subprocess.run(
+        [sys.executable, "-c", code, *args], capture_output=True, text=True, cwd=workdir, env=_env(src), check=False
+    )
+    seconds = time.monotonic() - start
+    CPU.setdefault(" ".join([str(src), *args[:8]]), []).append(_children_cpu() - cpu)
+    if result.returncode != 0:
+        raise SystemExit(
+            f"{' '.join(args) or 'the floor process'} failed ({result.returncode}): {result.stderr.strip()[-2000:]}"
+        )
+    return seconds
+
+
+def floor_pair(args: list[str], workdir: Path, src: str | None = None) -> tuple[float, float]:
+    """(floor seconds, `racecar-sim ARGS` seconds), one right after the other: load from other processes falls on
+    both alike."""
+    out = workdir / "pair"
+    shutil.rmtree(out, ignore_errors=True)
+    return wall(FLOOR, [], workdir), wall(CLI, [*args, "--out", str(out)], workdir, src)
 
 
 def first_step(workdir: Path, src: str | None = None) -> tuple[float, float]:
@@ -119,7 +169,7 @@ def python_start() -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeats", type=int, default=5, help="fresh processes per figure (median)")
+    parser.add_argument("--repeats", type=int, default=7, help="fresh processes per figure (median; default 7)")
     parser.add_argument(
         "--compare",
         nargs="+",
@@ -127,15 +177,34 @@ def main() -> None:
         default=[None],
         help="source trees (each put first on PYTHONPATH), measured interleaved",
     )
+    parser.add_argument("--quick", action="store_true", help="each once: a check that it runs, not figures to quote")
     args = parser.parse_args()
-    figures = {src: {"first": [], "wall": [], "import": [], "loaded": set(), "file": ""} for src in args.compare}
-    bare = []
+    repeats = 1 if args.quick else args.repeats
+    figures = {
+        src: {key: [] for key in ("first", "wall", "import", "empty", "walker", "empty/", "walker/")}
+        | {"loaded": set(), "file": ""}
+        for src in args.compare
+    }
+    bare: list[float] = []
+    floor: list[float] = []
+    pairs = {"empty": EMPTY_ARGS, "walker": WALKER_ARGS}
     with tempfile.TemporaryDirectory() as tmp:
-        for _ in range(args.repeats):  # interleaved, so load from other processes falls on all figures alike
+        workdir = Path(tmp)
+        for src in figures:  # untimed: bytecode and numba's cache written, as after an install and a first run
+            for run_args in pairs.values():
+                floor_pair(run_args, workdir, src)
+        CPU.clear()
+        for _ in range(repeats):  # interleaved, so load from other processes falls on all figures alike
             for src, fig in figures.items():
-                first, wall = first_step(Path(tmp), src)
+                for key, run_args in pairs.items():
+                    ref, cli = floor_pair(run_args, workdir, src)
+                    floor.append(ref)
+                    fig[key].append(cli)
+                    fig[key + "/"].append(cli / ref)
+                    fig[key + " cpu"] = CPU[" ".join([str(src), *run_args[:8]])]
+                first, whole = first_step(workdir, src)
                 fig["first"].append(first)
-                fig["wall"].append(wall)
+                fig["wall"].append(whole)
                 info = msgs_import(src)
                 fig["import"].append(info["seconds"])
                 fig["loaded"] |= set(info["loaded"])
@@ -143,7 +212,14 @@ def main() -> None:
             bare.append(python_start())
     median = statistics.median
     reference = figures[args.compare[0]]
-    print(f"{args.repeats} runs each, medians; python -c pass {median(bare):.3f} s")
+    quick = " (--quick: a check that it runs, not figures to quote)" if args.quick else ""
+    print(machine_line())
+    print(f"{repeats} runs each, medians; python -c pass {median(bare):.3f} s{quick}")
+    floor_cpu = CPU[str(None)]
+    print(
+        f"  (r) floor: import numpy, mujoco; compile a one-geom model   {median(floor):6.3f} s   "
+        f"(CPU {median(floor_cpu):.3f} s)"
+    )
 
     def show(fig: dict, key: str) -> str:
         ratio = "" if fig is reference else f"  x{median(fig[key]) / median(reference[key]):.2f}"
@@ -151,6 +227,12 @@ def main() -> None:
 
     for fig in figures.values():
         print(f"racecar_sim from {fig['file']}")
+        for key, label in (("empty", "(e) empty, no camera, 0.01 s"), ("walker", "(w) walker, camera, 0.1 s  ")):
+            print(
+                f"  {label}  start -> exit {show(fig, key)}   x{median(fig[key + '/']):.2f} the floor   "
+                f"(CPU {median(fig[key + ' cpu']):.3f} s, x{median(fig[key + ' cpu']) / median(floor_cpu):.2f})   "
+                f"`racecar-sim {' '.join(pairs[key])}`"
+            )
         print(f"  (a) start -> first physics step   {show(fig, 'first')}   `racecar-sim {' '.join(RUN_ARGS)}`")
         print(
             f"  (b) import racecar_sim.msgs       {show(fig, 'import')}   loaded: "

@@ -7,6 +7,7 @@ from __future__ import annotations
 import importlib.util
 import os
 import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -14,6 +15,7 @@ from pathlib import Path
 import pytest
 
 from racecar_sim.bridges.ros1 import ros_available
+from racecar_sim.core.machine import cpu_model
 
 
 def test_speed_benches_run_and_print_their_tables():
@@ -28,18 +30,41 @@ def test_speed_benches_run_and_print_their_tables():
     out = result.stdout
     for header in ("1. main job", "2. lidar pipeline", "3. start-up", "4. real maps", "5. scaling", "6. fleets"):
         assert f"=== {header}" in out
+    assert out.startswith("CPU "), out[:200]  # the machine the figures belong to
     for line in (
         "main job (camera, noise, MCAP, video)",
         "tunnel ",
         "walker ",
         "start -> first physics step",
         "import racecar_sim.msgs",
+        "floor: import numpy, mujoco",
         "basement-like (generated)",
         "lidar beams (tunnel)",
         "cars in empty",
         "world    cars  real-time factor  bare MuJoCo  ratio  car-s per wall s",
         "track       4",
+        "racecar-sim run --world empty --cars N --driver constant --speed 1",  # the fleet as users run it
+        "recording  cars  real-time factor  bare MuJoCo  ratio",
     ):
+        assert line in out, line
+
+
+def test_startup_bench_quick_prints_the_ratios_to_the_floor():
+    """bench/bench_startup.py --quick: the CPU model, the numpy + mujoco floor, and both short runs (empty without
+    the camera, walker with it) start to exit and as a ratio to the floor."""
+    bench = Path(__file__).resolve().parents[1] / "bench" / "bench_startup.py"
+    result = subprocess.run(
+        [sys.executable, str(bench), "--quick"], capture_output=True, text=True, timeout=600, check=False
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    out = result.stdout
+    assert out.startswith("CPU "), out
+    floor = re.search(r"\(r\) floor: import numpy, mujoco; compile a one-geom model +([0-9.]+) s", out)
+    assert floor is not None and float(floor[1]) > 0, out
+    for world in ("empty", "walker"):
+        row = re.search(rf"\({world[0]}\) {world}.* start -> exit +([0-9.]+) s .* x([0-9.]+) the floor", out)
+        assert row is not None and float(row[1]) > 0 and float(row[2]) > 0, out
+    for line in ("start -> first physics step", "import racecar_sim.msgs", "whole command, start -> exit"):
         assert line in out, line
 
 
@@ -130,3 +155,23 @@ def test_dynamics_bench_runs_and_draws_its_pictures(tmp_path):
         assert line in result.stdout, line
     assert (tmp_path / "dynamics_gg.png").stat().st_size > 10_000
     assert (tmp_path / "dynamics_understeer.png").stat().st_size > 10_000
+
+
+def test_the_rtf_bench_names_the_cpu_it_ran_on():
+    """`racecar-sim bench` prints the CPU model above its figures: the one the kernel reports (lscpu's Model name,
+    where lscpu is installed)."""
+    result = subprocess.run(
+        [sys.executable, "-m", "racecar_sim", "bench", "--no-camera", "--duration", "0.2", "--repeat", "1"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    first = result.stdout.splitlines()[0]
+    assert first.startswith(f"CPU {cpu_model()}, ") and " cores (" in first, first
+    if shutil.which("lscpu"):
+        lscpu = subprocess.run(["lscpu"], capture_output=True, text=True, check=True, env={"LC_ALL": "C"}).stdout
+        names = [line.split(":", 1)[1].strip() for line in lscpu.splitlines() if line.startswith("Model name:")]
+        if names:
+            assert " ".join(names[0].split()) == cpu_model()

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -77,3 +78,22 @@ def test_the_summary_marks_every_10_s_of_a_thinned_path():
     _, ax = summary_figure(load_world("empty"), log.trajectory, rate=log.trajectory_rate)
     marks = [text.get_text() for text in ax.texts if text.get_text().endswith(" s")]
     assert marks == [f"{t} s" for t in range(10, 819, 10)]
+
+
+def test_min_clearance_is_the_shortest_finite_range_whatever_else_the_scan_holds():
+    """inf (no echo), NaN and -inf are not ranges: the clearance is the least finite one, over every scan."""
+    log = RunLog(Bus(), "/scan", None, "/odom")
+    scans = [
+        [np.inf, 3.0, 2.5, np.inf],
+        [np.nan, 4.0, 1.75, -np.inf],  # 1.75: NaN and -inf skipped, not taken as the minimum
+        [np.inf, np.inf],  # no echo at all: nothing changes
+        [],
+        [2.0, np.nan],
+    ]
+    expected = math.inf
+    for ranges in scans:
+        log._on_scan(SimpleNamespace(ranges=np.array(ranges, np.float32)))
+        finite = [r for r in ranges if math.isfinite(r)]
+        expected = min([expected, *finite])
+        assert log.min_clearance == expected
+    assert log.min_clearance == 1.75

@@ -218,3 +218,32 @@ def test_an_empty_world_loads_no_mesh_library(tmp_path):
     }
     assert runs["0.02"] == ["mujoco"]
     assert set(runs["0.1"]) <= {"mujoco", "scipy"}
+
+
+@pytest.mark.parametrize("argv", [["run", "--help"], ["worlds"]], ids=["run --help", "worlds"])
+def test_run_help_and_worlds_load_neither_numba_nor_matplotlib(argv):
+    """Commands that only print stay clear of the compiler and the plotting library (each ~0.3 s to import)."""
+    out = _json(f"""
+        import contextlib, io, json, sys
+        from racecar_sim.cli.main import main
+        text = io.StringIO()
+        with contextlib.redirect_stdout(text):
+            try:
+                code = main({argv!r})
+            except SystemExit as exc:  # --help exits through argparse
+                code = exc.code
+        print(json.dumps({{"code": code, "printed": text.getvalue(),
+                          "loaded": [m for m in ("numba", "matplotlib", "llvmlite") if m in sys.modules]}}))
+    """)
+    assert out["code"] == 0
+    assert ("--duration" in out["printed"]) if argv[0] == "run" else ("walker" in out["printed"])
+    assert out["loaded"] == [], out["loaded"]
+
+
+def test_the_ros_help_texts_name_the_bridges_own_address():
+    """cli/ros_env.py repeats the ROS 1 bridge's loopback address and master port for its help texts, so that a run
+    without --ros imports none of the bridge."""
+    from racecar_sim.bridges.ros1 import environment, master
+    from racecar_sim.cli import ros_env
+
+    assert (ros_env.LOOPBACK, ros_env.DEFAULT_PORT) == (environment.LOOPBACK, master.DEFAULT_PORT)

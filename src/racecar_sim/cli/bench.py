@@ -16,6 +16,7 @@ import mujoco
 
 from racecar_sim.cli.args import positive_float, positive_int
 from racecar_sim.core.errors import ConfigError, RacecarSimError
+from racecar_sim.core.machine import machine_line
 from racecar_sim.drivers import ConstantCommand
 from racecar_sim.physics import preset_names
 from racecar_sim.runtime import Simulator
@@ -147,6 +148,7 @@ def main(args: argparse.Namespace) -> int:
     args.duration = defaults[0] if args.duration is None else args.duration
     args.repeat = defaults[1] if args.repeat is None else args.repeat
     quick = " (--quick: a check that it runs, not figures to quote)" if args.quick else ""
+    print(machine_line())
     print(f"world {args.world}, physics preset {args.physics}, {args.duration:g} sim s, best of {args.repeat}{quick}")
     bare = max(bare_rtf(args.world, args.physics, args.duration) for _ in range(args.repeat))
     print(f"bare mj_step               real-time factor {bare:7.1f}x")

@@ -13,13 +13,13 @@ import sys
 import time
 from typing import TYPE_CHECKING
 
-from racecar_sim.control.teleop import KeyboardTeleop
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import TELEOP
-from racecar_sim.msgs import LaserScan
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # the keys' teleop is imported with the viewer that drives it (start-up)
     from racecar_sim.bridges.foxglove.bridge import FoxgloveBridge
+    from racecar_sim.control.teleop import KeyboardTeleop
+    from racecar_sim.msgs import LaserScan
     from racecar_sim.runtime import Simulator
     from racecar_sim.viz.viewer import CarViewer
 
@@ -147,6 +147,8 @@ class LiveViews:
     def _teleop(self, index: int) -> KeyboardTeleop:
         """The keyboard teleop of car number `index`: on its own teleop input, with the first one's settings."""
         if index not in self._teleops:
+            from racecar_sim.control.teleop import KeyboardTeleop
+
             car, first = self.sim.cars[index], self._teleops.get(0)
             self._teleops[index] = KeyboardTeleop(
                 self.sim.bus,

@@ -20,8 +20,6 @@ import shlex
 import sys
 from typing import TYPE_CHECKING
 
-from racecar_sim.bridges.ros2.environment import domain_id, loopback_variables, path_variables, ros2_python
-
 if TYPE_CHECKING:
     from racecar_sim.bridges.ros2 import Ros2Bridge
     from racecar_sim.runtime import Simulator
@@ -57,6 +55,8 @@ def check_ros2(args: argparse.Namespace) -> None:
     """Ros2Unavailable or a bad ROS_DOMAIN_ID (one line, exit code 2) before anything is built, when --ros2 is
     asked for."""
     if getattr(args, "ros2", False):
+        from racecar_sim.bridges.ros2.environment import domain_id, ros2_python
+
         domain_id()
         ros2_python()
 
@@ -80,6 +80,7 @@ def start_ros2_bridge(args: argparse.Namespace, sim: Simulator) -> Ros2Bridge | 
 
 def main(args: argparse.Namespace) -> int:
     from racecar_sim.bridges.ros2 import types
+    from racecar_sim.bridges.ros2.environment import loopback_variables, path_variables, ros2_python
 
     ros = ros2_python()
     prefix = types.build(ros, say=lambda line: print(line, file=sys.stderr))

@@ -18,15 +18,15 @@ import os
 import shlex
 from typing import TYPE_CHECKING
 
-from racecar_sim.bridges.ros1.environment import LOOPBACK, message_path, ros_python
-from racecar_sim.bridges.ros1.master import DEFAULT_PORT
-
 if TYPE_CHECKING:
     from racecar_sim.bridges.ros1 import RosBridge
     from racecar_sim.runtime import Simulator
 
-# The module also holds the --ros options that run and launch share, and starting the bridge for them.
+# The module also holds the --ros options that run and launch share, and starting the bridge for them. The bridge's
+# modules (xmlrpc, http.client, hashlib: ~20 ms) are imported only by a run that asks for ROS.
 PAUSED_WAIT = 0.01  # s the run loop waits for ROS calls (unpause_physics) while the physics is paused
+LOOPBACK = "127.0.0.1"  # bridges/ros1/environment.py's, for the help texts (a test holds them equal)
+DEFAULT_PORT = 11311  # bridges/ros1/master.py's: the ROS master's port
 
 
 def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -64,6 +64,8 @@ def add_ros_arguments(parser: argparse.ArgumentParser, help: str | None = None) 
 def check_ros(args: argparse.Namespace) -> None:
     """RosUnavailable (one line, exit code 2) before anything is built, when --ros is asked for without ROS."""
     if getattr(args, "ros", False):
+        from racecar_sim.bridges.ros1.environment import ros_python
+
         ros_python()
 
 
@@ -87,6 +89,8 @@ def start_ros_bridge(args: argparse.Namespace, sim: Simulator) -> RosBridge | No
 
 
 def main(args: argparse.Namespace) -> int:
+    from racecar_sim.bridges.ros1.environment import message_path, ros_python
+
     python = ros_python()
     master = args.ros_master or os.environ.get("ROS_MASTER_URI") or f"http://{LOOPBACK}:{DEFAULT_PORT}/"
     messages = message_path(python)

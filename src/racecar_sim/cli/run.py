@@ -21,8 +21,7 @@ import time
 from collections.abc import Callable
 from datetime import datetime
 from pathlib import Path
-
-from tqdm import tqdm
+from typing import TYPE_CHECKING
 
 from racecar_sim.cli.args import (
     MIN_RATE,
@@ -69,6 +68,9 @@ from racecar_sim.runtime.driving import (
 )
 from racecar_sim.worlds import CAR_SPACING, World, load_world, row_centerline
 from racecar_sim.worlds import starting_row as fleet_spawns  # the row of `--cars N` (tests call it by this name)
+
+if TYPE_CHECKING:
+    from tqdm import tqdm
 
 # the drivers each option applies to; an option given for another driver is an error, not silently ignored
 OPTION_DRIVERS = {
@@ -323,13 +325,7 @@ def _drive(args: argparse.Namespace, sim: Simulator, live: LiveViews) -> tuple[f
         print(
             "racecar-sim: running in real time until Ctrl-C (--duration S ends it, --fast runs ahead)", file=sys.stderr
         )
-    bar = tqdm(
-        total=round(args.duration, 3),
-        unit="sim s",
-        disable=endless or args.duration < PROGRESS_MIN_DURATION or None,
-        bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]",
-        file=sys.stderr,
-    )
+    bar = _progress_bar(args.duration, endless)
     bridge = start_ros_bridge(args, sim)
     try:
         ros2 = start_ros2_bridge(args, sim)
@@ -351,7 +347,7 @@ def _drive(args: argparse.Namespace, sim: Simulator, live: LiveViews) -> tuple[f
             if ros2 is not None:
                 ros2.spin_once(PAUSED_WAIT if sim.paused else 0.0)
             live.update()
-            if not endless:
+            if bar is not None:
                 bar.n = min(round(sim.time, 3), bar.total)  # never past the total: tqdm would count down below 0
                 bar.update(0)  # redraws no more often than tqdm's mininterval
             if realtime:
@@ -363,12 +359,29 @@ def _drive(args: argparse.Namespace, sim: Simulator, live: LiveViews) -> tuple[f
     finally:
         for camera in cameras:
             camera.flush()  # the last frame, at the time the run stops
-        bar.close()
+        if bar is not None:
+            bar.close()
         if bridge is not None:
             bridge.close()
         if ros2 is not None:
             ros2.close()
     return time.perf_counter() - start, interrupted, failure
+
+
+def _progress_bar(duration: float, endless: bool) -> tqdm | None:
+    """The progress bar on stderr (a terminal's only), or None where none is drawn: an endless run, or one too short
+    for a bar to be worth drawing (tqdm is then never imported: start-up)."""
+    if endless or duration < PROGRESS_MIN_DURATION:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(
+        total=round(duration, 3),
+        unit="sim s",
+        disable=None,
+        bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]",
+        file=sys.stderr,
+    )
 
 
 def _title(args: argparse.Namespace, sim: Simulator) -> str:

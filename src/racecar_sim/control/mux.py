@@ -19,6 +19,7 @@ from typing import Any
 import yaml
 
 from racecar_sim.bus import BusPort, type_name
+from racecar_sim.core import yaml_text
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.tables import finite_number
@@ -119,7 +120,7 @@ class MuxInput:
 def load_mux_inputs(path: Path) -> tuple[list[MuxInput], str]:
     """Read a yocs-style mux YAML: the subscribers and the output topic name."""
     try:
-        data = yaml.safe_load(path.read_text())
+        data = yaml_text.safe_load(path.read_text())
         subscribers = data["subscribers"]
         output = data.get("publisher", "output")
     except (OSError, yaml.YAMLError, KeyError, TypeError, AttributeError) as exc:
@@ -220,7 +221,7 @@ class CommandChain(NodeBase):
                 data, folder = config, Path(".")
                 config = config.get("source", "the mux wiring")
             else:
-                data, folder = yaml.safe_load(config.read_text()), config.parent
+                data, folder = yaml_text.safe_load(config.read_text()), config.parent
             self.output_topic: str = names.topic(data["output"])
             default = data.get("default_command")
             muxes, relays = data["muxes"], data["relays"]

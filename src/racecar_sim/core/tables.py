@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 import yaml
 
+from racecar_sim.core import yaml_text
 from racecar_sim.core.errors import ConfigError
 
 if TYPE_CHECKING:
@@ -23,7 +24,7 @@ T = TypeVar("T", bound="DataclassInstance")
 def read_table(path: Path) -> dict[str, object]:
     """The YAML mapping of names to entries (or of fields to values) in `path` (read once)."""
     try:
-        data = yaml.safe_load(path.read_text())
+        data = yaml_text.safe_load(path.read_text())
     except (OSError, yaml.YAMLError) as exc:
         raise ConfigError(f"{path}: cannot read: {' '.join(str(exc).split())}") from None
     if not isinstance(data, dict):

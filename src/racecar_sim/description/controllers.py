@@ -11,6 +11,7 @@ from pathlib import Path
 
 import yaml
 
+from racecar_sim.core import yaml_text
 from racecar_sim.core.errors import ConfigError, DescriptionError
 from racecar_sim.core.tables import finite_number
 from racecar_sim.description.urdf import Robot
@@ -65,7 +66,7 @@ def load_controller_config(path: str | Path, robot: Robot) -> ControllerConfig:
     """Parse and check a ros_control YAML against the robot's joints and transmissions."""
     path = Path(path)
     try:
-        data = yaml.safe_load(path.read_text())
+        data = yaml_text.safe_load(path.read_text())
     except (OSError, yaml.YAMLError) as exc:
         raise ConfigError(f"{path}: cannot read controller config: {' '.join(str(exc).split())}") from None
     if not isinstance(data, dict) or len(data) != 1:

@@ -15,10 +15,12 @@ import os
 import xml.etree.ElementTree as ET
 from collections.abc import Iterable
 from pathlib import Path
-
-import rospkg
+from typing import TYPE_CHECKING
 
 from racecar_sim.core.errors import ConfigError
+
+if TYPE_CHECKING:  # rospkg (and its minidom) is imported by the first crawl: a run of the shipped car makes none
+    import rospkg
 
 _PACKAGE_ROOT = Path(__file__).resolve().parent.parent
 SHIPPED_ROOTS: tuple[Path, ...] = (_PACKAGE_ROOT / "description" / "data", _PACKAGE_ROOT / "launch" / "data")
@@ -39,6 +41,8 @@ def _env_paths(variable: str) -> list[Path]:
 
 def _crawl(roots: Iterable[Path], fresh: bool = False) -> rospkg.RosPack:
     """A rospkg crawl of `roots`, kept while the roots stay the same (a fresh one on request)."""
+    import rospkg
+
     key = tuple(str(r) for r in roots)
     if fresh or key not in _crawls:
         crawl = rospkg.RosPack(ros_paths=[k for k in key if os.path.isdir(k)])
@@ -53,6 +57,8 @@ def _crawl(roots: Iterable[Path], fresh: bool = False) -> rospkg.RosPack:
 
 
 def _lookup(name: str, roots: tuple[Path, ...]) -> Path | None:
+    import rospkg
+
     for fresh in (False, True):  # a package made since the last crawl of the same path is found on a second look
         try:
             return Path(_crawl(roots, fresh).get_path(name))

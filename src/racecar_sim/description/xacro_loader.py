@@ -5,18 +5,18 @@ stay its own, so that a user's racecar_description on the path changes the user'
 from __future__ import annotations
 
 import contextlib
+import io
+import sys
 from collections.abc import Iterator, Mapping
-from importlib import resources
 from pathlib import Path
-
-import xacro
-import xacro.substitution_args as substitution_args
+from typing import TextIO
 
 from racecar_sim.core.errors import DescriptionError, RacecarSimError
+from racecar_sim.description import xacro_cache
 from racecar_sim.description.ros_packages import SHIPPED_ROOTS, PackageNotFound, find_package
 from racecar_sim.description.urdf import Robot, parse_urdf
 
-_DATA = Path(str(resources.files("racecar_sim.description") / "data"))
+_DATA = Path(__file__).resolve().parent / "data"  # the package is installed as files (importlib.resources: ~5 ms)
 DEFAULT_XACRO = _DATA / "racecar_description" / "urdf" / "racecar.xacro"
 
 
@@ -41,27 +41,39 @@ def _shipped_package_of(path: Path) -> Path | None:
     return None
 
 
+def _find(package: str, asker: str) -> str:
+    """`$(find package)` asked by the file `asker`."""
+    own = _shipped_package_of(Path(asker))
+    if own is not None and own.name == package:
+        return str(own)  # the shipped car's own includes stay its own, whatever the user's path shadows
+    return str(find_package(package, needed_by=asker))
+
+
 class _PackageFinder:
     """Stands in for xacro's `$(find)` (ament_index_python, not on PyPI) with rospack's crawl; keeps the first
-    PackageNotFound, which xacro would otherwise wrap into a message of its own."""
+    PackageNotFound, which xacro would otherwise wrap into a message of its own, and every answer (for the cache)."""
 
     def __init__(self, top: Path) -> None:
         self.top = top
         self.error: PackageNotFound | None = None
+        self.found: xacro_cache.Finds = []
 
     def __call__(self, package: str) -> str:
-        asker = xacro.filestack[-1] if getattr(xacro, "filestack", None) and xacro.filestack[-1] else self.top
-        own = _shipped_package_of(Path(asker))
-        if own is not None and own.name == package:
-            return str(own)  # the shipped car's own includes stay its own, whatever the user's path shadows
+        import xacro
+
+        asker = str(xacro.filestack[-1] if getattr(xacro, "filestack", None) and xacro.filestack[-1] else self.top)
         try:
-            return str(find_package(package, needed_by=asker))
+            folder = _find(package, asker)
         except PackageNotFound as exc:
             self.error = self.error or exc
             raise
+        self.found.append((package, asker, folder))
+        return folder
 
     @contextlib.contextmanager
     def installed(self) -> Iterator[None]:
+        import xacro.substitution_args as substitution_args
+
         original = substitution_args._eval_find
         substitution_args._eval_find = self
         try:
@@ -70,16 +82,54 @@ class _PackageFinder:
             substitution_args._eval_find = original
 
 
+class _Said:
+    """Whether xacro (or a warning) wrote anything to stdout or stderr while watching; what it writes goes through."""
+
+    def __init__(self) -> None:
+        self.anything = False
+
+    @contextlib.contextmanager
+    def watching(self) -> Iterator[None]:
+        streams = sys.stdout, sys.stderr
+        sys.stdout, sys.stderr = (_Tee(stream, self) for stream in streams)
+        try:
+            yield
+        finally:
+            sys.stdout, sys.stderr = streams
+
+
+class _Tee(io.TextIOBase):
+    def __init__(self, stream: TextIO, said: _Said) -> None:
+        self.stream, self.said = stream, said
+
+    def write(self, text: str) -> int:
+        self.said.anything = self.said.anything or bool(text)
+        return self.stream.write(text)
+
+    def flush(self) -> None:
+        self.stream.flush()
+
+    def isatty(self) -> bool:
+        return self.stream.isatty()
+
+
 def expand_xacro(path: str | Path = DEFAULT_XACRO, args: Mapping[str, str] | None = None) -> str:
-    """Expand a xacro file (with `xacro:arg` mappings) to a URDF string."""
+    """Expand a xacro file (with `xacro:arg` mappings) to a URDF string (kept on disk: xacro_cache.py)."""
     path = Path(path)
     if not path.is_file():
         raise DescriptionError(f"{path}: xacro file not found")
     mappings = {k: str(v) for k, v in (args or {}).items()}
+    kept = xacro_cache.lookup(path, mappings, _find)
+    if kept is not None:
+        return kept
+    import xacro  # ~30 ms with its YAML: only when nothing is kept
+
     finder = _PackageFinder(path)
+    first_read = len(xacro.all_includes)
+    said = _Said()
     try:
-        with finder.installed():
-            doc = xacro.process_file(str(path), mappings=mappings)
+        with finder.installed(), said.watching():
+            doc = xacro.process_file(str(path), mappings=dict(mappings))  # xacro adds to the dict it is given
     except RacecarSimError:
         raise
     except Exception as exc:  # xacro raises XacroException, XML errors, NameError, ...
@@ -87,7 +137,10 @@ def expand_xacro(path: str | Path = DEFAULT_XACRO, args: Mapping[str, str] | Non
             raise finder.error from None
         message = " ".join(str(exc).split())
         raise DescriptionError(f"{path}: xacro expansion failed: {message}") from None
-    return doc.toprettyxml(indent="  ")
+    text = doc.toprettyxml(indent="  ")
+    if not said.anything:  # an expansion that warned is not kept: the next run warns again
+        xacro_cache.store(path, mappings, text, map(str, xacro.all_includes[first_read:]), finder.found)
+    return text
 
 
 def load_robot(path: str | Path = DEFAULT_XACRO, args: Mapping[str, str] | None = None) -> Robot:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
 
@@ -67,6 +68,10 @@ class WallFollower(NodeBase):
         self._layout: Layout = (slice(0, 0), np.empty((2, 0)), slice(0, 0))
         bus.subscribe(odom_topic, self._on_odom)
         bus.subscribe(scan_topic, self._on_scan)
+        if "numba" in sys.modules:  # loaded for the world's walls (runtime/compiled.py): the fit's kernel now, at the
+            from racecar_sim.drivers.wall_fit import fit_wall  # start, not at the first scan that echoes twice
+
+            fit_wall(np.ones(2, np.float32), np.ones(2), np.zeros(2), 10.0, self.config.patch, self.side)
 
     def _on_odom(self, msg: Odometry) -> None:
         self.speed = planar_pose(msg).speed

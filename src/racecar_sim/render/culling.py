@@ -45,6 +45,15 @@ class FrustumCuller:
         self._raw = np.ctypeslib.as_array(memory).reshape(scene.maxgeom, size)
         self._pos = np.ndarray((scene.maxgeom, 3), np.float32, memory, pos_at, (size, 4))
         self._rbound = np.ndarray((scene.maxgeom,), np.float32, memory, rbound_at, (size,))
+        self._load_kernel(self._raw)
+
+    def _load_kernel(self, raw: np.ndarray) -> None:
+        """Load the compiled cull (numba's cache) now, as the camera starts, not with its first frame in the run: a
+        call on no geoms (n = 0: nothing read or moved), with the argument types of cull()'s."""
+        from racecar_sim.render.frustum_kernel import cull_records
+
+        eye, forward, up = np.zeros(3, np.float32), np.array([1, 0, 0], np.float32), np.array([0, 0, 1], np.float32)
+        cull_records(raw, self._pos, self._rbound, 0, eye, eye, forward, up, 0.1, 0.0, -0.1, 0.1, 1.0, 0.0, 0.0)
 
     @property
     def active(self) -> bool:
@@ -64,7 +73,7 @@ class FrustumCuller:
         left = self._eyes[0]
         if left.orthographic:
             return 0
-        from racecar_sim.render.frustum_kernel import cull_records  # numba loads with the first frame
+        from racecar_sim.render.frustum_kernel import cull_records  # loaded as the culler was made
 
         kept = cull_records(
             raw,

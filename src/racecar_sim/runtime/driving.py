@@ -11,7 +11,6 @@ parameters (wall_follow.yaml's or pure_pursuit.yaml's fields, or a user class's 
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import importlib
 import importlib.util
 import inspect
@@ -89,6 +88,8 @@ def _load_file(target: str, where: str) -> Any:
     if not path.is_file():
         raise ConfigError(f"{where}: no such file {target}")
     resolved = path.resolve()
+    import hashlib  # OpenSSL's ~10 ms, only for a user's driver file
+
     name = f"{FILE_MODULE_PREFIX}{hashlib.sha1(str(resolved).encode()).hexdigest()[:12]}_{path.stem}"
     if name in sys.modules:
         return sys.modules[name]

@@ -87,9 +87,14 @@ class RunLog:
 
     def _on_scan(self, msg: LaserScan) -> None:
         ranges = np.asarray(msg.ranges)
-        finite = ranges[np.isfinite(ranges)]
-        if len(finite):
-            self.min_clearance = min(self.min_clearance, float(finite.min()))
+        # the shortest finite range: the plain minimum (inf, no echo, is above every range), unless a NaN or -inf is
+        # in the scan; a third of the time of picking the finite ones out first (every scan of every car)
+        lowest = float(ranges.min()) if len(ranges) else math.inf
+        if math.isnan(lowest) or lowest == -math.inf:
+            finite = ranges[np.isfinite(ranges)]
+            lowest = float(finite.min()) if len(finite) else math.inf
+        if lowest < self.min_clearance:
+            self.min_clearance = lowest
         self.last_scan = msg
 
     def _on_image(self, msg: Image) -> None:

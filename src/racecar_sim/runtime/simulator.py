@@ -30,6 +30,7 @@ from racecar_sim.physics.scene import Scene
 from racecar_sim.runtime.car import Car
 from racecar_sim.runtime.clock import CLOCK_RATE, ClockPublisher
 from racecar_sim.runtime.collisions import COLLISIONS, Collision, Crash, Crashes, WatchedCar
+from racecar_sim.runtime.compiled import load_numba
 from racecar_sim.runtime.event_loop import EventLoop
 from racecar_sim.runtime.fleet import car_index, checked_fleet, spawn_poses
 from racecar_sim.runtime.gazebo_api import GazeboApi
@@ -166,6 +167,8 @@ class Simulator:
         self.poses_changed()
         self.static_tf = StaticTransforms(self.bus)
         self.clock = ClockPublisher(self.bus, self.scheduler)
+        if any(car.has_camera for car in self.cars):
+            load_numba()  # before the cameras load their frame finishing (numba) as they start
         for car in self.cars:
             self._start_car(car)
         self.collisions = Crashes(self.bus, lambda: self.loop.time_ns)
@@ -175,6 +178,15 @@ class Simulator:
         self.laps = self._lap_counter(start_line)
         if self.laps is not None:
             self.world_nodes.append(self.laps)
+        self._load_compiled()
+
+    def _load_compiled(self) -> None:
+        """numba, and the compiled scan of a world with walls, loaded by the build: a one-time cost of the start, not
+        of the first scan inside the run (cameras load their kernels as they start)."""
+        lidars = [car.lidar for car in self.cars if car.lidar is not None and car.lidar.caster.compiled]
+        if lidars:
+            load_numba()
+            lidars[0].warm()  # the kernels load once a process: one lidar loads them for the fleet
 
     # --- the parts, under the names the API always had -----------------------------------------------------
     @property

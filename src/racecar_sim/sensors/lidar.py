@@ -199,28 +199,44 @@ class LidarPublisher(NodeBase):
                 return out
         ranges = self.true_ranges()
         if self.caster.compiled:  # numba is loaded for this world's walls: the rule in one compiled pass
-            from racecar_sim.sensors.laser_kernel import published_scan
-
-            first, second = self.noise_table.offsets(self.seed, stamp_ns)
-            out = np.empty(len(ranges), np.float32)
-            published_scan(
-                ranges,
-                self.noise_table.values,
-                first,
-                second,
-                spec.noise_stddev,
-                spec.noise_mean,
-                self.noise,
-                spec.range_min,
-                spec.range_max,
-                out,
-            )
-            return out
+            return self._published(ranges, stamp_ns)
         hit = np.isfinite(ranges)
         if self.noise:
             ranges += self.scan_noise(self.noise_table.sample(self.seed, stamp_ns))
         ranges = np.where(hit, np.clip(ranges, spec.range_min, spec.range_max), np.inf)
         return ranges.astype(np.float32)
+
+    def warm(self) -> None:
+        """Load now what a scan loads on first use (numba's cached kernels, a map's flat walls): one scan cast at the
+        present pose and dropped, its counts put back (the simulator's build calls it: a one-time cost of the start,
+        not of the first tick)."""
+        counts = self.scans_cast, self.one_call_scans, self.beams_3d, self.caster.last_3d_beams
+        self.scan(0)
+        if self.caster.compiled:  # and the general path's kernels, for a scan the one call refuses (a tilted car)
+            self._published(self.true_ranges(), 0)
+        self.scans_cast, self.one_call_scans, self.beams_3d, self.caster.last_3d_beams = counts
+
+    def _published(self, ranges: np.ndarray, stamp_ns: int) -> np.ndarray:
+        """The published ranges (float32) of true ranges (float64, inf: no hit) of a scan stamped `stamp_ns`: noise,
+        clamp and float32 in one compiled pass (laser_kernel.published_scan)."""
+        from racecar_sim.sensors.laser_kernel import published_scan
+
+        spec = self.spec
+        first, second = self.noise_table.offsets(self.seed, stamp_ns)
+        out = np.empty(len(ranges), np.float32)
+        published_scan(
+            ranges,
+            self.noise_table.values,
+            first,
+            second,
+            spec.noise_stddev,
+            spec.noise_mean,
+            self.noise,
+            spec.range_min,
+            spec.range_max,
+            out,
+        )
+        return out
 
     def publish(self, ranges: np.ndarray, seeds: np.ndarray, stamps_ns: np.ndarray) -> np.ndarray:
         """The published ranges (float32, N x beams) of true ranges (float64, N x beams, inf: no hit) of scans

@@ -9,14 +9,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import yaml
-
+from racecar_sim.core import yaml_text
 from racecar_sim.core.errors import WorldError
 from racecar_sim.worlds.sdf import load_sdf
 from racecar_sim.worlds.world import BUILTIN_DATA, MAX_COORDINATE, Spawn, World
 
 DATA = BUILTIN_DATA
-BUILTIN_WORLDS: dict[str, dict] = yaml.safe_load((DATA / "worlds.yaml").read_text())
+BUILTIN_WORLDS: dict[str, dict] = yaml_text.safe_load((DATA / "worlds.yaml").read_text())
 DEFAULT_WALL_HEIGHT = 1.0  # m, walls extruded from maps and track borders
 MAP_SUFFIXES = (".yaml", ".yml")
 TRACK_SUFFIXES = (".csv",)

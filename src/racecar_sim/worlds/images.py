@@ -11,10 +11,12 @@ import struct
 import warnings
 from collections.abc import Callable
 from pathlib import Path
-
-from PIL import Image
+from typing import TYPE_CHECKING
 
 from racecar_sim.core.errors import WorldError
+
+if TYPE_CHECKING:  # PIL (~10 ms) is imported by the first world that has an image, not by every run
+    from PIL import Image
 
 MAX_IMAGE_SIDE = 8192  # the largest map is MAX_IMAGE_SIDE x MAX_IMAGE_SIDE cells, or any shape of as many
 MAX_IMAGE_PIXELS = MAX_IMAGE_SIDE * MAX_IMAGE_SIDE  # 67 million: half a gigabyte of grey levels as float64
@@ -25,6 +27,8 @@ def open_image(file: Path, fail: Callable[[str], WorldError], kind: str = "image
     """The image at `file`, opened (header read, nothing decoded), with at most MAX_IMAGE_PIXELS pixels; else
     `fail(message)` is raised, the message naming the file, its size and the limit (the largest `kind` taken).
     OSError and PIL's errors for an unreadable file are the caller's to catch."""
+    from PIL import Image
+
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", Image.DecompressionBombWarning)  # the limit below is lower than PIL's
         try:

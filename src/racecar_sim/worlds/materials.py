@@ -6,12 +6,12 @@ import warnings
 from functools import lru_cache
 from pathlib import Path
 
-import yaml
+from racecar_sim.core import yaml_text
 
 
 @lru_cache(maxsize=1)
 def _table() -> dict[str, tuple[float, float, float, float]]:
-    data = yaml.safe_load((Path(__file__).parent / "data" / "gazebo_materials.yaml").read_text())
+    data = yaml_text.safe_load((Path(__file__).parent / "data" / "gazebo_materials.yaml").read_text())
     return {name: tuple(rgba) for name, rgba in data.items()}
 
 

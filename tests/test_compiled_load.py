@@ -1,0 +1,105 @@
+"""numba and the lidar's compiled scan load with the simulator's build (runtime/compiled.py), not at the first scan in
+the run, and without SciPy's linear algebra; a later kernel that needs BLAS still gets it. Fresh interpreters: what a
+process has imported is the thing checked."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+
+
+def _child(code: str) -> dict:
+    result = subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(code)], capture_output=True, text=True, timeout=300, check=False
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    return json.loads(result.stdout.strip().splitlines()[-1])
+
+
+def test_a_world_with_walls_loads_the_compiled_scan_at_build():
+    out = _child("""
+        import json, sys
+        from racecar_sim import Simulator
+        sim = Simulator(world="walker", camera=False)
+        from racecar_sim.sensors.laser_kernel import level_scan
+        lidar = sim.car.lidar
+        built = {"numba": "numba" in sys.modules, "scipy.linalg": "scipy.linalg" in sys.modules,
+                 "kernels": len(level_scan.signatures), "scans": [lidar.scans_cast, lidar.one_call_scans]}
+        scans = []
+        sim.subscribe(lidar.topic, lambda msg: scans.append(msg.ranges))
+        sim.run_until(0.1)
+        print(json.dumps({**built, "after": [lidar.scans_cast, lidar.one_call_scans], "published": len(scans),
+                          "kernels_after": len(level_scan.signatures)}))
+    """)
+    assert out["numba"] and not out["scipy.linalg"]
+    assert out["kernels"] == 1 == out["kernels_after"]  # loaded at build; the run compiled nothing more
+    assert out["scans"] == [0, 0]  # the build's scan is not counted as one
+    assert out["after"] == [out["published"], out["published"]] and out["published"] >= 2
+
+
+def test_the_main_job_compiles_nothing_inside_the_run():
+    """walker, the camera on and listened to, wall-follow: every kernel the run calls (scan, wall fit, frame finish,
+    culling) is loaded by the build and the driver's attach; none is loaded or compiled inside the run."""
+    out = _child("""
+        import gc, json
+        import numba.core.dispatcher as dispatcher
+        from racecar_sim import Simulator
+        from racecar_sim.runtime.driving import attach_driver
+
+        def loaded():
+            return {f"{o.py_func.__module__}.{o.py_func.__name__}": len(o.overloads)
+                    for o in gc.get_objects() if isinstance(o, dispatcher.Dispatcher) and o.overloads}
+
+        sim = Simulator(world="walker")
+        attach_driver(sim, sim.car, "wall-follow", {})
+        frames = []
+        sim.subscribe(sim.car.camera.spec.image_topic, frames.append)
+        built = loaded()
+        sim.run_until(0.5)
+        print(json.dumps({"built": built, "after": loaded(), "frames": len(frames)}))
+    """)
+    assert out["frames"] >= 10
+    assert {name.rsplit(".", 1)[1] for name in out["built"]} >= {
+        "level_scan",
+        "fit_wall",
+        "finish_frame",
+        "cull_records",
+    }
+    assert out["after"] == out["built"]
+
+
+def test_an_empty_world_without_camera_does_not_load_numba():
+    out = _child("""
+        import json, sys
+        from racecar_sim import Simulator
+        Simulator(world="empty", camera=False)
+        print(json.dumps({"numba": "numba" in sys.modules}))
+    """)
+    assert not out["numba"]
+
+
+def test_a_kernel_that_needs_blas_still_compiles_and_gives_numpys_answer():
+    out = _child("""
+        import importlib.util, json, sys
+        import numpy as np
+        from racecar_sim.runtime.compiled import load_numba
+        load_numba()
+        import numba
+        from numba.np import arraymath
+        before = "scipy.linalg" in sys.modules
+
+        @numba.njit
+        def both(a, b):
+            return np.dot(a, b), np.correlate(a, b)
+
+        a, b = np.arange(6.0).reshape(2, 3), np.array([1.0, -2.0, 0.5])
+        dot, corr = both(a[0], b)
+        print(json.dumps({"before": before, "have_blas": arraymath._HAVE_BLAS,
+                          "scipy": importlib.util.find_spec("scipy") is not None,
+                          "dot": [float(dot), float(np.dot(a[0], b))],
+                          "corr": [corr.tolist(), np.correlate(a[0], b).tolist()]}))
+    """)
+    assert not out["before"] and out["have_blas"] == out["scipy"]
+    assert out["dot"][0] == out["dot"][1] and out["corr"][0] == out["corr"][1]
