@@ -235,6 +235,7 @@ def draw_spawn(ax: Axes, spawn: Spawn) -> None:
         color=SPAWN_COLOR,
         fontsize=8,
         zorder=Z_SPAWN,
+        bbox={"boxstyle": "round,pad=0.15", "facecolor": "white", "alpha": 0.8, "linewidth": 0},  # over a path
     )
 
 
