@@ -83,7 +83,7 @@ def test_every_relative_link_resolves() -> None:
 
 def test_the_link_checker_sees_a_broken_link_and_anchor() -> None:
     text = "[a](docs/run.md#no-such-heading) [b](docs/nowhere.md) [c](run.md#a-fleet)"
-    assert [t for t in LINK.findall(_prose(text))] == [
+    assert LINK.findall(_prose(text)) == [
         "docs/run.md#no-such-heading",
         "docs/nowhere.md",
         "run.md#a-fleet",
