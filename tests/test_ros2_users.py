@@ -283,7 +283,7 @@ F1TENTH_READER = """
 def _quick_start() -> list[str]:
     """The commands of the F1TENTH quick start (docs/ros2.md, linked from the README's recipes), comments dropped."""
     page = (Path(__file__).parents[1] / "docs" / "ros2.md").read_text()
-    block = page.split("**F1TENTH quick start.**", 1)[1].split("```sh\n", 1)[1].split("```", 1)[0]
+    block = page.split("## F1TENTH quick start", 1)[1].split("```sh\n", 1)[1].split("```", 1)[0]
     return [line.split("  #", 1)[0].strip() for line in block.splitlines()]
 
 
