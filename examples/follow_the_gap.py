@@ -1,4 +1,4 @@
-"""Follow the gap: a driver written to the node contract (the README's "Your own driver"; this file is its code)."""
+"""Follow the gap: a driver written to the node contract (docs/drivers.md, "Your own driver"; this file is its code)."""
 
 import numpy as np
 

@@ -187,4 +187,10 @@ def test_describe_cli_prints_urdf_and_table():
         [sys.executable, "-m", "racecar_sim", "describe"], capture_output=True, text=True, check=True
     ).stdout
     assert "wheelbase 0.3250 m" in table and "total mass 5.69223 kg" in table
-    assert "left_steering_hinge_joint    revolute" in table
+    assert "right_steering_hinge_joint  revolute" in table
+    # every column fits its widest cell: each row's cells start where the header's do, two spaces after the last
+    joints = table.split("\nJOINT", 1)[1].split("\n\n", 1)[0].splitlines()
+    starts = [joints[0].index(h) + len("JOINT") for h in ("TYPE", "PARENT -> CHILD", "LIMITS")]
+    for row in joints[1:]:
+        assert all(row[i - 2 : i] == "  " and row[i] != " " for i in starts), row
+    assert "right_steering_hinge -> right_front_wheel  effort 10 N m" in table

@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
-from pettingzoo.test import parallel_api_test
 
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.envs import RaceEnv, parallel_env, race_env
 from racecar_sim.envs.race import CAR_SPACING
+
+with warnings.catch_warnings():  # pettingzoo.test imports its classic envs through their deprecated creation API
+    warnings.filterwarnings("ignore", "The old environment creation API has been deprecated", DeprecationWarning)
+    from pettingzoo.test import parallel_api_test
 
 STOP = np.array([0.0, 0.0], np.float32)
 FULL = np.array([1.0, 0.0], np.float32)

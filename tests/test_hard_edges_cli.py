@@ -65,7 +65,7 @@ def read_bag(path: Path) -> tuple[int, float]:
 @pytest.mark.parametrize("rate", ["1e-300", "1e-7", "0"])
 def test_a_rate_too_small_for_the_scheduler_is_one_line_with_the_range(capsys, rate):
     line = one_error_line(in_process(capsys, "run", "--rate", rate, *QUIET, "--no-record", "--duration", "0.1"))
-    assert line.startswith("racecar-sim run: error: argument --rate: ")
+    assert line.startswith("racecar-sim: error: argument --rate: ")
     assert "from 1e-06 Hz up to the physics rate (400 Hz" in line
 
 
@@ -79,7 +79,7 @@ def test_more_cars_than_the_limit_are_refused_at_once(tmp_path):
     line = one_error_line(
         cli("run", "--world", "empty", "--cars", "1000", *QUIET, "--no-record", cwd=tmp_path, timeout=60)
     )
-    assert line.startswith("racecar-sim run: error: argument --cars: '1000' must be from 1 to ")
+    assert line.startswith("racecar-sim: error: argument --cars: '1000' must be from 1 to ")
     assert str(MAX_CARS) in line
 
 
@@ -156,7 +156,7 @@ def test_a_car_spacing_or_spawn_off_the_world_names_the_option(tmp_path, options
 
 def test_a_spawn_beyond_the_largest_coordinate_is_refused_by_the_option(capsys):
     line = one_error_line(in_process(capsys, "run", "--spawn", "1e300,0,0", *QUIET, "--no-record"))
-    assert line.startswith("racecar-sim run: error: argument --spawn: '1e300,0,0': x 1e+300 m is beyond the largest")
+    assert line.startswith("racecar-sim: error: argument --spawn: '1e300,0,0': x 1e+300 m is beyond the largest")
 
 
 # --- 4. --model-path ------------------------------------------------------------------------------------------------

@@ -6,7 +6,7 @@ nothing of racecar_sim.
   also reach a late transient-local subscriber. The command topics take publishers of both profiles.
 - /robot_description holds the URDF `racecar-sim describe --urdf` prints.
 - A follow-the-gap node written as the F1TENTH lab template is (default QoS, /scan in, /drive out) drives the car along
-  walker's course under `racecar-sim run --ros2 --topic-map f1tenth`, typed as the README's quick start types it.
+  walker's course under `racecar-sim run --ros2 --topic-map f1tenth`, typed as the quick start (docs/ros2.md) types it.
 
 Discovery stays on 127.0.0.1 (the bridge's and `ros2-env`'s Fast DDS profile), in a random ROS_DOMAIN_ID.
 """
@@ -281,14 +281,14 @@ F1TENTH_READER = """
 
 
 def _quick_start() -> list[str]:
-    """The commands of the README's F1TENTH quick start, comments dropped."""
-    readme = (Path(__file__).parents[1] / "README.md").read_text()
-    block = readme.split("**F1TENTH quick start.**", 1)[1].split("\n\n", 2)[1]
+    """The commands of the F1TENTH quick start (docs/ros2.md, linked from the README's recipes), comments dropped."""
+    page = (Path(__file__).parents[1] / "docs" / "ros2.md").read_text()
+    block = page.split("## F1TENTH quick start", 1)[1].split("```sh\n", 1)[1].split("```", 1)[0]
     return [line.split("  #", 1)[0].strip() for line in block.splitlines()]
 
 
 def test_f1tenth_lab_node_drives_walker_under_the_f1tenth_map_as_the_readme_says(jazzy, tmp_path) -> None:
-    """The README's F1TENTH quick start, typed as it is there: the sim, `eval "$(racecar-sim ros2-env)"`, the node.
+    """The F1TENTH quick start (docs/ros2.md), as typed there: the sim, `eval "$(racecar-sim ros2-env)"`, the node.
     (Its first two lines, the install and `ros2-env --build`, are what the jazzy fixture has done.)"""
     install, build, run, env_line, node_line = _quick_start()
     assert install == 'pip install -e ".[ros2]"' and build.endswith("racecar-sim ros2-env --build")

@@ -183,6 +183,25 @@ def test_rostopic_hz_sees_the_mux_output_while_a_ros_node_drives(master, ros_env
     assert sent_back == 0  # what ROS published on the teleop input does not come back to it
 
 
+# The commands test_readme_ros_commands_work_as_typed runs, as docs/ros1.md types them (a `\` continues a line).
+ROS1_COMMANDS = [
+    "racecar-sim run --ros --world tunnel --no-camera &",
+    'eval "$(racecar-sim ros-env)"',
+    f"rostopic pub -r 20 {TELEOP} {DRIVE} '{{drive: {{speed: 1.0, steering_angle: 0.2}}}}'",
+    "rosservice call /gazebo/get_model_state '{model_name: racecar}'",
+]
+
+
+def test_the_docs_ros_commands_are_the_ones_tested():
+    """docs/ros1.md's `--ros` block (linked from the README's recipes) holds the commands the test below types."""
+    page = (Path(__file__).parents[1] / "docs" / "ros1.md").read_text()
+    block = page.split("racecar-sim run --ros --world tunnel", 1)[0].rsplit("```sh\n", 1)[1]
+    block += "racecar-sim run --ros --world tunnel" + page.split("racecar-sim run --ros --world tunnel", 1)[1]
+    block = block.split("```", 1)[0].replace("\\\n", "")
+    typed = [" ".join(line.split("  #", 1)[0].split()) for line in block.splitlines()]
+    assert typed[-len(ROS1_COMMANDS) :] == ROS1_COMMANDS, typed
+
+
 @needs_ros
 def test_readme_ros_commands_work_as_typed(master, tmp_path):
     """The README's sequence, in a shell as a user types it: `racecar-sim run --ros --world tunnel --no-camera &`,
@@ -205,9 +224,7 @@ def test_readme_ros_commands_work_as_typed(master, tmp_path):
         return start(["bash", "-c", f'eval "$(racecar-sim ros-env)" && {line}'], env, cwd=tmp_path, **options)
 
     def get_model_state() -> tuple[float, float, float, str]:
-        call = shell(
-            "rosservice call /gazebo/get_model_state '{model_name: racecar}'", stdout=subprocess.PIPE, text=True
-        )
+        call = shell(ROS1_COMMANDS[3], stdout=subprocess.PIPE, text=True)
         out = call.communicate(timeout=60)[0]
         assert call.returncode == 0 and "success: True" in out, out
         x, y = (float(re.search(rf"\n\s+{axis}: (\S+)", out.split("position:")[1])[1]) for axis in "xy")
@@ -219,7 +236,7 @@ def test_readme_ros_commands_work_as_typed(master, tmp_path):
     out_file, err_file = tmp_path / "run.out", tmp_path / "run.err"
     with open(out_file, "w") as out, open(err_file, "w") as err:
         run = start(
-            ["racecar-sim", "run", "--ros", "--world", "tunnel", "--no-camera"],
+            ROS1_COMMANDS[0].removesuffix(" &").split(),
             env,
             cwd=tmp_path,
             stdout=out,
@@ -235,7 +252,7 @@ def test_readme_ros_commands_work_as_typed(master, tmp_path):
             time.sleep(0.2)
         x0, y0, t0, _ = get_model_state()
         wall0 = time.monotonic()
-        pub = shell(f"rostopic pub -r 20 {TELEOP} {DRIVE} '{{drive: {{speed: 1.0, steering_angle: 0.2}}}}'")
+        pub = shell(ROS1_COMMANDS[2])
         echo = shell(f"rostopic echo -n 40 {MUX_OUTPUT}/drive", stdout=subprocess.PIPE, text=True)
         echoed = echo.communicate(timeout=60)[0]
         time.sleep(2.0)

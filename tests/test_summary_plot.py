@@ -12,7 +12,7 @@ from matplotlib import colormaps
 from PIL import Image
 
 from racecar_sim.plots import world_figure
-from racecar_sim.plots.summary import DPI, FIGSIZE, SPEED_CMAP, save_summary, summary_figure
+from racecar_sim.plots.summary import DPI, FIGSIZE, MIN_TEXT_SIZE, SPEED_CMAP, save_summary, summary_figure
 from racecar_sim.plots.world_map import footprint
 from racecar_sim.worlds import load_world
 
@@ -174,3 +174,36 @@ def test_bad_trajectory_or_camera_frame(tmp_path, walker):
     with pytest.raises(ValueError, match=r"\(480, 640\)"):
         save_summary(tmp_path / "summary.png", walker, circle_drive(), camera_bgr=np.zeros((480, 640), np.uint8))
     assert not (tmp_path / "summary.png").exists()
+
+
+class _Mark:
+    """A crash or lap mark as the run log gives them."""
+
+    def __init__(self, time: float, x: float, y: float, what: str) -> None:
+        self.time, self.x, self.y, self.what = time, x, y, what
+
+
+def test_map_labels_never_overlap_and_the_text_stays_legible():
+    """A fleet whose cars crash close together (as the tunnel fleet does), with the spawn label among them and a
+    summary line far wider than the panel: every label drawn clears every other, and the text is at least
+    MIN_TEXT_SIZE points (wrapped to fit) inside the figure."""
+    tunnel = load_world("tunnel")
+    x0, y0 = tunnel.spawn.x, tunnel.spawn.y
+    paths = {
+        f"car{k}": np.c_[np.linspace(x0, x0 + 20.0, 200), np.full(200, y0 + 0.3 * k), np.ones(200)] for k in (1, 2, 3)
+    }
+    near = [(2.0 * k, 0.25 * k) for k in range(6)]  # crashes 2 m apart: their labels, 4 m long here, would pile up
+    crashes = {
+        car: [_Mark(14.1 + i, x0 + 1.0 + dx, y0 + dy, "car3") for i, (dx, dy) in enumerate(near)] for car in paths
+    }
+    long_line = "car1 crashes     4: " + "; ".join(f"{t:.2f} s MIT_Tunnel::Wall_{t:.0f}" for t in (14.1, 15.3, 16.3))
+    fig, ax = summary_figure(tunnel, paths, crashes=crashes, lines=["distance 76.9 m", long_line])
+    renderer = fig.canvas.get_renderer()
+    boxes = [t.get_window_extent(renderer) for t in ax.texts if t.get_text()]
+    assert any("crash" in t.get_text() for t in ax.texts) and any("spawn" in t.get_text() for t in ax.texts)
+    for i, a in enumerate(boxes):
+        assert not any(a.overlaps(b) for b in boxes[i + 1 :]), "two labels overlap"
+    (text,) = [t for t in fig.texts if "distance 76.9 m" in t.get_text()]
+    assert text.get_fontsize() >= MIN_TEXT_SIZE
+    box = text.get_window_extent(renderer).transformed(fig.transFigure.inverted())
+    assert box.x1 <= 1.0 and "MIT_Tunnel::Wall_16" in text.get_text()  # wrapped, not cut

@@ -79,11 +79,13 @@ def test_only_a_ground_plane_shows_five_metres_around_the_spawn():
     assert world_extent(world) == (-5.0, 5.0, -5.0, 5.0)
 
 
-def test_show_a_file_defaults_to_its_stem(box_world, tmp_path, monkeypatch, capsys):
+def test_show_a_file_defaults_to_its_stem_under_runs(box_world, tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     assert main(["worlds", "--show", str(box_world), "--spawn", "3,0,1.05,0"]) == 0  # on the box: checked as run does
-    assert capsys.readouterr().out.strip() == str(tmp_path / "box.png")  # the path written, not a bare name
-    rgb = np.asarray(Image.open(tmp_path / "box.png").convert("RGB")).astype(int)
+    # the path written, not a bare name; under runs/ (ignored by git), never loose in the current folder
+    assert capsys.readouterr().out.strip() == str(tmp_path / "runs" / "box.png")
+    assert not (tmp_path / "box.png").exists()
+    rgb = np.asarray(Image.open(tmp_path / "runs" / "box.png").convert("RGB")).astype(int)
     blue = (rgb[..., 2] > 200) & (rgb[..., 0] < 40) & (rgb[..., 1] < 40)
     assert blue.sum() > 1000
 

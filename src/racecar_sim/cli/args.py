@@ -399,7 +399,7 @@ def add_driver_arguments(p: argparse.ArgumentParser, default: str = "") -> None:
         action="append",
         metavar="DRIVER",
         help=f"{', '.join(DRIVERS)}; or your own node class, package.module:Class or path/to/file.py:Class, built as "
-        "Class(ctx, **settings) (README: Your own driver); carK=DRIVER gives car K of a fleet its own (repeatable)"
+        "Class(ctx, **settings) (docs/drivers.md); carK=DRIVER gives car K of a fleet its own (repeatable)"
         + (f". {default}" if default else ""),
     )
     p.add_argument(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
 
 from racecar_sim.cli.args import xacro_arg
 from racecar_sim.control.profiles import load_profile, profile_names
@@ -28,27 +29,41 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     )
 
 
+def columns(header: Sequence[str], rows: Sequence[Sequence[str]], right: Sequence[int] = ()) -> list[str]:
+    """Rows under a header, each column as wide as its widest cell (two spaces between), the columns in `right`
+    right-aligned; the last column is not padded."""
+    widths = [max(len(row[i]) for row in (header, *rows)) for i in range(len(header))]
+
+    def line(cells: Sequence[str]) -> str:
+        padded = [c.rjust(w) if i in right else c.ljust(w) for i, (c, w) in enumerate(zip(cells, widths, strict=True))]
+        return "  ".join(padded).rstrip()
+
+    return [line(header), *map(line, rows)]
+
+
 def table(robot: Robot) -> str:
     """A plain-text table of the robot: links, joints, limits and derived dimensions."""
     lines = [
         f"robot {robot.name}: {len(robot.links)} links, {len(robot.joints)} joints, "
         f"{len(robot.transmissions)} transmissions",
         "",
-        "LINK                     MASS (kg)  COLLISION",
     ]
+    link_rows = []
     for link in robot.links.values():
         mass = f"{link.inertial.mass:.5g}" if link.inertial else "-"
         shapes = ", ".join(
             f"{c.geometry.kind} {' '.join(f'{v:g}' for v in c.geometry.size if v)}" for c in link.collisions
         )
-        lines.append(f"{link.name:<24} {mass:>9}  {shapes or '-'}")
-    lines += ["", "JOINT                        TYPE        PARENT -> CHILD                          LIMITS"]
+        link_rows.append((link.name, mass, shapes or "-"))
+    lines += columns(("LINK", "MASS (kg)", "COLLISION"), link_rows, right=(1,))
+    joint_rows = []
     for j in robot.joints.values():
         limits = "-"
         if j.limit:
             bounds = f"[{j.limit.lower:g}, {j.limit.upper:g}] rad, " if j.type == "revolute" else ""
             limits = f"{bounds}effort {j.limit.effort:g} N m, velocity {j.limit.velocity:g} rad/s"
-        lines.append(f"{j.name:<28} {j.type:<11} {j.parent + ' -> ' + j.child:<40} {limits}")
+        joint_rows.append((j.name, j.type, f"{j.parent} -> {j.child}", limits))
+    lines += ["", *columns(("JOINT", "TYPE", "PARENT -> CHILD", "LIMITS"), joint_rows)]
     g = VehicleGeometry.from_robot(robot)
     lines += [
         "",

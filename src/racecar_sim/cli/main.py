@@ -34,10 +34,10 @@ SUBCOMMANDS = {
 
 
 class _Parser(argparse.ArgumentParser):
-    """Bad arguments: one line naming the problem, exit code 2."""
+    """Bad arguments: one line naming the problem, exit code 2, with the prefix of every other error of the CLI."""
 
     def error(self, message: str) -> None:  # type: ignore[override]
-        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
+        self.exit(2, f"racecar-sim: error: {message} (see {self.prog} --help)\n")
 
 
 def subcommand(name: str) -> ModuleType:

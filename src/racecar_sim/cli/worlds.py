@@ -15,7 +15,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p = sub.add_parser("worlds", help="list the built-in worlds, or draw one from above to a PNG (--show)")
     p.add_argument("--show", metavar="NAME|PATH", help="draw this world (built-in name or world file) to a PNG")
     p.add_argument("--names", action="store_true", help="only the built-in worlds' names, one a line (for scripts)")
-    p.add_argument("--out", metavar="FILE.png", help="PNG to write (default: <world name or file stem>.png)")
+    p.add_argument("--out", metavar="FILE.png", help="PNG to write (default: runs/<world name or file stem>.png)")
     add_world_arguments(p, world_option=False)
 
 
@@ -42,7 +42,7 @@ def main(args: argparse.Namespace) -> int:
     world = load_world(args.show, spawn=args.spawn, model_path=args.model_path, wall_height=args.wall_height)
     check_spawn_option(world, args)  # as `run` checks it: in an obstacle, below the ground, over nothing
     name = args.show if args.show in BUILTIN_WORLDS else Path(args.show).stem
-    out = Path(args.out) if args.out else Path(f"{name}.png")
+    out = Path(args.out) if args.out else Path("runs") / f"{name}.png"  # runs/ is what .gitignore keeps out
     from racecar_sim.plots import save_world_png  # matplotlib only loads when a map is drawn
 
     try:

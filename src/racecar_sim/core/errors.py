@@ -45,7 +45,7 @@ class NodeError(Exception):
     timer, its reset hook); the node's exception is the `__cause__`.
     """
 
-    EXIT_CODE = 3  # racecar-sim's exit code when a user's node stopped the run (README: When the input is wrong)
+    EXIT_CODE = 3  # racecar-sim's exit code when a user's node stopped the run (docs/errors.md)
 
     def __init__(self, node: str, car: str, time: float, where: str, cause: BaseException) -> None:
         self.node, self.car, self.time, self.where = node, car, time, where

@@ -334,7 +334,7 @@ class DriveBatch(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
         self, actions: np.ndarray
     ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Every world one control period with its action (N, 2). A world whose episode ends is reset in the same
-        step (SAME_STEP): its observation is the new episode's first, infos["final_obs"][i] / infos["final_info"]
+        step (SAME_STEP): its observation is the new episode's first, `infos["final_obs"][i]` / `infos["final_info"]`
         hold the last ones."""
         actions = checked_action(
             actions,

@@ -14,6 +14,7 @@ Agg only, no pyplot state.
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -60,6 +61,8 @@ WIDE_BELOW = 0.55  # routes flatter than this (height over width) get the WIDE l
 WIDE_BOTTOM = 0.03  # figure fraction under the WIDE layout's panel
 AXIS_ROOM = 0.075  # figure fraction under the map for its x tick labels and label
 TEXT_RIGHT = 0.985  # figure x the summary text (its box's padding included) stays left of
+MIN_TEXT_SIZE = 10.0  # points: the summary text is never smaller (1600 px wide PNG); longer lines wrap instead
+LABEL_PAD = 2.0  # pixels around a map label that no other label may enter
 
 TRAJECTORY_RATE = 20.0  # Hz, the rows of `trajectory`
 TIME_MARK_EVERY = 10.0  # s between the time labels along the path
@@ -215,7 +218,33 @@ def summary_figure(
         _set_view(ax, lo, hi)
     else:
         _fill_panel(fig, canvas, layout, image, handles, lines, owner)
+    _drop_overlapping_labels(ax, canvas)
     return fig, ax
+
+
+def _drop_overlapping_labels(ax: Axes, canvas: FigureCanvasAgg) -> None:
+    """Leave out every map label that would overlap one kept before it, as drawn at the final size: the spawn's
+    first, then the crash and lap labels, then the time marks along the path (each kind's own spacing cannot see
+    the others, nor a fleet's labels that land together on screen)."""
+    renderer = canvas.get_renderer()
+    labels = [t for t in ax.texts if t.get_text()]
+    labels.sort(key=lambda t: (not t.get_text().startswith("spawn ("), -t.get_zorder()))
+    kept: list[Bbox] = []
+    for text in labels:
+        box = text.get_window_extent(renderer).padded(LABEL_PAD)
+        if any(box.overlaps(other) for other in kept):
+            text.remove()
+        else:
+            kept.append(box)
+
+
+def _wrapped(lines: Sequence[str], width: int) -> list[str]:
+    """Lines longer than `width` characters broken at spaces, continued under the value column (a summary line is
+    a 17-character label, then its value)."""
+    out: list[str] = []
+    for line in lines:
+        out += textwrap.wrap(line, width, subsequent_indent=" " * 17, break_on_hyphens=False) or [line]
+    return out
 
 
 def _checked(trajectory: np.ndarray) -> np.ndarray:
@@ -302,7 +331,12 @@ def _fill_panel(
             box = text.get_window_extent(renderer).transformed(to_figure)
             if box.x1 <= TEXT_RIGHT:
                 break
-            text.set_fontsize(text.get_fontsize() * (TEXT_RIGHT - box.x0) / (box.x1 - box.x0) * 0.98)
+            size = text.get_fontsize() * (TEXT_RIGHT - box.x0) / (box.x1 - box.x0) * 0.98
+            text.set_fontsize(max(size, MIN_TEXT_SIZE))
+        box = text.get_window_extent(renderer).transformed(to_figure)
+        if box.x1 > TEXT_RIGHT:  # still too wide at the smallest legible size: wrap the long lines
+            width = max(int(max(map(len, lines)) * (TEXT_RIGHT - box.x0) / (box.x1 - box.x0)) - 1, 20)
+            text.set_text("\n".join(_wrapped(lines, width)))
         lowest = min(lowest, text.get_window_extent(renderer).transformed(to_figure).y0 - 0.012)  # the box's pad
     if remove:
         for artist in drawn:

@@ -34,6 +34,7 @@ MIN_MARGIN = 0.5  # m
 MAX_ASPECT = 3.0  # longer side over shorter side of the framed map
 # Layers: ground planes, grid (0.5 with axisbelow), floors, walls, the spawn pose on top.
 Z_PLANE, Z_FLOOR, Z_WALL, Z_SPAWN = 0.2, 1.0, 2.0, 5.0
+Z_SPAWN_LABEL = 7.0  # over a run summary's path, start line and race marks, so it reads
 
 
 @dataclass
@@ -234,7 +235,8 @@ def draw_spawn(ax: Axes, spawn: Spawn) -> None:
         va=va,
         color=SPAWN_COLOR,
         fontsize=8,
-        zorder=Z_SPAWN,
+        zorder=Z_SPAWN_LABEL,
+        bbox={"boxstyle": "round,pad=0.15", "facecolor": "white", "alpha": 0.8, "linewidth": 0},  # over a path
     )
 
 
