@@ -100,4 +100,3 @@ def test_min_clearance_is_the_shortest_finite_range_whatever_else_the_scan_holds
         expected = min([expected, *finite])
         assert log.min_clearance == expected
     assert log.min_clearance == 1.75
-
