@@ -168,3 +168,17 @@ def jazzy() -> Iterator[object]:
             os.environ.pop(name, None)
         else:
             os.environ[name] = value
+
+
+def wall_world(near_face: float) -> str:
+    """An SDF world of a ground plane and one wall across the x axis (0.2 m thick, 8 m wide, 2 m high) whose near face
+    is at x = `near_face`: what a sensor ahead of the car at the origin sees."""
+    return f"""\
+<?xml version="1.0"?>
+<sdf version="1.6"><world name="wall">
+  <include><uri>model://ground_plane</uri></include>
+  <model name="ahead"><static>true</static><pose>{near_face + 0.1} 0 1 0 0 0</pose><link name="link">
+    <collision name="c"><geometry><box><size>0.2 8 2</size></box></geometry></collision>
+    <visual name="v"><geometry><box><size>0.2 8 2</size></box></geometry></visual></link></model>
+</world></sdf>
+"""

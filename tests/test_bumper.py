@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import pytest
 
+from conftest import wall_world
 from racecar_sim import Simulator
 from racecar_sim.drivers import ConstantCommand
 from racecar_sim.msgs.gazebo_msgs import ContactsState
@@ -39,15 +40,7 @@ USER_XACRO = f"""\
 </robot>
 """
 
-WALL_WORLD = f"""\
-<?xml version="1.0"?>
-<sdf version="1.6"><world name="wall">
-  <include><uri>model://ground_plane</uri></include>
-  <model name="ahead"><static>true</static><pose>{WALL_AHEAD + 0.1} 0 1 0 0 0</pose><link name="link">
-    <collision name="c"><geometry><box><size>0.2 8 2</size></box></geometry></collision>
-    <visual name="v"><geometry><box><size>0.2 8 2</size></box></geometry></visual></link></model>
-</world></sdf>
-"""
+WALL_WORLD = wall_world(WALL_AHEAD)
 
 
 def test_the_bumper_reports_the_wall_the_car_hits_when_it_hits_it(tmp_path):

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from conftest import Log
+from conftest import Log, wall_world
 from racecar_sim import Simulator
 from racecar_sim.msgs.sensor_msgs import PointCloud2
 from racecar_sim.sensors.velodyne import POINT
@@ -47,15 +47,7 @@ USER_XACRO = f"""\
 </robot>
 """
 
-WALL_WORLD = f"""\
-<?xml version="1.0"?>
-<sdf version="1.6"><world name="wall">
-  <include><uri>model://ground_plane</uri></include>
-  <model name="ahead"><static>true</static><pose>{WALL_AHEAD + 0.1} 0 1 0 0 0</pose><link name="link">
-    <collision name="c"><geometry><box><size>0.2 8 2</size></box></geometry></collision>
-    <visual name="v"><geometry><box><size>0.2 8 2</size></box></geometry></visual></link></model>
-</world></sdf>
-"""
+WALL_WORLD = wall_world(WALL_AHEAD)
 
 
 @pytest.mark.parametrize(
