@@ -143,7 +143,9 @@ def test_worlds_show_prints_the_path_written(tmp_path):
         timeout=120, cwd=tmp_path, env={**os.environ},
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
-    assert result.stdout.strip() == str(tmp_path / "empty.png") and (tmp_path / "empty.png").is_file()
+    # into runs/ (issue 35: the repo's root stays clean), the path it prints is the file's
+    assert result.stdout.strip() == str(tmp_path / "runs" / "empty.png") and (tmp_path / "runs" / "empty.png").is_file()
+    assert not (tmp_path / "empty.png").exists()
 
 
 def test_teleop_out_leaves_the_run_folder(tmp_path):
