@@ -64,30 +64,22 @@ def _load_int(typingctx: Any, base: Any, offset: Any) -> Any:
 load_int: Any = intrinsic(_load_int)  # typed by numba, not by mypy
 
 
-def _doubles(typingctx: Any, address: Any) -> Any:
-    """An integer address as a double*."""
-    sig = types.CPointer(types.float64)(types.intp)
+def _pointer_to(element: Any) -> Any:
+    """A numba intrinsic taking an integer address to an `element`* (float64: double*, int32: int*)."""
 
-    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-        return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
+    def cast(typingctx: Any, address: Any) -> Any:
+        sig = types.CPointer(element)(types.intp)
 
-    return sig, codegen
+        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+            return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
 
+        return sig, codegen
 
-doubles: Any = intrinsic(_doubles)  # typed by numba, not by mypy
-
-
-def _ints(typingctx: Any, address: Any) -> Any:
-    """An integer address as an int*."""
-    sig = types.CPointer(types.int32)(types.intp)
-
-    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-        return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
-
-    return sig, codegen
+    return intrinsic(cast)
 
 
-ints: Any = intrinsic(_ints)  # typed by numba, not by mypy
+doubles: Any = _pointer_to(types.float64)  # an integer address as a double*; typed by numba, not by mypy
+ints: Any = _pointer_to(types.int32)  # an integer address as an int*
 
 
 def _apply_ft(
