@@ -24,6 +24,7 @@ import mujoco
 import numpy as np
 
 from racecar_sim.core.errors import ConfigError
+from racecar_sim.physics.tyre_warp import WarpTyres, needs_callbacks
 
 GPU_HINT = (
     "install the [gpu] extra (pip install 'racecar-sim[gpu]': mujoco-warp, warp-lang) on a machine with a CUDA GPU"
@@ -98,11 +99,15 @@ class WarpWorlds:
             adapted = warp_model(model)
             with wp.ScopedDevice(self.device):
                 self.mw = mjw.put_model(adapted)
+                # a vehicle set's tyres and actuator rate limits: Warp kernels as the model's callbacks
+                self.tyres = WarpTyres(wp, self.mw, model, data, num_worlds) if needs_callbacks(model) else None
                 # pyramidal cones: 2 (condim - 1) rows per contact; elliptic fewer
                 njmax = nconmax * 2 * (int(model.geom_condim.max(initial=1)) - 1 or 1)
                 self.dw = mjw.put_data(adapted, data, nworld=num_worlds, nconmax=nconmax, njmax=njmax)
                 if self.device.is_cuda:  # a graph capture needs every kernel loaded: step a scratch copy once
                     mjw.step(self.mw, mjw.put_data(adapted, data, nworld=num_worlds, nconmax=nconmax, njmax=njmax))
+                    if self.tyres is not None:  # that step copied the scratch worlds' wheel loads
+                        self.tyres.reset(np.arange(num_worlds))
         except NotImplementedError as error:  # mujoco-warp names the unsupported feature
             raise ConfigError(f"MuJoCo Warp cannot run this model: {error}; use device='cpu'") from None
         self._graphs: dict[int, Any] = {}
@@ -115,11 +120,15 @@ class WarpWorlds:
         worlds: np.ndarray | None = None,
         ctrl: np.ndarray | None = None,
         qacc_warmstart: np.ndarray | None = None,
+        sensordata: np.ndarray | None = None,
     ) -> None:
         """Set the chosen worlds' state (default: all) from host arrays of one row per chosen world; their time
         and act go to zero, and ctrl and warm start too unless given. xpos and the contacts stay those of the
-        last step until the next one."""
+        last step until the next one. sensordata: the sensors of the step before (a tyre model's wheel loads for
+        the next step; default: the initial state's)."""
         rows = np.arange(self.num_worlds) if worlds is None else np.asarray(worlds)
+        if self.tyres is not None:
+            self.tyres.reset(rows, sensordata)
         for field, value in (
             ("qpos", qpos),
             ("qvel", qvel),
