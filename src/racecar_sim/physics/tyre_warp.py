@@ -60,9 +60,7 @@ class WarpTyres:
     the state every world starts from (its touch sensors: the first step's wheel loads); num_worlds: N.
     """
 
-    def __init__(
-        self, wp: Any, device_model: Any, model: mujoco.MjModel, data: mujoco.MjData, num_worlds: int
-    ) -> None:
+    def __init__(self, wp: Any, device_model: Any, model: mujoco.MjModel, data: mujoco.MjData, num_worlds: int) -> None:
         self._wp, self._kernels = wp, _build_kernels(wp)
         rows = tyre_rows(model)
         user = rate_limited_actuators(model)
@@ -183,9 +181,9 @@ def _build_kernels(wp: Any) -> SimpleNamespace:
         kappa = -slip_x / wp.max(wp.max(speed, rolling), rows[wheel, 14])
         alpha = wp.atan(-slip_y / wp.max(speed, rows[wheel, 15]))
         mu = rows[wheel, 8]
-        fx = float(0.0)
-        fy = float(0.0)
-        peak = float(0.0)
+        fx = float(0.0)  # noqa: UP018 (a Warp variable a branch or loop changes)
+        fy = float(0.0)  # noqa: UP018 (a Warp variable a branch or loop changes)
+        peak = float(0.0)  # noqa: UP018 (a Warp variable a branch or loop changes)
         if rows[wheel, 7] == pacejka:
             b, c, d, e = rows[wheel, 10], rows[wheel, 11], rows[wheel, 12], rows[wheel, 13]
             fx = load * magic_formula(kappa, b, c, d, e)
@@ -221,7 +219,7 @@ def _build_kernels(wp: Any) -> SimpleNamespace:
         # mj_applyFT's rule: qfrc += jacp(point, body)^T force, jacp = cdof_lin + cdof_ang x (point - subtree_com)
         world, dof = wp.tid()
         axis = cdof[world, dof]
-        total = float(0.0)
+        total = float(0.0)  # noqa: UP018 (a Warp variable a branch or loop changes)
         for wheel in range(bodies.shape[0]):
             if isdofancestor[bodies[wheel], dof] != 0:
                 offset = point[world, wheel] - subtree_com[world, roots[wheel]]
