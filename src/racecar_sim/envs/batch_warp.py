@@ -12,7 +12,9 @@ What the sim's model needs adapting: mujoco-warp 4.0.0 has no `pid` gain type (t
 actuators, control/controllers.py). A pid actuator with one setpoint input and no integral or slew state is a
 fixed-gain actuator with the same affine bias (force = kp u_pos + kv u_vel - kp l - kv v), so the Warp copy of the
 model uses that; any other pid actuator raises ConfigError. And it has no auto-reset of a diverged state, so the
-copy drops the disable-autoreset flag (the sim sets it) that mujoco-warp rejects.
+copy drops the disable-autoreset flag (the sim sets it) that mujoco-warp rejects. A vehicle set's tyre model and
+actuator rate limits, CPU MuJoCo callbacks that MuJoCo Warp never calls, run as Warp kernels in the Warp model's own
+callbacks (physics/tyre_warp.py), with each world's wheel loads kept on the device.
 """
 
 from __future__ import annotations
