@@ -200,6 +200,36 @@ def test_warp_tyres_match_the_cpu_callbacks_through_a_circle_and_a_steer(tyre_si
 
 
 @needs_warp
+def test_a_rate_limited_setpoint_ramps_at_its_limit_on_warp():
+    """A `user` dyntype actuator (physics/actuation.py's rate limit: dynprm low, high, timestep) without any tyre:
+    its activation ramps towards the command at the limit (2 /s: 0.4 after 0.2 s, and -0.4 towards -0.5), as CPU
+    MuJoCo's with the compiled callback, then holds the command; the joint it drives follows as on CPU."""
+    from racecar_sim.envs.batch_warp import WarpWorlds
+    from racecar_sim.physics.tyre_callback import install_actuator_dynamics
+
+    install_actuator_dynamics()
+    model = mujoco.MjModel.from_xml_string(
+        "<mujoco><option timestep='0.002'/><worldbody><body><joint name='j' axis='0 0 1'/>"
+        "<geom size='.1' pos='.2 0 0'/></body></worldbody><actuator><general joint='j' dyntype='user' "
+        "dynprm='-2 2 0.002' gainprm='1' biastype='affine' biasprm='0 -1 -0.1'/></actuator></mujoco>"
+    )
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    commands = np.array([[1.0], [-0.5]])
+    worlds = WarpWorlds(model, data, len(commands), device="warp-cpu")
+    worlds.set_ctrl(commands)
+    cpu = [copy.copy(data) for _ in commands]
+    for steps, expected in ((100, [0.4, -0.4]), (200, [1.0, -0.5])):
+        worlds.step(steps)
+        for d, command in zip(cpu, commands):
+            d.ctrl[:] = command
+            mujoco.mj_step(model, d, nstep=steps)
+        np.testing.assert_allclose(worlds.act()[:, 0], expected, atol=1e-5)
+        np.testing.assert_allclose([d.act[0] for d in cpu], expected, atol=1e-9)
+        np.testing.assert_allclose(worlds.qpos()[:, 0], [d.qpos[0] for d in cpu], atol=1e-5)
+
+
+@needs_warp
 def test_drive_batch_on_warp_matches_the_cpu_batch():
     """DriveBatch(device="warp-cpu") against the CPU batch, same seeds and random actions, 20 control steps of 50 ms;
     worlds 0 and 2 end their episodes (truncated) after 3 steps, so the worlds' crash checks (50 Hz from each one's
