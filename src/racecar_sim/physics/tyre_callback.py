@@ -86,7 +86,7 @@ def _c_type(declared: Any, where: str) -> Any:
         return element
     if kind == "AnonymousStructDecl":
         return _c_struct(declared.fields, where)
-    name = getattr(declared, "name", None)
+    name = str(getattr(declared, "name", ""))
     if name in _C_TYPES:
         return _C_TYPES[name]
     from mujoco.introspect import enums, structs
