@@ -114,7 +114,7 @@ def _probe_model(n: int) -> mujoco.MjModel:
 
 
 def _word(address: int, size: int) -> int:
-    return int.from_bytes(ctypes.string_at(address, size), sys.byteorder, signed=True)
+    return int.from_bytes(ctypes.string_at(address, size), sys.byteorder)
 
 
 @cache
