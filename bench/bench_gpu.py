@@ -1,11 +1,14 @@
-"""The GPU batch: `python bench/bench_gpu.py [--device warp|warp-cpu] [--worlds 1 256 ...] [--lidar-on host|device]`.
+"""The GPU batch: `python bench/bench_gpu.py [--device warp|warp-cpu] [--worlds 1 256 ...] [--lidar-on host|device]
+[--vehicle seed|f1tenth|FILE]`.
 
 Car-steps per second (control steps x worlds per wall second, 20 Hz control, lidar on, random-walk actions, after a
 warm-up that compiles Warp's kernels and captures the CUDA graphs) of `DriveBatch(n, device=...)` (MuJoCo Warp)
 against the CPU batch (`device="cpu"`, a thread per core) at the same n, and a trajectory check: from the same
 seeds and actions, the device batch's car bases against the CPU batch's over --check-steps control steps, with the
 tolerances of tests/test_envs_batch_warp.py::test_drive_batch_on_warp_matches_the_cpu_batch (1e-4 m on the base
-position, 1e-4 m/s on the speed, the same terminated/truncated flags).
+position, 1e-4 m/s on the speed, the same terminated/truncated flags). --vehicle times a vehicle set (default seed);
+with a tyre set the tyres and rate limits run as Warp kernels (physics/tyre_warp.py) and the check takes the
+tolerances of test_drive_batch_on_warp_with_tyres_matches_the_cpu_batch (5e-4 m, 5e-3 m/s).
 
 The CPU batch is measured up to --cpu-max worlds (default 1024): for larger n its column is its rate at --cpu-max
 worlds (the CPU batch's car-steps/s are flat once every core is busy), marked so, and the trajectory check covers
@@ -40,6 +43,7 @@ from racecar_sim.envs.batch import DriveBatch
 
 SEED = 0
 POS_TOL = SPEED_TOL = 1e-4  # tests/test_envs_batch_warp.py::test_drive_batch_on_warp_matches_the_cpu_batch
+TYRE_POS_TOL, TYRE_SPEED_TOL = 5e-4, 5e-3  # ... ::test_drive_batch_on_warp_with_tyres_matches_the_cpu_batch
 
 
 class Walk:
@@ -92,6 +96,12 @@ def rate(batch: DriveBatch, warmup: int, steps: int) -> tuple[float, float]:
     return steps * batch.num_envs / wall, spent[0] / wall
 
 
+def tolerances(batch: DriveBatch) -> tuple[float, float]:
+    """The trajectory check's (m, m/s): the tyre test's for a model with tyres, the seed test's otherwise."""
+    warp = batch.warp
+    return (TYRE_POS_TOL, TYRE_SPEED_TOL) if warp is not None and warp.tyres is not None else (POS_TOL, SPEED_TOL)
+
+
 def trajectory(device: DriveBatch, cpu: DriveBatch, steps: int) -> tuple[float, float, float, int, int]:
     """Both batches from the same seeds, `steps` control steps of the same actions (the device batch's first
     cpu.num_envs worlds against the CPU batch): (max |d base position| m, its median over the worlds, max |d speed|
@@ -105,6 +115,7 @@ def trajectory(device: DriveBatch, cpu: DriveBatch, steps: int) -> tuple[float, 
     flags = 0
     bad = np.zeros(m, bool)
     per_world = np.zeros(m)
+    pos_tol, speed_tol = tolerances(device)
     for _ in range(steps):
         actions = walk()
         _, _, terminated, truncated, _ = device.step(actions)
@@ -114,7 +125,7 @@ def trajectory(device: DriveBatch, cpu: DriveBatch, steps: int) -> tuple[float, 
         speed = np.abs(device.speed[:m] - cpu.speed)
         per_world = np.maximum(per_world, pos)
         dv, flags = max(dv, float(speed.max())), flags + int(wrong.sum())
-        bad |= wrong | (pos > POS_TOL) | (speed > SPEED_TOL)
+        bad |= wrong | (pos > pos_tol) | (speed > speed_tol)
     return float(per_world.max()), float(np.median(per_world)), dv, flags, int(bad.sum())
 
 
@@ -154,6 +165,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--lidar-on", choices=("host", "device"), default="host", help="where the device batch casts its lidar"
     )
+    parser.add_argument("--vehicle", default="seed", help="the vehicle set: seed (default), f1tenth or a YAML file")
     parser.add_argument("--quick", action="store_true", help="warp-cpu, 1 and 8 worlds, a few steps (a check)")
     args = parser.parse_args(argv)
     if args.quick:
@@ -166,13 +178,13 @@ def main(argv: list[str] | None = None) -> int:
 
     def cpu_batch(world: str, m: int) -> DriveBatch:
         if (world, m) not in cpu_batches:
-            cpu_batches[world, m] = DriveBatch(m, world=world, device="cpu")
+            cpu_batches[world, m] = DriveBatch(m, world=world, device="cpu", vehicle=args.vehicle)
         return cpu_batches[world, m]
 
     try:
         for k, n in enumerate(args.worlds):
             # ConfigError first: no Warp / no GPU
-            device = DriveBatch(n, world=args.world, device=args.device, lidar_on=args.lidar_on)
+            device = DriveBatch(n, world=args.world, device=args.device, lidar_on=args.lidar_on, vehicle=args.vehicle)
             if k == 0:
                 header(device, args)
             got, lidar_share = rate(device, args.warmup, args.steps)
@@ -181,7 +193,9 @@ def main(argv: list[str] | None = None) -> int:
                 cpu_rates[m] = rate(cpu_batch(args.world, m), args.warmup, args.steps)[0]
             if args.check_world != args.world:
                 device.close()
-                device = DriveBatch(n, world=args.check_world, device=args.device, lidar_on=args.lidar_on)
+                device = DriveBatch(
+                    n, world=args.check_world, device=args.device, lidar_on=args.lidar_on, vehicle=args.vehicle
+                )
             dq, median, dv, flags, bad = trajectory(device, cpu_batch(args.check_world, m), args.check_steps)
             device.close()
             ok = "yes" if bad == 0 else f"NO: {bad} of {m} worlds" + (f", {flags} flag mismatches" if flags else "")
@@ -204,8 +218,12 @@ def header(device: DriveBatch, args: argparse.Namespace) -> None:
     """The device, where the lidar runs, what the CPU column is, and the table's header."""
     assert device.warp is not None
     dev = device.warp.device
+    pos_tol, speed_tol = tolerances(device)
     beams = device.lidar.spec.samples if device.lidar is not None else 0
-    print(f"device {dev.alias} ({dev.name}), Warp {_warp_version()}; world {args.world}, 20 Hz control")
+    print(
+        f"device {dev.alias} ({dev.name}), Warp {_warp_version()}; world {args.world}, vehicle {args.vehicle}, "
+        "20 Hz control"
+    )
     lidar = "host lidar" if device.warp_lidar is None else "dev. lidar"
     if device.warp_lidar is not None:
         print(
@@ -221,7 +239,7 @@ def header(device: DriveBatch, args: argparse.Namespace) -> None:
     print(
         f"CPU batch: {os.cpu_count()} threads, measured up to {args.cpu_max} worlds (* = its rate at {args.cpu_max} "
         f"worlds); {args.steps} timed steps after {args.warmup} warm-up; trajectory check in {args.check_world}: "
-        f"{args.check_steps} steps, tolerance {POS_TOL:g} m / {SPEED_TOL:g} m/s (the Warp test's)"
+        f"{args.check_steps} steps, tolerance {pos_tol:g} m / {speed_tol:g} m/s (the Warp test's)"
     )
     print(
         f"{'worlds':>7}  {'device car-steps/s':>18}  {'CPU car-steps/s':>16}  {'ratio':>7}  {lidar:>10}  "

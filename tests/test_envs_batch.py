@@ -168,8 +168,3 @@ def test_a_batch_with_tyres_matches_single_envs_with_tyres():
     assert not np.allclose(seed.sim.data.qpos[:3], batch.qpos[0][:3], atol=1e-3)
     seed.close()
     batch.close()
-
-
-def test_the_warp_batch_refuses_tyres_in_one_line():
-    with pytest.raises(ConfigError, match="tyre model"):
-        DriveBatch(2, world="walker", device="warp", vehicle="f1tenth")

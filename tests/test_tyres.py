@@ -13,6 +13,7 @@ import pytest
 from racecar_sim import Simulator
 from racecar_sim.description.vehicle_params import load_vehicle
 from racecar_sim.msgs import AckermannDriveStamped
+from racecar_sim.physics import tyre_callback
 from racecar_sim.physics.tyre_callback import layout
 
 G = 9.81
@@ -33,6 +34,18 @@ def test_the_callback_reads_the_fields_the_bindings_show():
     nnumeric = int.from_bytes(ctypes.string_at(sim.model._address + offsets["nnumeric"], 4), "little")
     assert nnumeric == sim.model.nnumeric >= 1
     sim.close()
+
+
+def test_a_layout_the_probe_contradicts_is_an_error_naming_the_field(monkeypatch):
+    """The offsets come from MuJoCo's struct declarations; a wrong size of one C type (mjtSize read as a 4-byte int
+    shifts every later field) fails the check on the probe model, naming the first field it moved."""
+    monkeypatch.setitem(tyre_callback._C_TYPES, "mjtSize", ctypes.c_int)
+    layout.cache_clear()
+    try:
+        with pytest.raises(tyre_callback.LayoutError, match="field numeric_adr of mjModel"):
+            layout()
+    finally:
+        layout.cache_clear()
 
 
 def lateral_deceleration(vehicle: str) -> float:

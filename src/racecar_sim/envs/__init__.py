@@ -7,7 +7,7 @@ Both stop (truncated) after max_episode_steps = 1200 control steps (60 s at 20 H
 (seconds) truncates as well. Every keyword of DriveEnv (drive.py) passes through gym.make: world (a built-in
 name or a world file), centerline, control_rate (20 Hz), action ("normalized" | "raw"), max_speed (2 m/s),
 max_steering (0.34 rad), crash_penalty (10), profile, physics, sensor_noise, render_mode ("rgb_array" | "human"),
-vehicle (a vehicle set: "seed", "f1tenth" or a YAML file; the native batch takes it too, the Warp batch no tyre set).
+vehicle (a vehicle set: "seed", "f1tenth" or a YAML file; both batches take it too, the Warp one as Warp kernels).
 
 Vector (Gymnasium): `gym.make_vec("racecar_sim/Drive-v0", num_envs=N)` gives the native batch DriveBatch (batch.py;
 vectorization_mode "vector_entry_point", Gymnasium's default for this id), a gymnasium.vector.VectorEnv with SAME_STEP

@@ -144,11 +144,6 @@ class DriveBatch(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
     ) -> None:
         n = _world_count(num_envs, num_worlds)
         params = load_vehicle(vehicle)
-        if device != "cpu" and params.tyre_model != "none":
-            raise ConfigError(
-                f"DriveBatch device={device!r}: the {params.name} set's tyre model runs in MuJoCo's passive-force "
-                "callback, which MuJoCo Warp does not call yet; use device='cpu' (the native batch) for it"
-            )
         if device not in DEVICES:
             raise ConfigError(f"DriveBatch device={device!r} is not one of {', '.join(DEVICES)}")
         if lidar_on not in LIDAR_ON:
@@ -480,6 +475,7 @@ class DriveBatch(VectorEnv[dict[str, np.ndarray], np.ndarray, np.ndarray]):
                 worlds,
                 ctrl=self.ctrl[worlds],
                 qacc_warmstart=self._warmstart[worlds],
+                sensordata=self._sensordata[worlds],
             )
         xy, _ = self._planar_pose()
         self.progress.reset(worlds, xy[worlds])

@@ -12,7 +12,9 @@ What the sim's model needs adapting: mujoco-warp 4.0.0 has no `pid` gain type (t
 actuators, control/controllers.py). A pid actuator with one setpoint input and no integral or slew state is a
 fixed-gain actuator with the same affine bias (force = kp u_pos + kv u_vel - kp l - kv v), so the Warp copy of the
 model uses that; any other pid actuator raises ConfigError. And it has no auto-reset of a diverged state, so the
-copy drops the disable-autoreset flag (the sim sets it) that mujoco-warp rejects.
+copy drops the disable-autoreset flag (the sim sets it) that mujoco-warp rejects. A vehicle set's tyre model and
+actuator rate limits, CPU MuJoCo callbacks that MuJoCo Warp never calls, run as Warp kernels in the Warp model's own
+callbacks (physics/tyre_warp.py), with each world's wheel loads kept on the device.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import mujoco
 import numpy as np
 
 from racecar_sim.core.errors import ConfigError
+from racecar_sim.physics.tyre_warp import WarpTyres, needs_callbacks
 
 GPU_HINT = (
     "install the [gpu] extra (pip install 'racecar-sim[gpu]': mujoco-warp, warp-lang) on a machine with a CUDA GPU"
@@ -98,11 +101,15 @@ class WarpWorlds:
             adapted = warp_model(model)
             with wp.ScopedDevice(self.device):
                 self.mw = mjw.put_model(adapted)
+                # a vehicle set's tyres and actuator rate limits: Warp kernels as the model's callbacks
+                self.tyres = WarpTyres(wp, self.mw, model, data, num_worlds) if needs_callbacks(model) else None
                 # pyramidal cones: 2 (condim - 1) rows per contact; elliptic fewer
                 njmax = nconmax * 2 * (int(model.geom_condim.max(initial=1)) - 1 or 1)
                 self.dw = mjw.put_data(adapted, data, nworld=num_worlds, nconmax=nconmax, njmax=njmax)
                 if self.device.is_cuda:  # a graph capture needs every kernel loaded: step a scratch copy once
                     mjw.step(self.mw, mjw.put_data(adapted, data, nworld=num_worlds, nconmax=nconmax, njmax=njmax))
+                    if self.tyres is not None:  # that step copied the scratch worlds' wheel loads
+                        self.tyres.reset(np.arange(num_worlds))
         except NotImplementedError as error:  # mujoco-warp names the unsupported feature
             raise ConfigError(f"MuJoCo Warp cannot run this model: {error}; use device='cpu'") from None
         self._graphs: dict[int, Any] = {}
@@ -115,11 +122,15 @@ class WarpWorlds:
         worlds: np.ndarray | None = None,
         ctrl: np.ndarray | None = None,
         qacc_warmstart: np.ndarray | None = None,
+        sensordata: np.ndarray | None = None,
     ) -> None:
         """Set the chosen worlds' state (default: all) from host arrays of one row per chosen world; their time
         and act go to zero, and ctrl and warm start too unless given. xpos and the contacts stay those of the
-        last step until the next one."""
+        last step until the next one. sensordata: the sensors of the step before (a tyre model's wheel loads for
+        the next step; default: the initial state's)."""
         rows = np.arange(self.num_worlds) if worlds is None else np.asarray(worlds)
+        if self.tyres is not None:
+            self.tyres.reset(rows, sensordata)
         for field, value in (
             ("qpos", qpos),
             ("qvel", qvel),

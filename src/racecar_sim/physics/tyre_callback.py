@@ -8,10 +8,10 @@ wheel's normal load (a touch sensor of the previous step's contact forces), and 
 point with mj_applyFT to qfrc_passive.
 
 The callback reaches mjModel and mjData fields through their C struct's layout. The bindings do not publish the
-offsets, so they are measured once per process from probe models: a pointer field is where the struct holds the
-address of the array the bindings show (in every probe; the last of a run of empty arrays sharing the address;
-read a chunk at a time, never far past the field), a size field where it changes as a probe's size does. A layout
-the probe cannot pin down is an error naming the field, never a guess.
+offsets; MuJoCo ships the structs' declarations (mujoco.introspect: field order and types), which ctypes lays out
+as the C compiler does, and each offset is checked once per process on a probe model (a pointer field holds the
+address of the array the bindings show, a size field the size). A layout that fails the check is an error naming
+the field, never a guess.
 
 The tyre: slip ratio kappa = -s_x / max(V, |omega r|, v_eps_x) (bounded: a spinning or locked wheel is |kappa| = 1,
 where a Pacejka curve fitted for slip angles has not turned negative yet) and slip angle
@@ -37,7 +37,6 @@ from types import ModuleType
 from typing import Any
 
 import mujoco
-import numpy as np
 
 MAGIC = 7_311_993.0  # first value of a tyre table
 HEADER = 3  # MAGIC, number of wheels, the address of mj_applyFT
@@ -56,50 +55,52 @@ class LayoutError(RuntimeError):
     """The struct layout of this MuJoCo could not be measured."""
 
 
-def _raw(address: int, size: int) -> np.ndarray:
-    return np.frombuffer(ctypes.string_at(address, size), np.int64)
+# the C types of mjModel's and mjData's fields (mujoco.introspect's names) as ctypes; an enum is an int
+_C_TYPES: dict[str, Any] = {
+    "int": ctypes.c_int,
+    "unsigned int": ctypes.c_uint,
+    "float": ctypes.c_float,
+    "double": ctypes.c_double,
+    "char": ctypes.c_char,
+    "mjtNum": ctypes.c_double,
+    "mjtSize": ctypes.c_int64,
+    "mjtBool": ctypes.c_ubyte,
+    "mjtByte": ctypes.c_ubyte,
+    "size_t": ctypes.c_size_t,
+    "uintptr_t": ctypes.c_size_t,
+    "uint64_t": ctypes.c_uint64,
+    "int64_t": ctypes.c_int64,
+}
 
 
-_CHUNK = 256  # bytes read at a time: a scan stops within one chunk past the last field it looks for
-_LIMIT = 1 << 20  # bytes: no struct of MuJoCo's is this large
+def _c_type(declared: Any, where: str) -> Any:
+    """The ctypes type of one declared field type (introspect's ValueType, PointerType, ArrayType or anonymous
+    struct)."""
+    kind = type(declared).__name__
+    if kind == "PointerType":
+        return ctypes.c_void_p
+    if kind == "ArrayType":
+        element = _c_type(declared.inner_type, where)
+        for extent in reversed(declared.extents):
+            element = element * int(extent)
+        return element
+    if kind == "AnonymousStructDecl":
+        return _c_struct(declared.fields, where)
+    name = str(getattr(declared, "name", ""))
+    if name in _C_TYPES:
+        return _C_TYPES[name]
+    from mujoco.introspect import enums, structs
+
+    if name in enums.ENUMS:
+        return ctypes.c_int
+    if name in structs.STRUCTS:
+        return _c_struct(structs.STRUCTS[name].fields, name)
+    raise LayoutError(f"mujoco {mujoco.__version__}: field of {where} has a C type {declared} the layout cannot size")
 
 
-def _struct_offsets(struct: Any, names: tuple[str, ...]) -> dict[str, int]:
-    """Byte offset of each pointer field `names` in one struct: where it holds the address of the array the bindings
-    show. Empty arrays just before a field share its address (MuJoCo's arena): the field is the last of that run.
-    The struct is read a chunk at a time, and no further than a chunk past the run of the last field (reading past
-    the end of the struct's memory would crash the process)."""
-    wanted = {name: getattr(struct, name).ctypes.data for name in names}
-    runs: dict[str, list[int]] = {}  # consecutive word indices holding the address
-    done: set[str] = set()
-    offset = 0
-    while len(done) < len(wanted):
-        if offset >= _LIMIT:
-            missing = ", ".join(sorted(set(wanted) - done))
-            raise LayoutError(f"mujoco {mujoco.__version__}: cannot locate field {missing} of the C struct")
-        words = _raw(struct._address + offset, _CHUNK)
-        for name, address in wanted.items():
-            if name in done:
-                continue
-            hits = (np.nonzero(words == address)[0] + offset // 8).tolist()
-            run = runs.setdefault(name, [])
-            if run and (not hits or hits[0] != run[-1] + 1):
-                done.add(name)  # the run of equal addresses ended at the chunk's edge
-                continue
-            run += hits
-            if hits and hits[-1] < offset // 8 + len(words) - 1:
-                done.add(name)  # ... or within the chunk
-        offset += _CHUNK
-    return {name: 8 * max(run) for name, run in runs.items()}
-
-
-def _pointer_offsets(structs: list[Any], names: tuple[str, ...]) -> dict[str, int]:
-    """Byte offset of each pointer field `names` in the structs (all of one type): the same in every probe."""
-    found = [_struct_offsets(s, names) for s in structs]
-    for name in names:
-        if len({f[name] for f in found}) != 1:
-            raise LayoutError(f"mujoco {mujoco.__version__}: field {name} of the C struct is ambiguous")
-    return found[0]
+def _c_struct(fields: Any, where: str) -> Any:
+    """A ctypes Structure with the declared fields in their order (C's alignment rules, as the compiler's)."""
+    return type(where, (ctypes.Structure,), {"_fields_": [(f.name, _c_type(f.type, where)) for f in fields]})
 
 
 def _probe_model(n: int) -> mujoco.MjModel:
@@ -112,20 +113,37 @@ def _probe_model(n: int) -> mujoco.MjModel:
     )
 
 
+def _word(address: int, size: int) -> int:
+    return int.from_bytes(ctypes.string_at(address, size), sys.byteorder)
+
+
 @cache
 def layout() -> dict[str, int]:
-    """Byte offsets of the fields the callback reads: nnumeric, numeric_adr, numeric_data (mjModel) and the
-    _DATA_POINTERS (mjData)."""
-    models = [_probe_model(n) for n in (3, 11, 29)]
-    data = [mujoco.MjData(m) for m in models]
-    offsets = _pointer_offsets(models, _MODEL_POINTERS)
-    sizes = [_raw(m._address, 4096).view(np.int32) for m in models]
-    hits = [i for i in range(len(sizes[0])) if all(s[i] == m.nnumeric for s, m in zip(sizes, models))]
-    if len(hits) != 1:
-        raise LayoutError(f"mujoco {mujoco.__version__}: cannot locate field nnumeric of the C struct")
-    offsets["nnumeric"] = 4 * hits[0]
-    data_offsets = _pointer_offsets(data, _DATA_POINTERS)
-    return {**offsets, **data_offsets}
+    """Byte offsets of the fields the callback reads: nnumeric and the _MODEL_POINTERS (mjModel), the
+    _DATA_POINTERS (mjData). They come from the struct declarations MuJoCo ships (mujoco.introspect), laid out by
+    ctypes as the C compiler lays them out, and are checked on a probe model: each pointer field must hold the
+    address of the array the bindings show, and nnumeric the count. A mismatch is an error naming the field, never
+    a guess."""
+    from mujoco.introspect import structs  # ~50 ms to import: only for a model with tyres or rate limits
+
+    offsets: dict[str, int] = {}
+    probe = _probe_model(3)
+    data = mujoco.MjData(probe)
+    for struct_name, live, pointers in (("mjModel", probe, _MODEL_POINTERS), ("mjData", data, _DATA_POINTERS)):
+        c_struct = _c_struct(structs.STRUCTS[struct_name].fields, struct_name)
+        for name in pointers:
+            offsets[name] = getattr(c_struct, name).offset
+            if _word(live._address + offsets[name], 8) != getattr(live, name).ctypes.data:
+                raise LayoutError(
+                    f"mujoco {mujoco.__version__}: field {name} of {struct_name} is not where its declaration puts it"
+                )
+        if struct_name == "mjModel":
+            offsets["nnumeric"] = c_struct.nnumeric.offset
+            if _word(live._address + offsets["nnumeric"], 4) != live.nnumeric:
+                raise LayoutError(
+                    f"mujoco {mujoco.__version__}: field nnumeric of mjModel is not where its declaration puts it"
+                )
+    return offsets
 
 
 def _mujoco_library() -> ctypes.CDLL:
