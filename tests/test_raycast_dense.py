@@ -113,8 +113,8 @@ def test_the_dense_cast_equals_the_cast_of_every_wall(fan_name: str) -> None:
                 fan.range_max,
                 fan.directions,
             )
-            answer = cast_level(lean, *args, every, False)
-            assert cast_level(culled, *args, dropped, True) == answer
+            answer = cast_level(lean, *args, every)
+            assert cast_level(culled, *args, dropped) == answer
             assert np.array_equal(_bits(dropped), _bits(every))
             answered += answer
             hits += int(np.isfinite(every).sum())
@@ -145,7 +145,6 @@ def test_the_dense_cast_refuses_a_partly_covering_wall_within_reach() -> None:
             fan.range_max,
             fan.directions,
             ranges,
-            True,
         )
         assert np.isinf(ranges).all()
 

@@ -102,12 +102,11 @@ def level_scan(
     solid_types: Indices,
     solid_sizes: Floats,
     solid_rbound: Floats,
-    dense_cells: bool,
 ) -> bool:
     """A whole published scan in one call, for a laser on a free body (LaserMount) in a world of walls and moving
     solids (other cars): the ray origin and axes from the body's pose in qpos (LaserMount.pose's operations, in its
     order), the origin's grid cell (FlatWalls; `outside`: the cell of every point outside `ids`), level.cast_level
-    into `ranges` (raycast.dense's cast on its tables where `dense_cells`: a map, FlatWalls.dense), then
+    into `ranges` (raycast.dense's cast where the tables are dense_tables: a map, FlatWalls.dense), then
     solids.cast_solids on the geoms `solid_ids` at their poses xpos, xmat (an MjData posed at the live qpos),
     published_scan into `out`. Returns False, `out` untouched, where that path cannot answer (a cell with more than
     walls, or cast_level's refusals)."""
@@ -118,7 +117,7 @@ def level_scan(
         return False
     cell = table[:, starts[k] : starts[k + 1]]
     walls = (cell, floors, origin, axes, max_tilt_cos, angle_min, inverse_step, count, turn, range_min, range_max)
-    if not cast_level(*walls, dirs, ranges, dense_cells):
+    if not cast_level(*walls, dirs, ranges):
         return False
     if solid_ids.shape[0]:  # the band, plane map and stretch of the level scan cast_level answered
         _, lo, hi = level_band(floors, origin, axes, max_tilt_cos, range_max)

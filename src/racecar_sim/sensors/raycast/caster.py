@@ -98,11 +98,11 @@ class RayCaster:
         if mode == "auto" and not self._has_moving and not self.static.not_prism_like:
             table = self.grid.cell(origin[0], origin[1]).walls_only()
             if table is not None:  # walls only near the sensor: one compiled call, unless it needs the general path
-                from racecar_sim.sensors.raycast.level import cast_level
+                from racecar_sim.sensors.raycast import level  # numba: loaded by the first world with walls
 
                 fan = self.fan
                 ranges = np.full(fan.count, np.inf)
-                if cast_level(
+                if level.cast_level(
                     table,
                     self.static.floors,
                     origin,
@@ -116,7 +116,6 @@ class RayCaster:
                     fan.range_max,
                     fan.directions,
                     ranges,
-                    False,
                 ):
                     self.last_3d_beams = 0
                     return ranges

@@ -11,6 +11,7 @@ from numba import njit
 
 from racecar_sim.sensors.raycast.dense import ZHI_MIN, ZLO_MAX, cast_dense
 from racecar_sim.sensors.raycast.kernels import (
+    WALL_ROWS,
     Floats,
     clear_past,
     level_band,
@@ -36,16 +37,16 @@ def cast_level(
     range_max: float,
     dirs: Floats,
     ranges: Floats,
-    dense: bool,
 ) -> bool:
-    """Lowers `ranges` (count,) to the first hits on the walls of `table` (a dense.dense_table where `dense`, else a
-    kernels.wall_table), range_max applied, and returns True; or returns False, `ranges` untouched, when the scan
+    """Lowers `ranges` (count,) to the first hits on the walls of `table` (a kernels.wall_table, or a dense.dense_table:
+    it has more rows), range_max applied, and returns True; or returns False, `ranges` untouched, when the scan
     needs the general path (a steep scan plane, a floor in the band, a wall within reach covering only part of the
     band). The frame is ScanFrame's, computed here."""
     level, lo, hi = level_band(floors, origin, rotation, max_tilt_cos, range_max)
     if not level:
         return False
     ox, oy, oz = origin[0], origin[1], origin[2]
+    dense = table.shape[0] > WALL_ROWS
     # a dense table's lowest top and highest bottom of the columns from there on tell at once that no wall covers
     # part of the band
     settled = dense and table.shape[1] > 0 and table[ZLO_MAX, 0] <= lo and table[ZHI_MIN, 0] >= hi

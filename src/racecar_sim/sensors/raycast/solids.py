@@ -97,6 +97,38 @@ def _sphere(
     return _quad(a, b, c)[0]
 
 
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _side(l0: float, l1: float, l2: float, w0: float, w1: float, w2: float, s0: float, s1: float, x: float) -> float:
+    """The nearer of x (-1: none) and the hit on the side of a cylinder of radius s0 and half-length s1 about the z
+    axis, of the ray from l along w (geom frame)."""
+    a = w0 * w0 + w1 * w1
+    b = w0 * l0 + w1 * l1
+    c = l0 * l0 + l1 * l1 - s0 * s0
+    sol = _quad(a, b, c)[0]
+    if sol >= 0 and abs(l2 + sol * w2) <= s1:
+        if x < 0 or sol < x:
+            x = sol
+    return x
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _cap(
+    l0: float, l1: float, l2: float, w0: float, w1: float, w2: float, s0: float, s1: float, top: bool, x: float
+) -> float:
+    """The nearer of x (-1: none) and the hits on a capsule's top (or bottom) cap: the half of the sphere of radius s0
+    around (0, 0, s1) (or -s1) beyond the side."""
+    q2 = l2 - s1 if top else l2 + s1
+    a = w0 * w0 + w1 * w1 + w2 * w2
+    b = w0 * l0 + w1 * l1 + w2 * q2
+    c = l0 * l0 + l1 * l1 + q2 * q2 - s0 * s0
+    _, r0, r1 = _quad(a, b, c)
+    for r in (r0, r1):
+        if r >= 0 and (l2 + r * w2 >= s1 if top else l2 + r * w2 <= -s1):
+            if x < 0 or r < x:
+                x = r
+    return x
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
 def ray_solid(
     kind: int, pos: Floats, mat: Floats, size: Floats, px: float, py: float, pz: float, vx: float, vy: float, vz: float
@@ -150,40 +182,11 @@ def ray_solid(
                     if p0 * p0 + p1 * p1 <= s0 * s0:
                         if x < 0 or sol < x:
                             x = sol
-        a = w0 * w0 + w1 * w1
-        b = w0 * l0 + w1 * l1
-        c = l0 * l0 + l1 * l1 - s0 * s0
-        sol = _quad(a, b, c)[0]
-        if sol >= 0 and abs(l2 + sol * w2) <= s1:
-            if x < 0 or sol < x:
-                x = sol
-        return x
+        return _side(l0, l1, l2, w0, w1, w2, s0, s1, x)
     if kind == CAPSULE:
-        a = w0 * w0 + w1 * w1
-        b = w0 * l0 + w1 * l1
-        c = l0 * l0 + l1 * l1 - s0 * s0
-        sol = _quad(a, b, c)[0]
-        if sol >= 0 and abs(l2 + sol * w2) <= s1:
-            if x < 0 or sol < x:
-                x = sol
-        q2 = l2 - s1  # top cap
-        a = w0 * w0 + w1 * w1 + w2 * w2
-        b = w0 * l0 + w1 * l1 + w2 * q2
-        c = l0 * l0 + l1 * l1 + q2 * q2 - s0 * s0
-        _, r0, r1 = _quad(a, b, c)
-        for r in (r0, r1):
-            if r >= 0 and l2 + r * w2 >= s1:
-                if x < 0 or r < x:
-                    x = r
-        q2 = l2 + s1  # bottom cap
-        b = w0 * l0 + w1 * l1 + w2 * q2
-        c = l0 * l0 + l1 * l1 + q2 * q2 - s0 * s0
-        _, r0, r1 = _quad(a, b, c)
-        for r in (r0, r1):
-            if r >= 0 and l2 + r * w2 <= -s1:
-                if x < 0 or r < x:
-                    x = r
-        return x
+        x = _side(l0, l1, l2, w0, w1, w2, s0, s1, x)
+        x = _cap(l0, l1, l2, w0, w1, w2, s0, s1, True, x)
+        return _cap(l0, l1, l2, w0, w1, w2, s0, s1, False, x)
     # ellipsoid
     i0, i1, i2 = 1 / (s0 * s0), 1 / (s1 * s1), 1 / (s2 * s2)
     a = i0 * w0 * w0 + i1 * w1 * w1 + i2 * w2 * w2
