@@ -33,7 +33,9 @@ class Fan:
     inverse_step: float = field(init=False, repr=False, compare=False)  # beams per radian
     turn: float = field(init=False, repr=False, compare=False)  # beam steps in a full turn
     # the fan as the compiled casts take it: angle_min, inverse_step, count, turn, range_min, range_max, directions
-    kernel_args: tuple = field(init=False, repr=False, compare=False)
+    kernel_args: tuple[float, float, int, float, float, float, np.ndarray] = field(
+        init=False, repr=False, compare=False
+    )
 
     def __post_init__(self) -> None:
         angles = self.angle_min + self.increment * np.arange(self.count)
