@@ -1,9 +1,10 @@
 """A message type is its .msg file: the class, its static type, the bare-name export, a test sample and the QoS
-category all follow from the definition, so adding a message is one file."""
+category all follow from the definition, so adding a message is one file. A service is its .srv file, the same way."""
 
 from __future__ import annotations
 
 import ast
+import dataclasses
 import pickle
 import shutil
 import sys
@@ -77,6 +78,42 @@ def test_classes_are_their_packages_and_pickle() -> None:
         msgs.message_class("sensor_msgs/Lidar3D")
 
 
+def test_a_service_is_its_srv_file() -> None:
+    """Request and response are made from the two halves of the .srv file (rospy's names and rclpy's), field for field
+    as gazebo_ros's and ros_control's own (noetic) .srv files, which the ROS 1 bridge ships."""
+    from racecar_sim.bridges.ros1.wire import definitions_root
+    from racecar_sim.msgs import controller_manager_msgs, gazebo_msgs, std_srvs
+
+    assert gazebo_msgs.GetModelState.Request is gazebo_msgs.GetModelStateRequest
+    assert std_srvs.Empty.Response is std_srvs.EmptyResponse and std_srvs.EmptyResponse() == std_srvs.EmptyResponse()
+    switch = controller_manager_msgs.SwitchControllerRequest
+    assert switch.__srvtype__ == "controller_manager_msgs/srv/SwitchController" and (
+        switch.BEST_EFFORT,
+        switch.STRICT,
+    ) == (1, 2)
+    assert switch.__msgtype__ == "controller_manager_msgs/srv/SwitchController_Request"
+    request = gazebo_msgs.GetModelStateRequest("racecar", "world")
+    assert gazebo_msgs.GetModelStateRequest.__qualname__ == "GetModelStateRequest" and not hasattr(request, "__dict__")
+    assert pickle.loads(pickle.dumps(request)) == request != gazebo_msgs.GetModelStateRequest("racecar")
+    assert gazebo_msgs.GetModelStateResponse().pose.orientation.w == 1.0  # nested defaults, as a message's
+    with pytest.raises(AttributeError, match="no gazebo_msgs/msg/GetJointProperties.msg nor a service"):
+        gazebo_msgs.GetJointProperties  # noqa: B018
+    for srvtype in idl.available_srvtypes():
+        pkg, _, name = srvtype.split("/")
+        upstream = (definitions_root() / pkg / "srv" / f"{name}.srv").read_text().splitlines()
+        cut = upstream.index("---")
+        for part, lines in zip(idl.SERVICE_PARTS, (upstream[:cut], upstream[cut + 1 :])):
+            theirs = idl.parse_msg("\n".join(lines), f"{pkg}/{name}{part}")
+            cls = getattr(sys.modules[f"racecar_sim.msgs.{pkg}"], name + part)
+            assert [f.name for f in dataclasses.fields(cls)] == [f.name for f in theirs.fields], srvtype
+            assert [(f.type, f.is_array) for f in idl.get_spec(f"{srvtype}_{part}").fields] == [
+                (f.type, f.is_array) for f in theirs.fields
+            ], srvtype
+            assert {c: v for _, c, v in idl.get_spec(cls.__msgtype__).constants} == {
+                c: v for _, c, v in theirs.constants
+            }
+
+
 def test_the_methods_beyond_fields() -> None:
     assert msgs.Time.from_ns(-1) == msgs.Time(-1, 999_999_999)
     assert msgs.Duration.from_ns(2_000_000_001).to_ns() == 2_000_000_001
@@ -85,16 +122,26 @@ def test_the_methods_beyond_fields() -> None:
     assert image.bgr_pixels().tolist() == [[[3, 2, 1], [6, 5, 4]]]
 
 
+def _stub_type(package: str, name: str) -> str | None:
+    """The type a stub's class stands for: ``pkg/msg/Name``, a service part ``pkg/srv/Name_Request``, or None for a
+    service's own class (it only names its parts)."""
+    services = {t.rsplit("/", 1)[1] for t in idl.available_srvtypes() if t.startswith(f"{package}/srv/")}
+    for part in idl.SERVICE_PARTS:
+        if name.endswith(part) and name[: -len(part)] in services:
+            return f"{package}/srv/{name[: -len(part)]}_{part}"
+    return None if name in services else f"{package}/msg/{name}"
+
+
 def _stub_classes() -> dict[str, tuple[list[str], list[str]]]:
-    """Every class the stubs in msgs/typed declare: (its fields in order, its constants), by ``pkg/msg/Name``."""
+    """Every message class the stubs in msgs/typed declare: (its fields in order, its constants), by its type."""
     found = {}
-    for path in sorted(stubs.TYPED_DIR.glob("*_msgs.pyi")) + sorted(stubs.TYPED_DIR.glob("builtin_*.pyi")):
+    for path in sorted(stubs.TYPED_DIR.glob("*.pyi")):
         for node in ast.parse(path.read_text()).body:
-            if isinstance(node, ast.ClassDef):
+            if isinstance(node, ast.ClassDef) and (msgtype := _stub_type(path.stem, node.name)) is not None:
                 declared = [s for s in node.body if isinstance(s, ast.AnnAssign) and isinstance(s.target, ast.Name)]
                 fields = [s.target.id for s in declared if "ClassVar" not in ast.unparse(s.annotation)]
                 constants = [s.target.id for s in declared if "ClassVar" in ast.unparse(s.annotation)]
-                found[f"{path.stem}/msg/{node.name}"] = (fields, [c for c in constants if c != "__msgtype__"])
+                found[msgtype] = (fields, [c for c in constants if c not in ("__msgtype__", "__srvtype__")])
     return found
 
 
@@ -102,7 +149,9 @@ def test_every_stub_is_its_definition() -> None:
     """The static types say what the classes hold: each declared class has its definition's fields and constants,
     in order. (A definition without a stub yet is typed Any; ``python -m racecar_sim.msgs.stubs`` writes it.)"""
     declared = _stub_classes()
-    assert declared and set(declared) <= set(idl.available_msgtypes())
+    parts = {f"{t}_{part}" for t in idl.available_srvtypes() for part in idl.SERVICE_PARTS}
+    assert declared and set(declared) <= set(idl.available_msgtypes()) | parts
+    assert parts <= set(declared)  # every service's request and response is typed
     for msgtype, (fields, constants) in declared.items():
         spec = idl.get_spec(msgtype)
         assert fields == [f.name for f in spec.fields], msgtype

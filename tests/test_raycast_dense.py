@@ -1,6 +1,6 @@
 """A map's dense cells are cast by raycast.dense, which drops walls and runs of walls hidden behind nearer hits: its
-ranges and refusals must be kernels.cast_level's, which visits every wall, to the last bit, in dense clutter, from
-any pose, for any fan."""
+ranges and refusals must be those of level.cast_level on the lean table, which visits every wall, to the last bit, in
+dense clutter, from any pose, for any fan."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ import pytest
 from racecar_sim.sensors.raycast import dense, kernels
 from racecar_sim.sensors.raycast.fan import MAX_TILT_COS, Fan
 from racecar_sim.sensors.raycast.grid import Cell
+from racecar_sim.sensors.raycast.level import cast_level
 from racecar_sim.sensors.raycast.scene import boxes_footprints, empty_circles
 
 FANS = {
@@ -112,8 +113,8 @@ def test_the_dense_cast_equals_the_cast_of_every_wall(fan_name: str) -> None:
                 fan.range_max,
                 fan.directions,
             )
-            answer = kernels.cast_level(lean, *args, every)
-            assert dense.cast_level(culled, *args, dropped) == answer
+            answer = cast_level(lean, *args, every)
+            assert cast_level(culled, *args, dropped) == answer
             assert np.array_equal(_bits(dropped), _bits(every))
             answered += answer
             hits += int(np.isfinite(every).sum())
@@ -130,7 +131,7 @@ def test_the_dense_cast_refuses_a_partly_covering_wall_within_reach() -> None:
     for at in (0, segments.shape[1] // 2, segments.shape[1]):
         table = dense.dense_table(np.insert(segments, [at], low, axis=1), fan.range_min, fan.range_max)
         ranges = np.full(fan.count, np.inf)
-        assert not dense.cast_level(
+        assert not cast_level(
             table,
             np.zeros(0),
             np.array([0.0, 0.0, 0.3]),

@@ -1,7 +1,9 @@
-"""Parser for the ROS 2 ``.msg`` files shipped in ``msgs/definitions``.
+"""Parser for the ROS 2 ``.msg`` and ``.srv`` files shipped in ``msgs/definitions``.
 
 A message type is named the ROS 2 way, ``pkg/msg/Name``; ``pkg/Name`` is accepted
-everywhere and normalised. Parsed definitions and schema texts are cached.
+everywhere and normalised. A service ``pkg/srv/Name`` is two messages, its parts ``pkg/srv/Name_Request`` and
+``pkg/srv/Name_Response`` (the lines before and after the ``---`` of its file). Parsed definitions and schema texts
+are cached.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ PRIMITIVE_TYPES = frozenset(
 )  # fmt: skip
 
 SCHEMA_SEPARATOR = "=" * 80
+SERVICE_PARTS = ("Request", "Response")
 
 _ARRAY_RE = re.compile(r"^(?P<base>[^\[\]]+)(?:\[(?P<bound><=)?(?P<size>\d*)\])?$")
 _CONSTANT_RE = re.compile(r"^(?P<name>[A-Za-z]\w*)\s*=\s*(?P<value>.*)$")
@@ -120,7 +123,7 @@ def parse_msg(text: str, msgtype: str) -> MsgSpec:
     Raises:
         ValueError: A line is malformed, naming the type and the line.
     """
-    msgtype = normalize_msgtype(msgtype)
+    msgtype = msgtype if is_service_part(msgtype) else normalize_msgtype(msgtype)
     package = msgtype.split("/", 1)[0]
     fields: list[FieldSpec] = []
     constants: list[tuple[str, str, str]] = []
@@ -154,13 +157,21 @@ def _definitions_root() -> Traversable:
     return resources.files("racecar_sim.msgs").joinpath("definitions")
 
 
+def is_service_part(msgtype: str) -> bool:
+    """Whether ``msgtype`` names a service's request or response (``pkg/srv/Name_Request``)."""
+    parts = msgtype.split("/")
+    return len(parts) == 3 and parts[1] == "srv" and parts[2].rpartition("_")[2] in SERVICE_PARTS
+
+
 @cache
 def get_spec(msgtype: str) -> MsgSpec:
-    """Load and parse the shipped definition of ``msgtype``.
+    """Load and parse the shipped definition of ``msgtype`` (a message, or a service part).
 
     Raises:
-        KeyError: No ``.msg`` file for that type is shipped.
+        KeyError: No ``.msg`` (or ``.srv``) file for that type is shipped.
     """
+    if is_service_part(msgtype):
+        return _service_part(msgtype)
     msgtype = normalize_msgtype(msgtype)
     pkg, _, name = msgtype.split("/")
     path = _definitions_root().joinpath(pkg).joinpath("msg").joinpath(f"{name}.msg")
@@ -169,14 +180,36 @@ def get_spec(msgtype: str) -> MsgSpec:
     return parse_msg(path.read_text(encoding="utf-8"), msgtype)
 
 
+def _service_part(parttype: str) -> MsgSpec:
+    pkg, _, name = parttype.split("/")
+    service, _, part = name.rpartition("_")
+    path = _definitions_root().joinpath(pkg).joinpath("srv").joinpath(f"{service}.srv")
+    if not path.is_file():
+        raise KeyError(f"no definition for service {pkg}/srv/{service!r}")
+    lines = path.read_text(encoding="utf-8").splitlines()
+    cut = next((i for i, line in enumerate(lines) if line.strip() == "---"), None)
+    if cut is None:
+        raise ValueError(f"{pkg}/srv/{service}: no '---' between the request and the response")
+    return parse_msg("\n".join(lines[:cut] if part == "Request" else lines[cut + 1 :]), parttype)
+
+
+def available_srvtypes() -> tuple[str, ...]:
+    """All service types with a shipped ``.srv`` file (``pkg/srv/Name``), sorted."""
+    return _available("srv")
+
+
 def available_msgtypes() -> tuple[str, ...]:
     """All message types with a shipped ``.msg`` file, sorted."""
+    return _available("msg")
+
+
+def _available(kind: str) -> tuple[str, ...]:
     found = []
     for pkg_dir in _definitions_root().iterdir():
-        msg_dir = pkg_dir.joinpath("msg")
-        if pkg_dir.is_dir() and msg_dir.is_dir():
-            names = [f.name[:-4] for f in msg_dir.iterdir() if f.name.endswith(".msg")]
-            found += [f"{pkg_dir.name}/msg/{name}" for name in names]
+        kind_dir = pkg_dir.joinpath(kind)
+        if pkg_dir.is_dir() and kind_dir.is_dir():
+            names = [f.name[: -len(kind) - 1] for f in kind_dir.iterdir() if f.name.endswith(f".{kind}")]
+            found += [f"{pkg_dir.name}/{kind}/{name}" for name in names]
     return tuple(sorted(found))
 
 

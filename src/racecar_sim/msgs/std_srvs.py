@@ -1,30 +1,14 @@
 """``std_srvs``: Empty, the request and response of /gazebo/pause_physics, unpause_physics, reset_simulation and
-reset_world. Services travel only over the in-process bus (``bus.call``), never to a recording."""
+reset_world, made from msgs/definitions/std_srvs/srv/Empty.srv (msgs/generate.py). Services travel only over the
+in-process bus (``bus.call``) and the bridges, never to a recording."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import ClassVar
+from typing import TYPE_CHECKING
 
-from racecar_sim.msgs._base import Message
+from racecar_sim.msgs.generate import package_getattr
 
+if TYPE_CHECKING:
+    from racecar_sim.msgs.typed.std_srvs import *  # noqa: F403  # the classes' types, from the same definitions
 
-@dataclass(eq=False, repr=False, slots=True)
-class EmptyRequest(Message):
-    """std_srvs/Empty request (no fields)."""
-
-    __msgtype__: ClassVar[str] = "std_srvs/srv/Empty_Request"
-
-
-@dataclass(eq=False, repr=False, slots=True)
-class EmptyResponse(Message):
-    """std_srvs/Empty response (no fields)."""
-
-    __msgtype__: ClassVar[str] = "std_srvs/srv/Empty_Response"
-
-
-class Empty:
-    """The service type, rclpy-style: ``Empty.Request()``, ``Empty.Response()``."""
-
-    Request = EmptyRequest
-    Response = EmptyResponse
+__getattr__ = package_getattr(__name__)

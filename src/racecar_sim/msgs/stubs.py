@@ -1,4 +1,4 @@
-"""The static types of the message classes, written from the definitions into msgs/typed/ (``.pyi`` stubs).
+"""The static types of the message and service classes, written from the definitions into msgs/typed/ (``.pyi`` stubs).
 
 The classes themselves are made at run time (msgs/generate.py); the package modules import these stubs for the type
 checker only. A definition without a stub still works (its class is typed ``Any``); ``python -m
@@ -14,7 +14,7 @@ from pathlib import Path
 
 from racecar_sim.msgs.extras import EXTRAS
 from racecar_sim.msgs.generate import BYTE_TYPES, docstring
-from racecar_sim.msgs.idl import FieldSpec, available_msgtypes, get_spec
+from racecar_sim.msgs.idl import SERVICE_PARTS, FieldSpec, available_msgtypes, available_srvtypes, get_spec
 
 TYPED_DIR = Path(__file__).with_name("typed")
 """Where the stubs live: one ``<package>.pyi`` per package, and ``__init__.pyi`` re-exporting every class."""
@@ -38,20 +38,37 @@ def _annotation(spec: FieldSpec, package: str, imports: dict[str, set[str]]) -> 
     return f"list[{element}]" if spec.is_array else element
 
 
+def _doc(text: str) -> list[str]:
+    return textwrap.wrap(f'"""{text}"""', 116, initial_indent="    ", subsequent_indent="    ")
+
+
+def _service_stub(srvtype: str) -> str:
+    name = srvtype.rsplit("/", 1)[1]
+    lines = [
+        f"class {name}:",
+        *_doc(f"The service {srvtype}, rclpy-style: ``{name}.Request()``, ``{name}.Response()``."),
+    ]
+    lines += ["", "    __srvtype__: ClassVar[str]"] + [f"    {part} = {name}{part}" for part in SERVICE_PARTS]
+    return "\n".join(lines) + "\n"
+
+
 def package_stub(package: str) -> str:
-    """The ``.pyi`` text of one package's message classes."""
+    """The ``.pyi`` text of one package's message classes, and of its services and their parts."""
     imports: dict[str, set[str]] = {"racecar_sim.msgs._base": {"Message"}}
     classes = []
-    for msgtype in (t for t in available_msgtypes() if t.startswith(f"{package}/msg/")):
+    services = [t for t in available_srvtypes() if t.startswith(f"{package}/srv/")]
+    parts = [f"{srvtype}_{part}" for srvtype in services for part in SERVICE_PARTS]
+    for msgtype in [t for t in available_msgtypes() if t.startswith(f"{package}/msg/")] + parts:
         msg = get_spec(msgtype)
-        name = msgtype.rsplit("/", 1)[1]
+        name = msgtype.rsplit("/", 1)[1].replace("_", "")
         bases = "Message"
         if msgtype in EXTRAS:
             extra = EXTRAS[msgtype].__name__
             imports.setdefault("racecar_sim.msgs.extras", set()).add(extra)
             bases = f"{extra}, Message"
-        doc = textwrap.wrap(f'"""{docstring(msg)}"""', 116, initial_indent="    ", subsequent_indent="    ")
-        lines = [f"class {name}({bases}):", *doc, "", "    __msgtype__: ClassVar[str]"]
+        lines = [f"class {name}({bases}):", *_doc(docstring(msg)), "", "    __msgtype__: ClassVar[str]"]
+        if "/srv/" in msgtype:
+            lines.append("    __srvtype__: ClassVar[str]")
         lines += [f"    {const}: ClassVar[{_PYTHON.get(t, 'int')}]" for t, const, _ in msg.constants]
         annotations = [(f.name, _annotation(f, package, imports)) for f in msg.fields]
         lines += [f"    {field}: {annotation}" for field, annotation in annotations]
@@ -62,7 +79,7 @@ def package_stub(package: str) -> str:
         else:
             lines.append("    def __init__(self) -> None: ...")
         classes.append("\n".join(lines) + "\n")
-    body = "\n".join(classes)
+    body = "\n".join(classes + [_service_stub(srvtype) for srvtype in services])
     head = ["from typing import ClassVar", ""]
     if "np." in body:
         head += ["import numpy as np", *(["import numpy.typing as npt"] if "npt." in body else []), ""]
@@ -83,7 +100,7 @@ def index_stub() -> str:
 
 def stubs() -> dict[str, str]:
     """File name -> text of every stub."""
-    packages = sorted({t.split("/", 1)[0] for t in available_msgtypes()})
+    packages = sorted({t.split("/", 1)[0] for t in (*available_msgtypes(), *available_srvtypes())})
     return {"__init__.pyi": index_stub(), **{f"{p}.pyi": package_stub(p) for p in packages}}
 
 

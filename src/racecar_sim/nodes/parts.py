@@ -36,6 +36,11 @@ class Parts:
         """Parts that are all sites: role -> MuJoCo site name."""
         return cls(owner, **{role: (mujoco.mjtObj.mjOBJ_SITE, name) for role, name in names.items()})
 
+    @classmethod
+    def cameras(cls, owner: str, **names: str) -> Parts:
+        """Parts that are all cameras: role -> MuJoCo camera name."""
+        return cls(owner, **{role: (mujoco.mjtObj.mjOBJ_CAMERA, name) for role, name in names.items()})
+
     def declares(self, role: str) -> bool:
         """Whether a part of that role is declared."""
         return role in self.wanted

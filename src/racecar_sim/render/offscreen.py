@@ -214,7 +214,8 @@ class GLScene:
 
 
 class OffscreenCamera:
-    """Renders the model's camera `camera` at width x height; render() returns bottom-up RGBA rows (GL order) in
+    """Renders the model's camera of id `camera` (bound by its node: nodes/parts.py) at width x height; render() returns
+    bottom-up RGBA rows (GL order) in
     which the pixels of alpha 0 are the sky, to be painted `sky` when that is not None (GLScene.draw_rgba_later).
 
     The scene is posed from its own MjData, whose kinematics are computed from the live qpos at each render:
@@ -226,7 +227,7 @@ class OffscreenCamera:
         self,
         model: mujoco.MjModel,
         data: mujoco.MjData,
-        camera: str,
+        camera: int,
         width: int,
         height: int,
         gl: HeadlessGL | None = None,
@@ -240,20 +241,21 @@ class OffscreenCamera:
         self.gl = gl or shared_context(width, height)
         self.camera = mujoco.MjvCamera()
         self.camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
-        self.camera_name = camera
         self.option = visual_only_option()
         self.cull = True
         self.width, self.height = width, height
         self.target: GLScene | None = None
-        self.rebind(model, data)
+        self.rebind(model, data, camera)
 
-    def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        """Render a recompiled model (a model was spawned or deleted): the GL context stays, the model's meshes and
-        textures are uploaded again."""
+    def rebind(self, model: mujoco.MjModel, data: mujoco.MjData, camera: int) -> None:
+        """Render a recompiled model (a model was spawned or deleted) from its camera `camera` (its id there): the GL
+        context stays, the model's meshes and textures are uploaded again."""
+        if not 0 <= camera < model.ncam:
+            raise ValueError(f"camera id {camera} is not one of the model's {model.ncam} cameras")
         self.close()
         self.model, self.data = model, data
         self._pose = mujoco.MjData(model)
-        self.camera.fixedcamid = model.camera(self.camera_name).id
+        self.camera.fixedcamid = camera
         self.target = GLScene(model, self.width, self.height, self.gl, "run with --no-camera")
 
     @property

@@ -185,6 +185,12 @@ def _parse_camera(block: Block, mount: Mount) -> Any:
     return CameraSpec.from_sensor(block)
 
 
+def _camera_parts(spec: Any, mount: Mount) -> Parts:
+    from racecar_sim.sensors.camera import camera_parts
+
+    return camera_parts(spec, mount.names)
+
+
 def _multicamera(ctx: NodeContext, specs: Any) -> Node | None:
     from racecar_sim.core.errors import RenderingError
     from racecar_sim.sensors.multicamera import stereo_pair
@@ -208,6 +214,12 @@ def _parse_multicamera(block: Block, mount: Mount) -> Any:
 
     assert isinstance(block, Sensor)
     return stereo_specs(block)
+
+
+def _multicamera_parts(specs: Any, mount: Mount) -> Parts:
+    from racecar_sim.sensors.multicamera import stereo_parts
+
+    return stereo_parts(specs, mount.names)
 
 
 def _depth(ctx: NodeContext, spec: Any) -> Node | None:
@@ -235,6 +247,12 @@ def _parse_depth(block: Block, mount: Mount) -> Any:
     if block.plugins and ros2_dialect.is_ros2(block.plugins[0]):
         return ros2_dialect.depth_spec(block, mount.robot)
     return DepthSpec.from_sensor(block)
+
+
+def _depth_parts(depth: Any, mount: Mount) -> Parts:
+    from racecar_sim.sensors.depth_camera import depth_parts
+
+    return depth_parts(depth, mount.names)
 
 
 def _imu(ctx: NodeContext, spec: Any) -> Node:
@@ -334,10 +352,20 @@ def _gps_parts(spec: Any, mount: Mount) -> Parts:
 ROS_CONTROL = "libgazebo_ros_control.so"
 LASER = NodeKind(_laser, None, "lidar", ("libgazebo_ros_laser.so", "libgazebo_ros_gpu_laser.so"), "laser", _parse_laser)
 RANGE = NodeKind(_range, None, "", ("libgazebo_ros_range.so",), "range", _parse_range)
-CAMERA = NodeKind(_camera, _prepare_camera, "camera", ("libgazebo_ros_camera.so",), "camera", _parse_camera)
-DEPTH = NodeKind(_depth, _prepare_depth, "camera", ("libgazebo_ros_openni_kinect.so",), "depth_camera", _parse_depth)
+CAMERA = NodeKind(
+    _camera, _prepare_camera, "camera", ("libgazebo_ros_camera.so",), "camera", _parse_camera, _camera_parts
+)
+DEPTH = NodeKind(
+    _depth, _prepare_depth, "camera", ("libgazebo_ros_openni_kinect.so",), "depth_camera", _parse_depth, _depth_parts
+)
 MULTICAMERA = NodeKind(
-    _multicamera, _prepare_multicamera, "camera", ("libgazebo_ros_multicamera.so",), "multicamera", _parse_multicamera
+    _multicamera,
+    _prepare_multicamera,
+    "camera",
+    ("libgazebo_ros_multicamera.so",),
+    "multicamera",
+    _parse_multicamera,
+    _multicamera_parts,
 )
 VELODYNE = NodeKind(
     _velodyne, None, "lidar", ("libgazebo_ros_velodyne_laser.so",), "velodyne", _parse_velodyne, _ray_parts

@@ -24,11 +24,20 @@ from racecar_sim.core.rng import NoiseTable
 from racecar_sim.core.transforms import quat_from_rpy, quat_mul
 from racecar_sim.description.urdf import Robot, Sensor
 from racecar_sim.msgs import Header, Image
-from racecar_sim.nodes import NodeBase, NodeContext
+from racecar_sim.nodes import NodeBase, NodeContext, Parts
 from racecar_sim.render.offscreen import OffscreenCamera
 from racecar_sim.sensors.camera_spec import CameraSpec
 
-__all__ = ["CameraPublisher", "CameraSpec", "RenderingError", "add_camera", "add_noise", "camera_spec", "set_clip"]
+__all__ = [
+    "CameraPublisher",
+    "CameraSpec",
+    "RenderingError",
+    "add_camera",
+    "add_noise",
+    "camera_parts",
+    "camera_spec",
+    "set_clip",
+]
 
 NOISE_STREAM = "camera"
 ORIGINAL_TOPIC = "/camera/zed/rgb/image_rect_color"  # its camera keeps the original noise stream, `camera`
@@ -75,6 +84,11 @@ def add_camera(spec: mujoco.MjSpec, sensor: Sensor | CameraSpec, names: CarNames
     spec.visual.quality.offsamples = 0  # software GL: MSAA would double the cost of a frame
 
 
+def camera_parts(spec: CameraSpec, names: CarNames = CarNames(), role: str = "camera") -> Parts:
+    """A camera node's part: the MuJoCo camera add_camera puts in (the spec's, before the car's names), as `role`."""
+    return Parts.cameras(f"camera sensor '{spec.name}'", **{role: names.mj(spec.name)})
+
+
 def set_clip(model: mujoco.MjModel, near: float, far: float) -> None:
     """Clip planes in metres: MuJoCo stores them as multiples of the model's extent."""
     model.vis.map.znear = near / model.stat.extent
@@ -113,21 +127,22 @@ class CameraPublisher(NodeBase):
     `frames_rendered` (how many frames were drawn: none while nobody listens).
     """
 
-    def __init__(self, ctx: NodeContext, sensor: Sensor | CameraSpec) -> None:
+    def __init__(self, ctx: NodeContext, sensor: Sensor | CameraSpec, part: str = "camera") -> None:
         model, data, noise = ctx.model, ctx.data, ctx.noise
         own = sensor if isinstance(sensor, CameraSpec) else CameraSpec.from_sensor(sensor)  # the registry parsed it
         self.spec = named_camera_spec(own, ctx.names)
         own_topic = own.image_topic
         self.noise_stream = ctx.noise_stream(NOISE_STREAM if own_topic == ORIGINAL_TOPIC else NOISE_STREAM + own_topic)
-        if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, self.spec.name) < 0:
-            raise ValueError(
-                f"the model has no camera '{self.spec.name}': call add_camera(spec, sensor) before compiling"
-            )
+        # its MuJoCo camera (`part` of ctx.parts), bound by the car (or here, for a camera built on its own)
+        self.part = part
+        declared = ctx.parts.declares(part)
+        self.parts = ctx.parts if declared else camera_parts(own, ctx.names, part).bind(model)
+        self._owns_parts = not declared
         self.bus, self.seed = ctx.bus, ctx.seed
         self._stream_key = zlib.crc32(self.noise_stream.encode()) << 32  # mixed into the seed: cars differ
         self.noise = noise and (self.spec.noise_stddev > 0 or self.spec.noise_mean != 0)
         set_clip(model, self.spec.near, self.spec.far)
-        self.renderer = OffscreenCamera(model, data, self.spec.name, self.spec.width, self.spec.height)
+        self.renderer = OffscreenCamera(model, data, self.parts[part], self.spec.width, self.spec.height)
         self.frames_rendered = 0
         self._ahead = False
         # (stamp, drawing, its finished frame or None): the frame drawn ahead, not yet published
@@ -159,7 +174,9 @@ class CameraPublisher(NodeBase):
         """Render a recompiled model (a model was spawned or deleted): same node, schedule and noise."""
         self.flush()
         set_clip(model, self.spec.near, self.spec.far)
-        self.renderer.rebind(model, data)
+        if self._owns_parts:
+            self.parts.bind(model)
+        self.renderer.rebind(model, data, self.parts[self.part])
 
     def _tick(self, now_ns: int) -> None:
         spec = self.spec

@@ -28,9 +28,9 @@ from racecar_sim.core.names import CarNames
 from racecar_sim.core.transforms import quat_from_rpy, quat_mul
 from racecar_sim.description.urdf import Sensor
 from racecar_sim.msgs import Header, Image, PointCloud2, PointField
-from racecar_sim.nodes import Mount, NodeBase, NodeContext
+from racecar_sim.nodes import Mount, NodeBase, NodeContext, Parts
 from racecar_sim.render.offscreen import OffscreenCamera
-from racecar_sim.sensors.camera import LOOK_ALONG_X
+from racecar_sim.sensors.camera import LOOK_ALONG_X, camera_parts
 from racecar_sim.sensors.camera_spec import CameraSpec
 from racecar_sim.sensors.sensor_xml import plugin_number
 
@@ -118,6 +118,11 @@ def prepare_depth_camera(spec: mujoco.MjSpec, sensor: Sensor | DepthSpec, mount:
     buffer.offwidth, buffer.offheight = max(buffer.offwidth, cam.width), max(buffer.offheight, cam.height)
 
 
+def depth_parts(depth: DepthSpec, names: CarNames = CarNames()) -> Parts:
+    """A depth camera node's part: the MuJoCo camera prepare_depth_camera puts in, as `camera`."""
+    return camera_parts(depth.camera, names)
+
+
 class DepthCamera(NodeBase):
     """gazebo_ros_openni_kinect: colour image, depth image, their camera infos and a point cloud, while heard."""
 
@@ -126,7 +131,11 @@ class DepthCamera(NodeBase):
         parsed = sensor if isinstance(sensor, DepthSpec) else DepthSpec.from_sensor(sensor)  # the registry parsed it
         self.spec = parsed.with_names(ctx.names)
         cam = self.spec.camera
-        self.renderer = OffscreenCamera(ctx.model, ctx.data, cam.name, cam.width, cam.height)
+        # its MuJoCo camera, bound by the car (or here, for a depth camera built on its own)
+        declared = ctx.parts.declares("camera")
+        self.parts = ctx.parts if declared else depth_parts(parsed, ctx.names).bind(ctx.model)
+        self._owns_parts = not declared
+        self.renderer = OffscreenCamera(ctx.model, ctx.data, self.parts["camera"], cam.width, cam.height)
         self.frames_rendered = 0
         rows, cols = np.mgrid[0 : cam.height, 0 : cam.width]
         # per pixel, the tangents of the ray's angles off the optical axis (pinhole model of the rendered image)
@@ -209,7 +218,9 @@ class DepthCamera(NodeBase):
         )
 
     def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        self.renderer.rebind(model, data)
+        if self._owns_parts:
+            self.parts.bind(model)
+        self.renderer.rebind(model, data, self.parts["camera"])
 
     def close(self) -> None:
         self._task.cancel()

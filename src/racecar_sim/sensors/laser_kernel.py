@@ -3,9 +3,9 @@
 The same operations, in the same order, as LidarPublisher's numpy code (true range + (unit noise x stddev +
 mean), clamped to [range_min, range_max], +inf where nothing was hit), so either gives the same bits.
 
-level_scan compiles the casts of raycast/kernels.py, raycast/dense.py and raycast/solids.py
-into themselves, and numba's cache (cache=True) knows only each function's own file: after changing kernels.py,
-dense.py or solids.py in a checkout, delete src/**/__pycache__/*.nbi (an install starts afresh).
+level_scan compiles the casts of raycast/level.py, kernels.py, dense.py and solids.py into itself, and numba's cache
+(cache=True) knows only each function's own file: after changing one of them in a checkout, delete
+src/**/__pycache__/*.nbi (an install starts afresh).
 """
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from racecar_sim.sensors.raycast import dense
-from racecar_sim.sensors.raycast.kernels import Floats, Indices, cast_level, level_band
+from racecar_sim.sensors.raycast.kernels import Floats, Indices, clear_past, level_band, plane_map, stretch_of
+from racecar_sim.sensors.raycast.level import cast_level
 from racecar_sim.sensors.raycast.solids import cast_solids
 
 Noise = NDArray[np.floating]  # a NoiseTable's values
@@ -102,62 +102,37 @@ def level_scan(
     solid_types: Indices,
     solid_sizes: Floats,
     solid_rbound: Floats,
-    dense_cells: bool,
 ) -> bool:
     """A whole published scan in one call, for a laser on a free body (LaserMount) in a world of walls and moving
     solids (other cars): the ray origin and axes from the body's pose in qpos (LaserMount.pose's operations, in its
-    order), the origin's grid cell (FlatWalls; `outside`: the cell of every point outside `ids`), kernels.cast_level
-    into `ranges` (raycast.dense's cast on its tables where `dense_cells`: a map, FlatWalls.dense), then
+    order), the origin's grid cell (FlatWalls; `outside`: the cell of every point outside `ids`), level.cast_level
+    into `ranges` (raycast.dense's cast where the tables are dense_tables: a map, FlatWalls.dense), then
     solids.cast_solids on the geoms `solid_ids` at their poses xpos, xmat (an MjData posed at the live qpos),
     published_scan into `out`. Returns False, `out` untouched, where that path cannot answer (a cell with more than
     walls, or cast_level's refusals)."""
-    k, origin, axes = _laser_cell(qpos, adr, local_origin, local_axes, size, x0, y0, ids, outside)
+    origin, axes = _laser_pose(qpos, adr, local_origin, local_axes)
+    k = _cell(origin, size, x0, y0, ids, outside)
     ranges[:] = np.inf
     if k < 0:
         return False
     cell = table[:, starts[k] : starts[k + 1]]
     walls = (cell, floors, origin, axes, max_tilt_cos, angle_min, inverse_step, count, turn, range_min, range_max)
-    if not (dense.cast_level(*walls, dirs, ranges) if dense_cells else cast_level(*walls, dirs, ranges)):
+    if not cast_level(*walls, dirs, ranges):
         return False
-    if solid_ids.shape[0]:
-        _solids(
-            xpos,
-            xmat,
-            solid_ids,
-            solid_types,
-            solid_sizes,
-            solid_rbound,
-            floors,
-            origin,
-            axes,
-            max_tilt_cos,
-            angle_min,
-            inverse_step,
-            count,
-            turn,
-            range_min,
-            range_max,
-            dirs,
-            ranges,
-        )
+    if solid_ids.shape[0]:  # the band, plane map and stretch of the level scan cast_level answered
+        _, lo, hi = level_band(floors, origin, axes, max_tilt_cos, range_max)
+        plane, det = plane_map(axes)
+        solids = (xpos, xmat, solid_ids, solid_types, solid_sizes, solid_rbound, origin, axes)
+        beams = (angle_min, inverse_step, count, turn)
+        cast_solids(*solids, plane, stretch_of(plane, det), lo, hi, beams, range_min, range_max, dirs, ranges)
+        clear_past(ranges, range_max)  # upright boxes are cast as walls are: hits past range_max are none
     published_scan(ranges, values, first, second, stddev, mean, noisy, range_min, range_max, out)
     return True
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _laser_cell(
-    qpos: Floats,
-    adr: int,
-    local_origin: Floats,
-    local_axes: Floats,
-    size: float,
-    x0: int,
-    y0: int,
-    ids: NDArray[np.int64],
-    outside: int,
-) -> tuple[int, Floats, Floats]:
-    """(cell number, ray origin, sensor axes) of the laser on the free body at qpos[adr:]; cell -1 where FlatWalls
-    has no walls-only cell."""
+def _laser_pose(qpos: Floats, adr: int, local_origin: Floats, local_axes: Floats) -> tuple[Floats, Floats]:
+    """(ray origin, sensor axes) of the laser on the free body at qpos[adr:] (LaserMount.pose's operations)."""
     px, py, pz = qpos[adr], qpos[adr + 1], qpos[adr + 2]
     w, x, y, z = qpos[adr + 3], qpos[adr + 4], qpos[adr + 5], qpos[adr + 6]
     r = np.empty((3, 3))
@@ -171,66 +146,13 @@ def _laser_cell(
         origin[i] = p[i] + (r[i, 0] * local_origin[0] + r[i, 1] * local_origin[1] + r[i, 2] * local_origin[2])
         for j in range(3):
             axes[i, j] = r[i, 0] * local_axes[0, j] + r[i, 1] * local_axes[1, j] + r[i, 2] * local_axes[2, j]
+    return origin, axes
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _cell(origin: Floats, size: float, x0: int, y0: int, ids: NDArray[np.int64], outside: int) -> int:
+    """The FlatWalls cell number of `origin`; -1 where FlatWalls has no walls-only cell."""
     ix, iy = math.floor(origin[0] / size) - x0, math.floor(origin[1] / size) - y0
     if ix < 0 or iy < 0 or ix >= ids.shape[0] or iy >= ids.shape[1]:
-        return outside, origin, axes
-    return ids[ix, iy], origin, axes
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def _solids(
-    xpos: Floats,
-    xmat: Floats,
-    ids: Indices,
-    types: Indices,
-    sizes: Floats,
-    rbound: Floats,
-    floors: Floats,
-    origin: Floats,
-    rotation: Floats,
-    max_tilt_cos: float,
-    angle_min: float,
-    inverse_step: float,
-    count: int,
-    turn: float,
-    range_min: float,
-    range_max: float,
-    dirs: Floats,
-    ranges: Floats,
-) -> None:
-    """solids.cast_solids for a level scan (one cast_level answered): its band, plane map and stretch here."""
-    _, lo, hi = level_band(floors, origin, rotation, max_tilt_cos, range_max)
-    e1x, e2x, e1y, e2y = rotation[0, 0], rotation[0, 1], rotation[1, 0], rotation[1, 1]
-    det = e1x * e2y - e2x * e1y
-    p00, p01, p10, p11 = e2y / det, -e2x / det, -e1y / det, e1x / det
-    squares = p00 * p00 + p01 * p01 + p10 * p10 + p11 * p11
-    inverse_det = 1.0 / det
-    stretch = math.sqrt(0.5 * (squares + math.sqrt(max(squares * squares - 4.0 * inverse_det * inverse_det, 0.0))))
-    cast_solids(
-        xpos,
-        xmat,
-        ids,
-        types,
-        sizes,
-        rbound,
-        origin,
-        rotation,
-        p00,
-        p01,
-        p10,
-        p11,
-        stretch,
-        lo,
-        hi,
-        angle_min,
-        inverse_step,
-        count,
-        turn,
-        range_min,
-        range_max,
-        dirs,
-        ranges,
-    )
-    for b in range(count):  # upright boxes are cast as walls are: hits past range_max are none
-        if ranges[b] > range_max:
-            ranges[b] = np.inf
+        return outside
+    return int(ids[ix, iy])

@@ -191,7 +191,6 @@ class LidarPublisher(NodeBase):
                 solids.types,
                 solids.sizes,
                 solids.rbound,
-                walls.dense,  # a map's dense cells: hidden walls dropped
             ):
                 self.scans_cast += 1
                 self.one_call_scans += 1

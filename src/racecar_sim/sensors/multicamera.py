@@ -20,9 +20,10 @@ import mujoco
 import numpy as np
 
 from racecar_sim.core.errors import DescriptionError
+from racecar_sim.core.names import CarNames
 from racecar_sim.core.transforms import compose, quat_from_rpy, quat_to_matrix
 from racecar_sim.description.urdf import Origin, Sensor
-from racecar_sim.nodes import Node, NodeBase, NodeContext
+from racecar_sim.nodes import Node, NodeBase, NodeContext, Parts
 from racecar_sim.sensors.camera_spec import CameraSpec
 from racecar_sim.sensors.sensor_xml import join_topic
 
@@ -110,8 +111,14 @@ class StereoPair(NodeBase):
             camera.close()
 
 
+def stereo_parts(specs: tuple[CameraSpec, ...], names: CarNames = CarNames()) -> Parts:
+    """A multicamera's parts: the MuJoCo camera of each spec, as camera0, camera1, ..."""
+    owner = f"multicamera '{specs[0].name}'" if specs else "multicamera"
+    return Parts.cameras(owner, **{f"camera{i}": names.mj(spec.name) for i, spec in enumerate(specs)})
+
+
 def stereo_pair(ctx: NodeContext, specs: tuple[CameraSpec, ...]) -> StereoPair:
-    """The node of a multicamera block: a camera node per spec (sensors/camera.py)."""
+    """The node of a multicamera block: a camera node per spec (sensors/camera.py), each rendering its part."""
     from racecar_sim.sensors.camera import CameraPublisher
 
-    return StereoPair([CameraPublisher(ctx, spec) for spec in specs])
+    return StereoPair([CameraPublisher(ctx, spec, f"camera{i}") for i, spec in enumerate(specs)])

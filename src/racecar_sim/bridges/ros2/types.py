@@ -61,7 +61,7 @@ def sources(packages: tuple[str, ...] = PACKAGES) -> dict[str, dict[str, str]]:
     for package in packages:
         files: dict[str, str] = {}
         for root in (sim, ros2):  # the ROS 2 definitions win
-            for kind in ("msg", "srv"):
+            for kind in ("msg", "srv") if root == ros2 else ("msg",):  # the sim's services are ROS 1's (gazebo_ros)
                 folder = root / package / kind
                 for path in sorted(folder.glob(f"*.{kind}")) if folder.is_dir() else ():
                     rel = f"{kind}/{path.name}"

@@ -88,3 +88,180 @@ class ModelStates(Message):
         pose: list[Pose] = ...,
         twist: list[Twist] = ...,
     ) -> None: ...
+
+class DeleteModelRequest(Message):
+    """gazebo_msgs/DeleteModel request."""
+
+    __msgtype__: ClassVar[str]
+    __srvtype__: ClassVar[str]
+    model_name: str
+    def __init__(
+        self,
+        model_name: str = ...,
+    ) -> None: ...
+
+class DeleteModelResponse(Message):
+    """gazebo_msgs/DeleteModel response."""
+
+    __msgtype__: ClassVar[str]
+    __srvtype__: ClassVar[str]
+    success: bool
+    status_message: str
+    def __init__(
+        self,
+        success: bool = ...,
+        status_message: str = ...,
+    ) -> None: ...
+
+class GetModelStateRequest(Message):
+    """gazebo_msgs/GetModelState request: the model, and the entity whose frame the answer is in ("" = world)."""
+
+    __msgtype__: ClassVar[str]
+    __srvtype__: ClassVar[str]
+    model_name: str
+    relative_entity_name: str
+    def __init__(
+        self,
+        model_name: str = ...,
+        relative_entity_name: str = ...,
+    ) -> None: ...
+
+class GetModelStateResponse(Message):
+    """gazebo_msgs/GetModelState response: header.stamp is the sim time, header.frame_id the relative entity."""
+
+    __msgtype__: ClassVar[str]
+    __srvtype__: ClassVar[str]
+    header: Header
+    pose: Pose
+    twist: Twist
+    success: bool
+    status_message: str
+    def __init__(
+        self,
+        header: Header = ...,
+        pose: Pose = ...,
+        twist: Twist = ...,
+        success: bool = ...,
+        status_message: str = ...,
+    ) -> None: ...
+
+class GetWorldPropertiesRequest(Message):
+    """gazebo_msgs/GetWorldProperties request (no fields)."""
+
+    __msgtype__: ClassVar[str]
+    __srvtype__: ClassVar[str]
+    def __init__(self) -> None: ...
+
+class GetWorldPropertiesResponse(Message):
+    """gazebo_msgs/GetWorldProperties response: sim time (s) and the models in the world."""
+
+    __msgtype__: ClassVar[str]
+    __srvtype__: ClassVar[str]
+    sim_time: float
+    model_names: list[str]
+    rendering_enabled: bool
+    success: bool
+    status_message: str
+    def __init__(
+        self,
+        sim_time: float = ...,
+        model_names: list[str] = ...,
+        rendering_enabled: bool = ...,
+        success: bool = ...,
+        status_message: str = ...,
+    ) -> None: ...
+
+class SetModelStateRequest(Message):
+    """gazebo_msgs/SetModelState request."""
+
+    __msgtype__: ClassVar[str]
+    __srvtype__: ClassVar[str]
+    model_state: ModelState
+    def __init__(
+        self,
+        model_state: ModelState = ...,
+    ) -> None: ...
+
+class SetModelStateResponse(Message):
+    """gazebo_msgs/SetModelState response."""
+
+    __msgtype__: ClassVar[str]
+    __srvtype__: ClassVar[str]
+    success: bool
+    status_message: str
+    def __init__(
+        self,
+        success: bool = ...,
+        status_message: str = ...,
+    ) -> None: ...
+
+class SpawnModelRequest(Message):
+    """gazebo_msgs/SpawnModel request (spawn_urdf_model: a URDF; spawn_sdf_model: an SDF model)."""
+
+    __msgtype__: ClassVar[str]
+    __srvtype__: ClassVar[str]
+    model_name: str
+    model_xml: str
+    robot_namespace: str
+    initial_pose: Pose
+    reference_frame: str
+    def __init__(
+        self,
+        model_name: str = ...,
+        model_xml: str = ...,
+        robot_namespace: str = ...,
+        initial_pose: Pose = ...,
+        reference_frame: str = ...,
+    ) -> None: ...
+
+class SpawnModelResponse(Message):
+    """gazebo_msgs/SpawnModel response."""
+
+    __msgtype__: ClassVar[str]
+    __srvtype__: ClassVar[str]
+    success: bool
+    status_message: str
+    def __init__(
+        self,
+        success: bool = ...,
+        status_message: str = ...,
+    ) -> None: ...
+
+class DeleteModel:
+    """The service gazebo_msgs/srv/DeleteModel, rclpy-style: ``DeleteModel.Request()``,
+    ``DeleteModel.Response()``."""
+
+    __srvtype__: ClassVar[str]
+    Request = DeleteModelRequest
+    Response = DeleteModelResponse
+
+class GetModelState:
+    """The service gazebo_msgs/srv/GetModelState, rclpy-style: ``GetModelState.Request()``,
+    ``GetModelState.Response()``."""
+
+    __srvtype__: ClassVar[str]
+    Request = GetModelStateRequest
+    Response = GetModelStateResponse
+
+class GetWorldProperties:
+    """The service gazebo_msgs/srv/GetWorldProperties, rclpy-style: ``GetWorldProperties.Request()``,
+    ``GetWorldProperties.Response()``."""
+
+    __srvtype__: ClassVar[str]
+    Request = GetWorldPropertiesRequest
+    Response = GetWorldPropertiesResponse
+
+class SetModelState:
+    """The service gazebo_msgs/srv/SetModelState, rclpy-style: ``SetModelState.Request()``,
+    ``SetModelState.Response()``."""
+
+    __srvtype__: ClassVar[str]
+    Request = SetModelStateRequest
+    Response = SetModelStateResponse
+
+class SpawnModel:
+    """The service gazebo_msgs/srv/SpawnModel, rclpy-style: ``SpawnModel.Request()``, ``SpawnModel.Response()``."""
+
+    __srvtype__: ClassVar[str]
+    Request = SpawnModelRequest
+    Response = SpawnModelResponse

@@ -98,11 +98,11 @@ class RayCaster:
         if mode == "auto" and not self._has_moving and not self.static.not_prism_like:
             table = self.grid.cell(origin[0], origin[1]).walls_only()
             if table is not None:  # walls only near the sensor: one compiled call, unless it needs the general path
-                from racecar_sim.sensors.raycast import kernels
+                from racecar_sim.sensors.raycast import level  # numba: loaded by the first world with walls
 
                 fan = self.fan
                 ranges = np.full(fan.count, np.inf)
-                if kernels.cast_level(
+                if level.cast_level(
                     table,
                     self.static.floors,
                     origin,
@@ -149,7 +149,7 @@ class RayCaster:
         return ranges
 
     def level_walls(self) -> FlatWalls | None:
-        """What a compiled caller needs to cast cast()'s common case itself (kernels.cast_level on the walls of the
+        """What a compiled caller needs to cast cast()'s common case itself (level.cast_level on the walls of the
         origin's cell, then solids.cast_solids on `solids`, the moving geoms; anything it refuses goes to cast()):
         the walls-only cells, or None when no scan of this world can take that path (a moving geom that is not a
         solid, a geom that is nowhere a prism, neither walls nor solids, cells strewn too far)."""

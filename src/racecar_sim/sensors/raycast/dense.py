@@ -1,5 +1,5 @@
 """The wall cast of a map's dense cells (thousands of walls within reach): walls hidden behind nearer hits dropped
-before they are cast, with the ranges of kernels.cast_level to the last bit.
+before they are cast, with the ranges of kernels.walls_in_band to the last bit.
 
 In a dense map most walls within reach lie behind nearer ones. The fan is cut into sectors of SECTOR_BEAMS beams,
 each holding the largest range among its beams; a wall no nearer than that largest range over the sectors it may
@@ -19,27 +19,17 @@ import numpy as np
 from numba import njit
 
 from racecar_sim.sensors.raycast.kernels import (
-    CREACH2,
-    CROSS,
-    CX,
-    CY,
-    EX,
-    EY,
-    MIDX,
-    MIDY,
-    REACH2,
-    TWO_SIDED,
-    X0,
-    X1,
-    Y0,
-    Y1,
     ZHI,
     ZLO,
+    Beams,
     Floats,
+    Plane,
+    facing,
     hit_wall,
-    level_band,
-    partly_covered,
+    in_plane,
+    nearest_point,
     wall_table,
+    within_reach,
 )
 
 # the rows a dense table adds to a wall table: ZLO_MAX, ZHI_MIN, the highest bottom and lowest top of this wall and
@@ -127,19 +117,24 @@ def _fast_angle(x: float, y: float) -> float:
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _arc(
-    q0x: float,
-    q0y: float,
-    q1x: float,
-    q1y: float,
-    cross: float,
-    angle_min: float,
-    inverse_step: float,
-    turn: float,
-) -> tuple[float, float]:
-    """Fan positions (lo, hi), in beam steps from the first beam with 0 <= lo < turn + margin, holding every beam
-    the segment q0-q1 (beam plane, origin at 0) spans, the exact cast's edge slack included; (0, inf) when its
-    short way round is in doubt (an arc near nothing or a half turn: the cheap arctangent cannot tell)."""
+def _fan_arc(angle: float, width: float, beams: Beams) -> tuple[float, float]:
+    """Fan positions (start, end), in beam steps from the first beam with 0 <= start + margin < turn, of the arc
+    `width` rad wide from `angle`, widened by the cheap arctangent's margin on each side."""
+    angle_min, inverse_step, _, turn = beams
+    first = (angle - angle_min) * inverse_step
+    while first < 0.0:  # into [0, turn): at most once for a fan starting within a turn of the angle -pi
+        first += turn
+    while first >= turn:
+        first -= turn
+    margin = _ARC_MARGIN * inverse_step
+    return first - margin, first + width * inverse_step + margin
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _arc(q0x: float, q0y: float, q1x: float, q1y: float, cross: float, beams: Beams) -> tuple[float, float]:
+    """Fan positions (start, end) holding every beam the segment q0-q1 (beam plane, origin at 0) spans, the exact
+    cast's edge slack included; (0, inf) when its short way round is in doubt (an arc near nothing or a half turn:
+    the cheap arctangent cannot tell)."""
     if not abs(cross) > _ARC_SURE * (abs(q0x) + abs(q0y)) * (abs(q1x) + abs(q1y)):
         return 0.0, np.inf
     if cross > 0.0:  # counter-clockwise from end 0 to end 1 is the short way round
@@ -149,13 +144,13 @@ def _arc(
     arc = end - start
     if arc < 0.0:
         arc += 2.0 * math.pi
-    first = (start - angle_min) * inverse_step
-    while first < 0.0:  # into [0, turn): at most once for a fan starting within a turn of the angle -pi
-        first += turn
-    while first >= turn:
-        first -= turn
-    margin = _ARC_MARGIN * inverse_step
-    return first - margin, first + arc * inverse_step + margin
+    return _fan_arc(start, arc, beams)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _piece(start: float, end: float, shift: float, count: int) -> tuple[float, float]:
+    """The part (a, b; none if a > b) on the fan's beams of the arc start..end moved by `shift` (a turn or none)."""
+    return max(start + shift, 0.0), min(end + shift, count - 1.0)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -169,23 +164,30 @@ def _sector_maxima(ranges: Floats, sectors: Floats, first: int, last: int) -> No
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _sectors_within(
+    sectors: Floats, start: float, end: float, count: int, turn: float, near: float, squared: bool
+) -> bool:
+    """Whether every sector holding a beam of the arc start..end (fan positions, once round each way) holds no range
+    above `near` (squared: a squared distance, and no range below 0)."""
+    shift = -turn
+    while start + shift <= count - 1:
+        a, b = _piece(start, end, shift, count)
+        if a <= b:
+            for k in range(int(a) // SECTOR_BEAMS, int(b) // SECTOR_BEAMS + 1):
+                top = sectors[k]
+                if not ((top >= 0.0 and top * top <= near) if squared else top <= near):
+                    return False
+        shift += turn
+    return True
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _run_hidden(
-    tx: float,
-    ty: float,
-    radius: float,
-    p00: float,
-    p01: float,
-    p10: float,
-    p11: float,
-    stretch: float,
-    angle_min: float,
-    inverse_step: float,
-    count: int,
-    turn: float,
-    sectors: Floats,
+    tx: float, ty: float, radius: float, plane: Plane, stretch: float, beams: Beams, sectors: Floats
 ) -> bool:
     """Whether every sector the circle (offset tx, ty from the origin, `radius`) may span holds no range above
     the circle's nearest distance (beam plane): then no wall inside it can lower a beam."""
+    p00, p01, p10, p11 = plane
     qx, qy = p00 * tx + p01 * ty, p10 * tx + p11 * ty
     d = math.sqrt(qx * qx + qy * qy)
     r = radius * stretch
@@ -193,128 +195,64 @@ def _run_hidden(
         return False
     near = (d - r) * (1.0 - 1e-6) - 1e-9  # below any wall's nearest in it, rounding of both included
     half = (r / d) * (0.5 * math.pi)  # >= asin(r / d)
-    first = (_fast_angle(qx, qy) - half - angle_min) * inverse_step
-    while first < 0.0:
-        first += turn
-    while first >= turn:
-        first -= turn
-    margin = _ARC_MARGIN * inverse_step
-    start, end = first - margin, first + 2.0 * half * inverse_step + margin
-    shift = -turn
-    while start + shift <= count - 1:
-        a, b = max(start + shift, 0.0), min(end + shift, count - 1.0)
-        if a <= b:
-            for k in range(int(a) // SECTOR_BEAMS, int(b) // SECTOR_BEAMS + 1):
-                if not sectors[k] <= near:
-                    return False
-        shift += turn
-    return True
+    start, end = _fan_arc(_fast_angle(qx, qy) - half, 2.0 * half, beams)
+    return _sectors_within(sectors, start, end, beams[2], beams[3], near, False)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _cast(
+def cast_dense(
     table: Floats,
     ox: float,
     oy: float,
     oz: float,
-    p00: float,
-    p01: float,
-    p10: float,
-    p11: float,
+    plane: Plane,
+    stretch: float,
     lo: float,
     hi: float,
-    angle_min: float,
-    inverse_step: float,
-    count: int,
-    turn: float,
+    beams: Beams,
     range_min: float,
     dirs: Floats,
     ranges: Floats,
 ) -> None:
-    """kernels.cast_walls' loop for a level scan of walls that cover its band, dropping hidden runs and walls (the
-    module doc); a wall not hidden is cast by kernels.hit_wall, and the maxima of the sectors it may span are
-    taken again."""
+    """kernels.walls_in_band for a level scan of walls that cover its band (a dense_table), dropping hidden runs and
+    walls (the module doc); a wall not hidden is cast by kernels.hit_wall, and the maxima of the sectors it may span
+    are taken again. `stretch`: kernels.stretch_of the plane map."""
+    _, _, count, turn = beams
     sectors = np.empty((count + SECTOR_BEAMS - 1) // SECTOR_BEAMS)
     _sector_maxima(ranges, sectors, 0, count - 1)
-    squares, det = p00 * p00 + p01 * p01 + p10 * p10 + p11 * p11, p00 * p11 - p01 * p10
-    stretch = math.sqrt(0.5 * (squares + math.sqrt(max(squares * squares - 4.0 * det * det, 0.0))))
-    stretch = stretch * (1.0 + 1e-9) + 1e-12  # the largest singular value of to_plane, rounded up
+    stretch = stretch * (1.0 + 1e-9) + 1e-12  # rounded up
     seen = np.empty(table.shape[1], np.intp)
     run_end = 0
     while run_end < table.shape[1]:
         run, run_end = run_end, int(table[RUN_END, run_end])
-        if _run_hidden(
-            table[RUN_X, run] - ox,
-            table[RUN_Y, run] - oy,
-            table[RUN_R, run],
-            p00,
-            p01,
-            p10,
-            p11,
-            stretch,
-            angle_min,
-            inverse_step,
-            count,
-            turn,
-            sectors,
-        ):
+        radius = table[RUN_R, run]
+        if _run_hidden(table[RUN_X, run] - ox, table[RUN_Y, run] - oy, radius, plane, stretch, beams, sectors):
             continue
         # the walls seen (kernels._wall_is_seen for walls covering the band), listed first without a branch per
         # wall: whether a wall is seen is hard to predict
         n = 0
         for w in range(run, run_end):
-            dx, dy = table[MIDX, w] - ox, table[MIDY, w] - oy
-            cx, cy = table[CX, w] - ox, table[CY, w] - oy
             seen[n] = w
             n += (
-                (dx * dx + dy * dy <= table[REACH2, w])
+                within_reach(table, w, ox, oy)
                 & (table[ZLO, w] <= lo)
                 & (table[ZHI, w] >= hi)
-                & (
-                    (table[CROSS, w] - ox * table[EY, w] + oy * table[EX, w] < 0.0)
-                    | (cx * cx + cy * cy <= table[CREACH2, w])
-                    | (table[TWO_SIDED, w] > 0.0)
-                )
+                & facing(table, w, ox, oy)
             )
         for i in range(n):
             w = seen[i]
-            rx0, ry0 = table[X0, w] - ox, table[Y0, w] - oy
-            rx1, ry1 = table[X1, w] - ox, table[Y1, w] - oy
-            q0x, q0y = p00 * rx0 + p01 * ry0, p10 * rx0 + p11 * ry0
-            q1x, q1y = p00 * rx1 + p01 * ry1, p10 * rx1 + p11 * ry1
-            ex, ey = q1x - q0x, q1y - q0y
-            along = min(max(-(q0x * ex + q0y * ey) / (ex * ex + ey * ey), 0.0), 1.0)
-            nx, ny = q0x + along * ex, q0y + along * ey
+            q0x, q0y, q1x, q1y = in_plane(table, w, ox, oy, plane)
+            nx, ny = nearest_point(q0x, q0y, q1x - q0x, q1y - q0y)
             # hidden if every sector it may span holds no range above its nearest point; squared, with a margin
             # (4e-9) over hit_wall's (1e-9 below) that dwarfs the rounding of hypot against a square root
             near2 = (nx * nx + ny * ny) * (1.0 - 4e-9)
-            start, end = _arc(q0x, q0y, q1x, q1y, q0x * q1y - q0y * q1x, angle_min, inverse_step, turn)
+            start, end = _arc(q0x, q0y, q1x, q1y, q0x * q1y - q0y * q1x, beams)
             if _hidden(sectors, ranges, near2, start, end, count, turn):
                 continue
-            hit_wall(
-                table,
-                w,
-                False,
-                ox,
-                oy,
-                oz,
-                p00,
-                p01,
-                p10,
-                p11,
-                0.0,
-                0.0,
-                angle_min,
-                inverse_step,
-                count,
-                turn,
-                range_min,
-                dirs,
-                ranges,
-            )
+            hit_wall(table, w, False, ox, oy, oz, plane, (0.0, 0.0), beams, range_min, dirs, ranges)
             shift = -turn  # the maxima of the sectors the arc spans, once round each way
             while start + shift <= count - 1:
-                a, b = max(start + shift, 0.0), min(end + shift, count - 1.0)
+                a, b = _piece(start, end, shift, count)
                 if a <= b:
                     _sector_maxima(ranges, sectors, int(a), int(b))
                 shift += turn
@@ -324,76 +262,15 @@ def _cast(
 def _hidden(sectors: Floats, ranges: Floats, near2: float, start: float, end: float, count: int, turn: float) -> bool:
     """Whether every beam of the arc start..end (fan positions) holds a range no greater than the square root of
     near2: by sectors, then, for a short arc, beam by beam."""
-    hidden = True
-    shift = -turn  # the arc once round each way: the parts of it on beams of the fan
-    while hidden and start + shift <= count - 1:
-        a, b = max(start + shift, 0.0), min(end + shift, count - 1.0)
-        if a <= b:
-            for k in range(int(a) // SECTOR_BEAMS, int(b) // SECTOR_BEAMS + 1):
-                top = sectors[k]
-                if not (top >= 0.0 and top * top <= near2):
-                    hidden = False
-                    break
-        shift += turn
+    hidden = _sectors_within(sectors, start, end, count, turn, near2, True)
     if hidden or end - start >= SECTOR_BEAMS:
         return hidden
     shift = -turn  # a short arc: its beams one by one
     while start + shift <= count - 1:
-        a, b = max(start + shift, 0.0), min(end + shift, count - 1.0)
+        a, b = _piece(start, end, shift, count)
         for k in range(math.ceil(a), int(b) + 1):
             top = ranges[k]
             if not (top >= 0.0 and top * top <= near2):
                 return False
         shift += turn
-    return True
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def cast_level(
-    table: Floats,
-    floors: Floats,
-    origin: Floats,
-    rotation: Floats,
-    max_tilt_cos: float,
-    angle_min: float,
-    inverse_step: float,
-    count: int,
-    turn: float,
-    range_min: float,
-    range_max: float,
-    dirs: Floats,
-    ranges: Floats,
-) -> bool:
-    """kernels.cast_level on a dense_table: the same ranges and refusals, hidden walls dropped."""
-    level, lo, hi = level_band(floors, origin, rotation, max_tilt_cos, range_max)
-    if not level:
-        return False
-    # the columns' lowest top and highest bottom from there on tell at once that no wall covers part of the band
-    if table.shape[1] and not (table[ZLO_MAX, 0] <= lo and table[ZHI_MIN, 0] >= hi):
-        if partly_covered(table, origin[0], origin[1], lo, hi):
-            return False
-    e1x, e2x, e1y, e2y = rotation[0, 0], rotation[0, 1], rotation[1, 0], rotation[1, 1]
-    det = e1x * e2y - e2x * e1y
-    _cast(
-        table,
-        origin[0],
-        origin[1],
-        origin[2],
-        e2y / det,
-        -e2x / det,
-        -e1y / det,
-        e1x / det,
-        lo,
-        hi,
-        angle_min,
-        inverse_step,
-        count,
-        turn,
-        range_min,
-        dirs,
-        ranges,
-    )
-    for b in range(count):
-        if ranges[b] > range_max:
-            ranges[b] = np.inf
     return True

@@ -32,6 +32,10 @@ class Fan:
     directions: np.ndarray = field(init=False, repr=False, compare=False)  # (2, count): cos, sin
     inverse_step: float = field(init=False, repr=False, compare=False)  # beams per radian
     turn: float = field(init=False, repr=False, compare=False)  # beam steps in a full turn
+    # the fan as the compiled casts take it: angle_min, inverse_step, count, turn, range_min, range_max, directions
+    kernel_args: tuple[float, float, int, float, float, float, np.ndarray] = field(
+        init=False, repr=False, compare=False
+    )
 
     def __post_init__(self) -> None:
         angles = self.angle_min + self.increment * np.arange(self.count)
@@ -39,6 +43,8 @@ class Fan:
         step = self.increment if self.increment > 0 else 1.0  # a one-beam fan: any positive step works
         object.__setattr__(self, "inverse_step", 1.0 / step)
         object.__setattr__(self, "turn", TWO_PI / step)
+        kernel_args = (self.angle_min, self.inverse_step, self.count, self.turn, self.range_min, self.range_max)
+        object.__setattr__(self, "kernel_args", (*kernel_args, self.directions))
 
 
 class ScanFrame:

@@ -67,7 +67,7 @@ class Cell:
 
     def walls_only(self) -> np.ndarray | None:
         """The kernels' table of this cell's walls if walls are all it holds (no circles, no bounding cylinders),
-        for kernels.cast_level; else None."""
+        for level.cast_level; else None."""
         if (
             self._walls_only is None
             and self.segments.shape[1]

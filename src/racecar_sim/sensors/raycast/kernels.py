@@ -28,6 +28,10 @@ _CULL_SLACK = 1.0 + 1e-9  # the reach tests only cull: a wall kept too many chan
 Floats = NDArray[np.float64]
 Indices = NDArray[np.intp]
 Flags = NDArray[np.bool_]
+# a fan as the kernels pass it on: (angle_min, inverse_step, count, turn) (fan.Fan's fields)
+Beams = tuple[float, float, int, float]
+# ScanFrame.to_plane's entries (p00, p01, p10, p11): horizontal offsets into the beam plane
+Plane = tuple[float, float, float, float]
 
 
 def wall_table(segments: np.ndarray, range_min: float, range_max: float) -> np.ndarray:
@@ -58,27 +62,73 @@ def wall_table(segments: np.ndarray, range_min: float, range_max: float) -> np.n
     )
 
 
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def within_reach(table: Floats, w: int, ox: float, oy: float) -> bool:
+    """Whether a beam from (ox, oy) may reach wall w (its middle within half its length plus range_max)."""
+    dx, dy = table[MIDX, w] - ox, table[MIDY, w] - oy
+    return dx * dx + dy * dy <= table[REACH2, w]
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def facing(table: Floats, w: int, ox: float, oy: float) -> bool:
+    """Whether wall w may be a first hit from (ox, oy): a ray from outside a convex solid enters through an edge
+    facing it (the origin on its outer side); one starting inside (within range_min of it) leaves through the far
+    side; a two-sided wall faces both ways."""
+    cx, cy = table[CX, w] - ox, table[CY, w] - oy
+    return (
+        (table[CROSS, w] - ox * table[EY, w] + oy * table[EX, w] < 0.0)
+        | (cx * cx + cy * cy <= table[CREACH2, w])
+        | (table[TWO_SIDED, w] > 0.0)
+    )
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def partly_within(table: Floats, w: int, lo: float, hi: float) -> bool:
+    """Whether wall w covers part of the band [lo, hi], not all of it."""
+    zlo, zhi = table[ZLO, w], table[ZHI, w]
+    return not (zlo <= lo and zhi >= hi) and zlo < hi and zhi > lo
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
 def _wall_is_seen(table: Floats, w: int, ox: float, oy: float, lo: float, hi: float, tilted: bool) -> int:
     """0: culled; 1: cast, the wall covers the band; 2: cast, a hit counts only at the heights it spans."""
-    dx, dy = table[MIDX, w] - ox, table[MIDY, w] - oy
-    if dx * dx + dy * dy > table[REACH2, w]:
+    if not within_reach(table, w, ox, oy):
         return 0
     zlo, zhi = table[ZLO, w], table[ZHI, w]
     covers = zlo <= lo and zhi >= hi
     if not covers and not (tilted and zlo < hi and zhi > lo):
         return 0
-    # a ray from outside a convex solid enters through an edge facing it (the origin on its outer side);
-    # one starting inside (within range_min of it) leaves through the far side
-    cx, cy = table[CX, w] - ox, table[CY, w] - oy
-    facing = (
-        table[CROSS, w] - ox * table[EY, w] + oy * table[EX, w] < 0.0
-        or cx * cx + cy * cy <= table[CREACH2, w]
-        or table[TWO_SIDED, w] > 0.0
-    )
-    if not facing:
+    if not facing(table, w, ox, oy):
         return 0
     return 1 if covers else 2
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def in_plane(table: Floats, w: int, ox: float, oy: float, plane: Plane) -> tuple[float, float, float, float]:
+    """The ends (q0x, q0y, q1x, q1y) of wall w in the beam plane, the origin (ox, oy) at 0."""
+    p00, p01, p10, p11 = plane
+    rx0, ry0 = table[X0, w] - ox, table[Y0, w] - oy
+    rx1, ry1 = table[X1, w] - ox, table[Y1, w] - oy
+    return p00 * rx0 + p01 * ry0, p10 * rx0 + p11 * ry0, p00 * rx1 + p01 * ry1, p10 * rx1 + p11 * ry1
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def nearest_point(q0x: float, q0y: float, ex: float, ey: float) -> tuple[float, float]:
+    """The point of the segment from (q0x, q0y) along (ex, ey) nearest the origin."""
+    along = -(q0x * ex + q0y * ey) / (ex * ex + ey * ey)
+    along = min(max(along, 0.0), 1.0)
+    return q0x + along * ex, q0y + along * ey
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def beam_range(lo: float, hi: float, count: int, turn: float, part: int) -> tuple[int, int]:
+    """planar._intervals: the beams (first, last; first > last: none) of fan positions lo..hi, part 0, or of their
+    part past a full turn (onto the first beams), part 1."""
+    if part == 0:
+        return max(math.ceil(lo - INDEX_SLACK), 0), min(math.floor(hi + INDEX_SLACK), count - 1)
+    if hi + INDEX_SLACK < turn:
+        return 0, -1
+    return 0, min(math.floor(hi - turn + INDEX_SLACK), count - 1)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -89,25 +139,17 @@ def hit_wall(
     ox: float,
     oy: float,
     oz: float,
-    p00: float,
-    p01: float,
-    p10: float,
-    p11: float,
-    rz0: float,
-    rz1: float,
-    angle_min: float,
-    inverse_step: float,
-    count: int,
-    turn: float,
+    plane: Plane,
+    rz: tuple[float, float],
+    beams: Beams,
     range_min: float,
     dirs: Floats,
     ranges: Floats,
 ) -> None:
-    """Lower `ranges` to the beams' hits on wall w (spans: only where the hit lies within its heights)."""
-    rx0, ry0 = table[X0, w] - ox, table[Y0, w] - oy
-    rx1, ry1 = table[X1, w] - ox, table[Y1, w] - oy
-    q0x, q0y = p00 * rx0 + p01 * ry0, p10 * rx0 + p11 * ry0
-    q1x, q1y = p00 * rx1 + p01 * ry1, p10 * rx1 + p11 * ry1
+    """Lower `ranges` to the beams' hits on wall w (spans: only where the hit lies within its heights, the beam
+    directions' world z being rz . dirs)."""
+    angle_min, inverse_step, count, turn = beams
+    q0x, q0y, q1x, q1y = in_plane(table, w, ox, oy, plane)
     a0 = (math.atan2(q0y, q0x) - angle_min) * inverse_step
     a1 = (math.atan2(q1y, q1x) - angle_min) * inverse_step
     lo, hi = min(a0, a1), max(a0, a1)
@@ -117,27 +159,43 @@ def hit_wall(
     ex, ey = q1x - q0x, q1y - q0y
     # no hit on the wall is nearer than its nearest point: a beam already that near needs no division (walls
     # come roughly near to far, see grid.Cell, so in a map most beams of most walls are settled by this)
-    along = -(q0x * ex + q0y * ey) / (ex * ex + ey * ey)
-    along = min(max(along, 0.0), 1.0)
-    nearest = math.hypot(q0x + along * ex, q0y + along * ey) * (1.0 - 1e-9)
+    nearest = math.hypot(*nearest_point(q0x, q0y, ex, ey)) * (1.0 - 1e-9)
     zlo, zhi = table[ZLO, w], table[ZHI, w]
-    first = max(math.ceil(lo - INDEX_SLACK), 0)
-    last = min(math.floor(hi + INDEX_SLACK), count - 1)
     for part in range(2):
-        if part == 1:  # the part of the interval running past a full turn, onto the first beams
-            if hi + INDEX_SLACK < turn:
-                break
-            first, last = 0, min(math.floor(hi - turn + INDEX_SLACK), count - 1)
+        first, last = beam_range(lo, hi, count, turn, part)
         for b in range(first, last + 1):
             if ranges[b] <= nearest:
                 continue
             t = cross / (dirs[0, b] * ey - dirs[1, b] * ex)
             if t >= range_min and t < ranges[b]:
                 if spans:
-                    z = oz + t * (rz0 * dirs[0, b] + rz1 * dirs[1, b])
+                    z = oz + t * (rz[0] * dirs[0, b] + rz[1] * dirs[1, b])
                     if z < zlo or z > zhi:
                         continue
                 ranges[b] = t
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def walls_in_band(
+    table: Floats,
+    ox: float,
+    oy: float,
+    oz: float,
+    plane: Plane,
+    rz: tuple[float, float],
+    lo: float,
+    hi: float,
+    tilted: bool,
+    beams: Beams,
+    range_min: float,
+    dirs: Floats,
+    ranges: Floats,
+) -> None:
+    """cast_walls from (ox, oy, oz), the plane map and the world z of the beam axes (rz) given."""
+    for w in range(table.shape[1]):
+        seen = _wall_is_seen(table, w, ox, oy, lo, hi, tilted)
+        if seen:
+            hit_wall(table, w, seen == 2, ox, oy, oz, plane, rz, beams, range_min, dirs, ranges)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -159,39 +217,15 @@ def cast_walls(
 ) -> None:
     """Lower `ranges` (count,) to one scan's first hits on the walls of `table` seen from `origin` (3,), in the
     band [lo, hi]. Walls covering only part of the band are cast (with their heights) only if `tilted`."""
-    ox, oy, oz = origin[0], origin[1], origin[2]
-    p00, p01, p10, p11 = to_plane[0, 0], to_plane[0, 1], to_plane[1, 0], to_plane[1, 1]
-    rz0, rz1 = rotation[2, 0], rotation[2, 1]
-    for w in range(table.shape[1]):
-        seen = _wall_is_seen(table, w, ox, oy, lo, hi, tilted)
-        if seen:
-            hit_wall(
-                table,
-                w,
-                seen == 2,
-                ox,
-                oy,
-                oz,
-                p00,
-                p01,
-                p10,
-                p11,
-                rz0,
-                rz1,
-                angle_min,
-                inverse_step,
-                count,
-                turn,
-                range_min,
-                dirs,
-                ranges,
-            )
+    plane = (to_plane[0, 0], to_plane[0, 1], to_plane[1, 0], to_plane[1, 1])
+    rz = (rotation[2, 0], rotation[2, 1])
+    beams = (angle_min, inverse_step, count, turn)
+    walls_in_band(table, origin[0], origin[1], origin[2], plane, rz, lo, hi, tilted, beams, range_min, dirs, ranges)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _cast_faces(
     table: Floats,
-    polygon: Indices,
     poly_start: Indices,
     poly_edges: Indices,
     marked: Flags,
@@ -233,6 +267,14 @@ def _cast_faces(
                     ranges[b] = t
 
 
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def clear_past(ranges: Floats, range_max: float) -> None:
+    """inf for the ranges past range_max (nothing hit within it)."""
+    for b in range(ranges.shape[0]):
+        if ranges[b] > range_max:
+            ranges[b] = np.inf
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
 def cast_batch(
     table: Floats,
@@ -259,6 +301,7 @@ def cast_batch(
     """batch.BatchWallCaster's cast for worlds i (rows of origins, ...): ranges[i] lowered to its scan's hits
     on the walls and box faces, or fallback[i] set where the 2-D cast cannot answer (see batch.py)."""
     marked = np.zeros(len(poly_start) - 1, np.bool_)
+    beams = (angle_min, inverse_step, count, turn)
     for i in range(origins.shape[0]):
         ox, oy = origins[i, 0], origins[i, 1]
         lo, hi = bands[i, 0], bands[i, 1]
@@ -277,11 +320,7 @@ def cast_batch(
         marked[:] = False
         if not fall:
             for w in range(table.shape[1]):
-                zlo, zhi = table[ZLO, w], table[ZHI, w]
-                if (zlo <= lo and zhi >= hi) or not (zlo < hi and zhi > lo):
-                    continue
-                dx, dy = table[MIDX, w] - ox, table[MIDY, w] - oy
-                if dx * dx + dy * dy > table[REACH2, w]:
+                if not partly_within(table, w, lo, hi) or not within_reach(table, w, ox, oy):
                     continue
                 if table[TWO_SIDED, w] > 0.0:
                     fall = True
@@ -291,96 +330,14 @@ def cast_batch(
         fallback[i] = fall
         if fall:
             continue
-        cast_walls(
-            table,
-            origins[i],
-            to_plane[i],
-            rotations[i],
-            lo,
-            hi,
-            tilted,
-            angle_min,
-            inverse_step,
-            count,
-            turn,
-            range_min,
-            dirs,
-            ranges[i],
-        )
+        square, axes = to_plane[i], rotations[i]
+        plane, rz = (square[0, 0], square[0, 1], square[1, 0], square[1, 1]), (axes[2, 0], axes[2, 1])
+        walls_in_band(table, ox, oy, origins[i, 2], plane, rz, lo, hi, tilted, beams, range_min, dirs, ranges[i])
         if tilted:
             _cast_faces(
-                table,
-                polygon,
-                poly_start,
-                poly_edges,
-                marked,
-                origins[i],
-                rotations[i],
-                lo,
-                hi,
-                range_min,
-                dirs,
-                ranges[i],
+                table, poly_start, poly_edges, marked, origins[i], rotations[i], lo, hi, range_min, dirs, ranges[i]
             )
-        for b in range(count):
-            if ranges[i, b] > range_max:
-                ranges[i, b] = np.inf
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def cast_level(
-    table: Floats,
-    floors: Floats,
-    origin: Floats,
-    rotation: Floats,
-    max_tilt_cos: float,
-    angle_min: float,
-    inverse_step: float,
-    count: int,
-    turn: float,
-    range_min: float,
-    range_max: float,
-    dirs: Floats,
-    ranges: Floats,
-) -> bool:
-    """RayCaster.cast's common case in one call: a scan of prisms that all cover its height band. Lowers
-    `ranges` (count,) to the first hits on the walls of `table`, range_max applied, and returns True; or returns
-    False, `ranges` untouched, when the scan needs the general path (a steep scan plane, a floor in the band, a
-    wall within reach covering only part of the band). The frame is ScanFrame's, computed here."""
-    level, lo, hi = level_band(floors, origin, rotation, max_tilt_cos, range_max)
-    if not level or partly_covered(table, origin[0], origin[1], lo, hi):
-        return False
-    e1x, e2x, e1y, e2y = rotation[0, 0], rotation[0, 1], rotation[1, 0], rotation[1, 1]
-    det = e1x * e2y - e2x * e1y
-    p00, p01, p10, p11 = e2y / det, -e2x / det, -e1y / det, e1x / det
-    ox, oy, oz = origin[0], origin[1], origin[2]
-    for w in range(table.shape[1]):
-        if _wall_is_seen(table, w, ox, oy, lo, hi, False):
-            hit_wall(
-                table,
-                w,
-                False,
-                ox,
-                oy,
-                oz,
-                p00,
-                p01,
-                p10,
-                p11,
-                0.0,
-                0.0,
-                angle_min,
-                inverse_step,
-                count,
-                turn,
-                range_min,
-                dirs,
-                ranges,
-            )
-    for b in range(count):
-        if ranges[b] > range_max:
-            ranges[b] = np.inf
-    return True
+        clear_past(ranges[i], range_max)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -400,12 +357,27 @@ def level_band(
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def plane_map(rotation: Floats) -> tuple[Plane, float]:
+    """ScanFrame.to_plane of a scan with axes `rotation` (world from sensor), and its inverse's determinant (the
+    cosine of the tilt)."""
+    e1x, e2x, e1y, e2y = rotation[0, 0], rotation[0, 1], rotation[1, 0], rotation[1, 1]
+    det = e1x * e2y - e2x * e1y
+    return (e2y / det, -e2x / det, -e1y / det, e1x / det), det
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def stretch_of(plane: Plane, det: float) -> float:
+    """The largest singular value of the plane map (plane_map's pair): how much it may lengthen an offset."""
+    p00, p01, p10, p11 = plane
+    squares = p00 * p00 + p01 * p01 + p10 * p10 + p11 * p11
+    inverse_det = 1.0 / det
+    return math.sqrt(0.5 * (squares + math.sqrt(max(squares * squares - 4.0 * inverse_det * inverse_det, 0.0))))
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def partly_covered(table: Floats, ox: float, oy: float, lo: float, hi: float) -> bool:
     """Whether a wall of `table` within reach of (ox, oy) covers only part of [lo, hi]."""
     for w in range(table.shape[1]):
-        zlo, zhi = table[ZLO, w], table[ZHI, w]
-        if not (zlo <= lo and zhi >= hi) and zlo < hi and zhi > lo:
-            dx, dy = table[MIDX, w] - ox, table[MIDY, w] - oy
-            if dx * dx + dy * dy <= table[REACH2, w]:
-                return True
+        if partly_within(table, w, lo, hi) and within_reach(table, w, ox, oy):
+            return True
     return False

@@ -24,9 +24,7 @@ from llvmlite import ir
 from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
-from numpy.typing import NDArray
 
-from racecar_sim.sensors.raycast.fan import INDEX_SLACK
 from racecar_sim.sensors.raycast.kernels import (
     CREACH2,
     CROSS,
@@ -45,10 +43,12 @@ from racecar_sim.sensors.raycast.kernels import (
     Y1,
     ZHI,
     ZLO,
+    Beams,
     Floats,
     Indices,
-    _wall_is_seen,
-    hit_wall,
+    Plane,
+    beam_range,
+    walls_in_band,
 )
 from racecar_sim.sensors.raycast.scene import BOX, CAPSULE, CYLINDER, ELLIPSOID, SPHERE, VERTICAL_TOL
 
@@ -95,6 +95,38 @@ def _sphere(
     b = vx * d0 + vy * d1 + vz * d2
     c = d0 * d0 + d1 * d1 + d2 * d2 - dist_sqr
     return _quad(a, b, c)[0]
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _side(l0: float, l1: float, l2: float, w0: float, w1: float, w2: float, s0: float, s1: float, x: float) -> float:
+    """The nearer of x (-1: none) and the hit on the side of a cylinder of radius s0 and half-length s1 about the z
+    axis, of the ray from l along w (geom frame)."""
+    a = w0 * w0 + w1 * w1
+    b = w0 * l0 + w1 * l1
+    c = l0 * l0 + l1 * l1 - s0 * s0
+    sol = _quad(a, b, c)[0]
+    if sol >= 0 and abs(l2 + sol * w2) <= s1:
+        if x < 0 or sol < x:
+            x = sol
+    return x
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _cap(
+    l0: float, l1: float, l2: float, w0: float, w1: float, w2: float, s0: float, s1: float, top: bool, x: float
+) -> float:
+    """The nearer of x (-1: none) and the hits on a capsule's top (or bottom) cap: the half of the sphere of radius s0
+    around (0, 0, s1) (or -s1) beyond the side."""
+    q2 = l2 - s1 if top else l2 + s1
+    a = w0 * w0 + w1 * w1 + w2 * w2
+    b = w0 * l0 + w1 * l1 + w2 * q2
+    c = l0 * l0 + l1 * l1 + q2 * q2 - s0 * s0
+    _, r0, r1 = _quad(a, b, c)
+    for r in (r0, r1):
+        if r >= 0 and (l2 + r * w2 >= s1 if top else l2 + r * w2 <= -s1):
+            if x < 0 or r < x:
+                x = r
+    return x
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -150,40 +182,11 @@ def ray_solid(
                     if p0 * p0 + p1 * p1 <= s0 * s0:
                         if x < 0 or sol < x:
                             x = sol
-        a = w0 * w0 + w1 * w1
-        b = w0 * l0 + w1 * l1
-        c = l0 * l0 + l1 * l1 - s0 * s0
-        sol = _quad(a, b, c)[0]
-        if sol >= 0 and abs(l2 + sol * w2) <= s1:
-            if x < 0 or sol < x:
-                x = sol
-        return x
+        return _side(l0, l1, l2, w0, w1, w2, s0, s1, x)
     if kind == CAPSULE:
-        a = w0 * w0 + w1 * w1
-        b = w0 * l0 + w1 * l1
-        c = l0 * l0 + l1 * l1 - s0 * s0
-        sol = _quad(a, b, c)[0]
-        if sol >= 0 and abs(l2 + sol * w2) <= s1:
-            if x < 0 or sol < x:
-                x = sol
-        q2 = l2 - s1  # top cap
-        a = w0 * w0 + w1 * w1 + w2 * w2
-        b = w0 * l0 + w1 * l1 + w2 * q2
-        c = l0 * l0 + l1 * l1 + q2 * q2 - s0 * s0
-        _, r0, r1 = _quad(a, b, c)
-        for r in (r0, r1):
-            if r >= 0 and l2 + r * w2 >= s1:
-                if x < 0 or r < x:
-                    x = r
-        q2 = l2 + s1  # bottom cap
-        b = w0 * l0 + w1 * l1 + w2 * q2
-        c = l0 * l0 + l1 * l1 + q2 * q2 - s0 * s0
-        _, r0, r1 = _quad(a, b, c)
-        for r in (r0, r1):
-            if r >= 0 and l2 + r * w2 <= -s1:
-                if x < 0 or r < x:
-                    x = r
-        return x
+        x = _side(l0, l1, l2, w0, w1, w2, s0, s1, x)
+        x = _cap(l0, l1, l2, w0, w1, w2, s0, s1, True, x)
+        return _cap(l0, l1, l2, w0, w1, w2, s0, s1, False, x)
     # ellipsoid
     i0, i1, i2 = 1 / (s0 * s0), 1 / (s1 * s1), 1 / (s2 * s2)
     a = i0 * w0 * w0 + i1 * w1 * w1 + i2 * w2 * w2
@@ -253,65 +256,25 @@ def _footprint(
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _span(
-    qx: float, qy: float, radius: float, angle_min: float, inverse_step: float, count: int, turn: float
-) -> tuple[float, float, bool]:
-    """planar.circle_intervals for one circle (centre qx, qy in the beam plane, `radius` stretched and grown): its
-    fan positions (lo, hi), hi possibly past a full turn, and whether it holds the origin (then every beam)."""
+def _circle_span(
+    cx: float, cy: float, radius: float, ox: float, oy: float, plane: Plane, stretch: float, beams: Beams
+) -> tuple[float, float]:
+    """planar.circle_intervals for one circle (cx, cy, radius) seen from (ox, oy): its fan positions (lo, hi), hi
+    possibly past a full turn (every beam when it holds the origin). Its radius is stretched by the plane map's
+    largest singular value `stretch`, and grown."""
+    angle_min, inverse_step, count, _ = beams
+    p00, p01, p10, p11 = plane
+    tx, ty = cx - ox, cy - oy
+    qx, qy = p00 * tx + p01 * ty, p10 * tx + p11 * ty
+    r = radius * stretch * (1.0 + 1e-9) + 1e-12
     distance = math.hypot(qx, qy)
-    if distance <= radius:
-        return 0.0, count - 1.0, True
-    half = math.asin(min(radius / distance, 1.0))
+    if distance <= r:
+        return 0.0, count - 1.0
+    half = math.asin(min(r / distance, 1.0))
     start = math.atan2(qy, qx) - half - angle_min
     start = start - math.floor(start / (2.0 * math.pi)) * (2.0 * math.pi)  # np.mod into [0, 2 pi)
     lo = start * inverse_step
-    return lo, lo + 2.0 * half * inverse_step, False
-
-
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _beam_range(lo: float, hi: float, count: int, turn: float, part: int) -> tuple[int, int]:
-    """planar._intervals: the beams (first, last; first > last: none) of fan positions lo..hi, part 0, or of their
-    part past a full turn, part 1."""
-    if part == 0:
-        return max(math.ceil(lo - INDEX_SLACK), 0), min(math.floor(hi + INDEX_SLACK), count - 1)
-    if hi + INDEX_SLACK < turn:
-        return 0, -1
-    return 0, min(math.floor(hi - turn + INDEX_SLACK), count - 1)
-
-
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _mark(
-    unsure: NDArray[np.bool_],
-    cx: float,
-    cy: float,
-    r: float,
-    ox: float,
-    oy: float,
-    p00: float,
-    p01: float,
-    p10: float,
-    p11: float,
-    stretch: float,
-    angle_min: float,
-    inverse_step: float,
-    count: int,
-    turn: float,
-) -> None:
-    """Mark the beams that may meet the circle (cx, cy, r) (RayCaster's unsure beams: planar.circle_spans)."""
-    tx, ty = cx - ox, cy - oy
-    lo, hi, _ = _span(
-        p00 * tx + p01 * ty,
-        p10 * tx + p11 * ty,
-        r * stretch * (1.0 + 1e-9) + 1e-12,
-        angle_min,
-        inverse_step,
-        count,
-        turn,
-    )
-    for part in range(2):
-        first, last = _beam_range(lo, hi, count, turn, part)
-        for b in range(first, last + 1):
-            unsure[b] = True
+    return lo, lo + 2.0 * half * inverse_step
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -324,17 +287,11 @@ def cast_solids(
     rbound: Floats,
     origin: Floats,
     rotation: Floats,
-    p00: float,
-    p01: float,
-    p10: float,
-    p11: float,
+    plane: Plane,
     stretch: float,
     lo: float,
     hi: float,
-    angle_min: float,
-    inverse_step: float,
-    count: int,
-    turn: float,
+    beams: Beams,
     range_min: float,
     range_max: float,
     dirs: Floats,
@@ -342,7 +299,7 @@ def cast_solids(
 ) -> int:
     """Lower `ranges` to each beam's first hit on the solids (geoms `ids` at the poses xpos (ngeom, 3), xmat (ngeom,
     9)) at or beyond range_min, as RayCaster.cast finds it. The scan: `origin`, its axes `rotation` (world from
-    sensor), the plane map p00..p11 (ScanFrame.to_plane) and its largest singular value `stretch`, the band [lo, hi].
+    sensor), the plane map (ScanFrame.to_plane) and its largest singular value `stretch`, the band [lo, hi].
 
     RayCaster.cast's rule, beam for beam: a box standing upright (scene.VERTICAL_TOL) across the band is cast as the
     walls are, through its footprint's edges; every other solid is cast in 3-D with MuJoCo's formulas (ray_solid,
@@ -351,6 +308,7 @@ def cast_solids(
     not an upright prism, the footprint circle of one covering part of the band). Ranges past range_max are left
     for the caller to clear. Returns the number of beam-solid pairs cast in 3-D."""
     ox, oy, oz = origin[0], origin[1], origin[2]
+    _, _, count, turn = beams
     n = ids.shape[0]
     mode = np.zeros(n, np.int8)  # 0: out of reach or band, 1: upright box across the band, 2: 3-D
     unsure = np.zeros(count, np.bool_)
@@ -369,29 +327,7 @@ def cast_solids(
             cx, cy, radius = _footprint(pos, mat, size, k, range_min, range_max, table)
             if zlo <= lo and zhi >= hi:
                 mode[s] = 1
-                for w in range(4):
-                    if _wall_is_seen(table, w, ox, oy, lo, hi, False):
-                        hit_wall(
-                            table,
-                            w,
-                            False,
-                            ox,
-                            oy,
-                            oz,
-                            p00,
-                            p01,
-                            p10,
-                            p11,
-                            0.0,
-                            0.0,
-                            angle_min,
-                            inverse_step,
-                            count,
-                            turn,
-                            range_min,
-                            dirs,
-                            flat,
-                        )
+                walls_in_band(table, ox, oy, oz, plane, (0.0, 0.0), lo, hi, False, beams, range_min, dirs, flat)
             elif zlo < hi and zhi > lo:
                 mode[s] = 2
                 if math.hypot(cx - ox, cy - oy) <= radius + range_max:
@@ -408,23 +344,10 @@ def cast_solids(
             if pos[2] - half <= hi and pos[2] + half >= lo:  # else no beam reaches the solid itself
                 mode[s] = 2
         if mark_r >= 0.0:  # the beams that may meet this circle are unsure: every solid on them is cast in 3-D
-            _mark(
-                unsure,
-                mark_x,
-                mark_y,
-                mark_r,
-                ox,
-                oy,
-                p00,
-                p01,
-                p10,
-                p11,
-                stretch,
-                angle_min,
-                inverse_step,
-                count,
-                turn,
-            )
+            start, end = _circle_span(mark_x, mark_y, mark_r, ox, oy, plane, stretch, beams)
+            for part in range(2):
+                first, last = beam_range(start, end, count, turn, part)
+                unsure[first : last + 1] = True
     r00, r01, r10, r11, r20, r21 = (
         rotation[0, 0],
         rotation[0, 1],
@@ -439,18 +362,9 @@ def cast_solids(
             continue
         g, kind = ids[s], types[s]
         pos, mat, size = xpos[g], xmat[g], sizes[s]
-        tx, ty = pos[0] - ox, pos[1] - oy
-        lo_pos, hi_pos, _ = _span(
-            p00 * tx + p01 * ty,
-            p10 * tx + p11 * ty,
-            rbound[s] * stretch * (1.0 + 1e-9) + 1e-12,
-            angle_min,
-            inverse_step,
-            count,
-            turn,
-        )
+        start, end = _circle_span(pos[0], pos[1], rbound[s], ox, oy, plane, stretch, beams)
         for part in range(2):
-            first, last = _beam_range(lo_pos, hi_pos, count, turn, part)
+            first, last = beam_range(start, end, count, turn, part)
             for b in range(first, last + 1):
                 if mode[s] == 1 and not unsure[b]:
                     continue  # cast as walls are
