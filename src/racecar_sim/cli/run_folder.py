@@ -84,7 +84,7 @@ class RunFolder:
                 RunLog(
                     sim.bus,
                     car.lidar.topic if car.lidar else None,
-                    car.camera.spec.image_topic if car.camera and i == 0 else None,
+                    car.camera.spec.image_topic if car.camera and i == 0 and self.writes_summary else None,
                     odom_topic=car.topic(ODOM),
                 )
                 for i, car in enumerate(sim.cars)
@@ -114,6 +114,9 @@ class RunFolder:
         if runlog is not None and lidar is not None and runlog.last_scan is not None:
             origin, ends = lidar.beam_ends(runlog.last_scan.ranges)
             self._scan = (origin[:2], ends[:, :2])
+        camera = self.sim.car.camera
+        if runlog is not None and camera is not None and self.writes_summary:
+            runlog.take_frame(camera, self.sim.time_ns)  # the summary's frame, where none was published
 
     def __enter__(self) -> RunFolder:
         return self
