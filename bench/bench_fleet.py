@@ -45,6 +45,7 @@ import mujoco
 import numpy as np
 
 import racecar_sim
+from machine_info import machine_line
 from racecar_sim import Car, Simulator, Spawn
 from racecar_sim.core.names import NAVIGATION
 from racecar_sim.drivers import ConstantCommand
@@ -284,6 +285,7 @@ def main() -> None:
     )
     p.add_argument("--quick", action="store_true", help="1 and 2 cars, 4 on the track, 1 s, 1 round: a check it runs")
     args = p.parse_args()
+    print(machine_line(), flush=True)  # absolute figures belong to a machine
     if args.quick:
         args.cars, args.track_cars, args.duration, args.rounds, args.resets = [1, 2], 4, 1.0, 1, 20
         args.cli_cars, args.cli_duration = [2], 1.0
@@ -311,10 +313,11 @@ def main() -> None:
             )
         if args.cli_cars:
             print(
-                f"racecar-sim run --cars N --no-camera --no-video --no-summary --duration {args.cli_duration:g} "
-                f"(empty: --driver constant --speed 1; tunnel: wall-follow; track: pure-pursuit on the oval): a fresh "
-                f"process, start to exit, against bare mj_step replaying its controls from the start; the loop ratio "
-                f"leaves out what is outside the run loop; median of {args.rounds} interleaved rounds"
+                f"racecar-sim run --world empty --cars N --driver constant --speed 1 --no-camera --no-video "
+                f"--no-summary --duration {args.cli_duration:g} (tunnel: --driver wall-follow; track: the oval, "
+                f"--driver pure-pursuit): a fresh process, start to exit, against bare mj_step replaying its controls "
+                f"from the start; the loop ratio leaves out what is outside the run loop; median of {args.rounds} "
+                f"interleaved rounds"
             )
             print(
                 f"{'world':<8}{'recording':>10}{'cars':>5}{'real-time factor':>18}{'bare MuJoCo':>13}{'ratio':>7}"
