@@ -208,6 +208,33 @@ def test_a_run_log_overhears_the_camera_and_takes_its_one_frame_at_the_end():
     np.testing.assert_array_equal(pixels(quiet_log.last_image), pixels(last))
 
 
+@needs_gl
+@pytest.mark.parametrize("summary", [True, False])
+def test_a_run_with_only_its_summary_to_show_draws_one_frame_at_the_end(tmp_path, monkeypatch, summary):
+    """`racecar-sim run --no-record --no-video`: nothing takes the camera's frames while the run goes, the summary's
+    inset is drawn once at the end (as the last tick's frame: 1 s is 30 camera periods); with --no-summary, none."""
+    from racecar_sim.cli.main import main
+    from racecar_sim.runtime.run_log import RunLog
+
+    taken: list[tuple[int, int, object]] = []
+    take = RunLog.take_frame
+
+    def spy(self, camera, stamp_ns):
+        before = camera.frames_rendered
+        take(self, camera, stamp_ns)
+        taken.append((before, camera.frames_rendered, self.last_image))
+
+    monkeypatch.setattr(RunLog, "take_frame", spy)
+    args = ["run", "--world", "empty", "--duration", "1", "--no-record", "--no-video", "--out", str(tmp_path)]
+    assert main(args + ([] if summary else ["--no-summary"])) == 0
+    if not summary:
+        assert taken == [] and not (tmp_path / "summary.png").exists()
+        return
+    ((before, after, image),) = taken
+    assert (before, after) == (0, 1) and image is not None and stamp_ns(image) == 1_000_000_000
+    assert (image.height, image.width) == (HEIGHT, WIDTH) and (tmp_path / "summary.png").is_file()
+
+
 # --- pixels -----------------------------------------------------------------------------------------------------
 
 PLATES = [(3.0, 0.5, 0.6), (2.0, -0.35, 0.1), (5.0, 0.0, 0.14), (1.5, 0.5, 0.05)]  # x, y, z of plate centres, m
