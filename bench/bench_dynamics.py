@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from bench_maps import basement_like
+from machine_info import machine_line
 from racecar_sim.description import VehicleGeometry, load_robot
 from racecar_sim.description.vehicle_params import load_vehicle
 from racecar_sim.msgs import AckermannDriveStamped
@@ -148,6 +149,7 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path("docs"))
     parser.add_argument("--quick", action="store_true", help="fewer runs (a smoke test)")
     args = parser.parse_args()
+    print(machine_line(), flush=True)  # absolute figures belong to a machine
     import matplotlib
 
     matplotlib.use("Agg")

@@ -20,6 +20,7 @@ import mujoco.rollout
 import numpy as np
 
 import racecar_sim.envs  # noqa: F401  (registers the ids)
+from machine_info import machine_line
 from racecar_sim.envs import DRIVE_ID
 from racecar_sim.envs.batch import DriveBatch
 
@@ -138,6 +139,7 @@ def main() -> None:
     parser.add_argument("--world", default="walker")
     parser.add_argument("--quick", action="store_true")
     args = parser.parse_args()
+    print(machine_line(), flush=True)  # absolute figures belong to a machine
     steps = 20 if args.quick else 100
     print(f"world {args.world}, 20 Hz control, lidar on, {os.cpu_count()} CPU threads")
     print(f"{'DriveEnv x1':<28}{single(args.world, steps * 2):>12.0f} env steps/s")

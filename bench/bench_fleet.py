@@ -1,5 +1,5 @@
 """Fleets against bare MuJoCo: `python bench/bench_fleet.py [--cars 1 2 4 8] [--worlds empty tunnel] [--track-cars 30]
-[--duration 10] [--rounds 3] [--quick]`.
+[--duration 10] [--rounds 3] [--cli-cars 1 4 8] [--cli-worlds empty tunnel track] [--quick]`.
 
 Per fleet: the pipeline - physics, every node of every car, the lidar on and the camera off, a subscriber on every
 /scan (a sensor works only while someone listens), each car driven by its own driver node - and bare MuJoCo `mj_step`
@@ -13,9 +13,12 @@ one-time costs of a first scan: loading the compiled kernels, slicing the world)
 Printed per fleet: the real-time factor, bare MuJoCo's on the same model, the median of the per-round ratios
 (pipeline / bare), and car-seconds simulated per wall second (the real-time factor times N). Then the CLI as users run
 it: `racecar-sim run --world empty --cars N --driver constant --speed 1 --no-camera --no-video --no-summary
---duration D` (--cli-cars, --cli-duration; --no-record, and with the recording on), a fresh process timed from start
+--duration D` (--cli-cars, --cli-duration; --no-record, and with the recording on; --cli-worlds adds the tunnel,
+wall-follow each, and the oval track, pure-pursuit each, in the CLI's rows), a fresh process timed from start
 to exit (its start-up and one-time costs included), against bare mj_step of the same N-car model replaying the same
-run's controls from the start (recorded from the same fleet built in-process: the CLI's row, its constant command).
+run's controls from the start (recorded from the same fleet built in-process: the CLI's row, its drivers);
+beside it the loop ratio, bare MuJoCo against the run loop alone (the sim time over the real-time factor the CLI
+prints: start-up, the build and the exit left out), and the wall seconds outside the loop.
 Then the cost of `sim.reset()` for the whole stack (physics, every node's reset hook, the scheduler), averaged over
 --resets calls made after a little driving, for 1 and 4 cars in `empty`.
 
@@ -28,6 +31,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import shutil
 import statistics
 import subprocess
@@ -41,6 +45,7 @@ import mujoco
 import numpy as np
 
 import racecar_sim
+from machine_info import machine_line
 from racecar_sim import Car, Simulator, Spawn
 from racecar_sim.core.names import NAVIGATION
 from racecar_sim.drivers import ConstantCommand
@@ -101,25 +106,38 @@ def row_fleet(world: str, count: int, driver: str) -> Simulator:
     return listened(sim)
 
 
-def cli_row(count: int) -> Simulator:
-    """The fleet of `racecar-sim run --world empty --cars N --driver constant --speed 1`, built in-process: the CLI's
-    row (CAR_SPACING apart along the spawn heading), each car its own constant command, every scan listened to (the
-    run's log listens, as here)."""
-    spawns = starting_row(load_world("empty"), count)
-    sim = Simulator(world="empty", cars=[Car(f"car{k + 1}", spawn=s, camera=False) for k, s in enumerate(spawns)])
+CLI_DRIVERS = {"empty": ("constant", {"speed": 1.0}), "tunnel": ("wall-follow", {}), "track": ("pure-pursuit", {})}
+"""Each CLI world's driver and its options: a constant 1 m/s in empty, each car following its wall in the tunnel, and
+pure pursuit of the centerline on the generated oval track."""
+
+
+def cli_row(count: int, world: str = "empty") -> Simulator:
+    """The fleet of `racecar-sim run --world WORLD --cars N` with CLI_DRIVERS' driver (in empty: `--driver constant
+    --speed 1`), built in-process: the CLI's row (CAR_SPACING apart along the spawn heading, or back along a track's
+    centerline), each car its own driver, every scan listened to (the run's log listens, as here). `world`: empty,
+    tunnel or a track CSV's path."""
+    driver, options = CLI_DRIVERS[world if world in CLI_DRIVERS else "track"]
+    spawns = starting_row(load_world(world), count)
+    sim = Simulator(world=world, cars=[Car(f"car{k + 1}", spawn=s, camera=False) for k, s in enumerate(spawns)])
     for car in sim.cars:
-        attach_driver(sim, car, "constant", {"speed": 1.0})
+        attach_driver(sim, car, driver, options)
     return listened(sim)
 
 
-CLI_ARGS = ["run", "--world", "empty", "--driver", "constant", "--speed", "1", "--no-camera", "--no-video"]
+def cli_args(world: str) -> list[str]:
+    """`racecar-sim run` for `world` (empty, tunnel or a track CSV) with its CLI_DRIVERS' driver, camera and video
+    off."""
+    driver, options = CLI_DRIVERS[world if world in CLI_DRIVERS else "track"]
+    args = ["run", "--world", world, "--driver", driver, "--no-camera", "--no-video"]
+    return args + [item for name, value in options.items() for item in (f"--{name}", f"{value:g}")]
 
 
-def cli_seconds(count: int, duration: float, record: bool, folder: Path) -> float:
-    """Wall seconds of `racecar-sim run` with `count` cars for `duration` sim s, a fresh process from start to exit."""
+def cli_seconds(count: int, duration: float, record: bool, folder: Path, world: str = "empty") -> tuple[float, float]:
+    """Wall seconds of `racecar-sim run` with `count` cars for `duration` sim s in `world`, a fresh process from start
+    to exit, and those of its run loop alone (the sim time over the real-time factor it prints)."""
     out = folder / "cli-run"
     shutil.rmtree(out, ignore_errors=True)
-    args = [*CLI_ARGS, "--cars", str(count), "--duration", f"{duration:g}", "--no-summary", "--out", str(out)]
+    args = [*cli_args(world), "--cars", str(count), "--duration", f"{duration:g}", "--no-summary", "--out", str(out)]
     if not record:
         args.append("--no-record")
     code = "import sys; from racecar_sim.cli.main import main; sys.argv[0] = 'racecar-sim'; sys.exit(main())"
@@ -128,23 +146,38 @@ def cli_seconds(count: int, duration: float, record: bool, folder: Path) -> floa
     wall = time.perf_counter() - start
     if result.returncode != 0:
         raise RuntimeError(f"racecar-sim {' '.join(args)} failed: {result.stderr.strip()[-2000:]}")
-    return wall
+    printed = re.search(r"real-time factor\s+([0-9.]+)x", result.stdout)
+    if printed is None:
+        raise RuntimeError(f"racecar-sim {' '.join(args)} printed no real-time factor:\n{result.stdout}")
+    return wall, duration / float(printed.group(1))
 
 
-def measure_cli(count: int, duration: float, rounds: int, record: bool, folder: Path) -> dict[str, float]:
-    """The CLI's real-time factor (start-up included), bare MuJoCo's on its model and the median per-round ratio."""
-    controls = recorded_controls(lambda: cli_row(count), duration)
-    sim = cli_row(count)
+def measure_cli(
+    count: int, duration: float, rounds: int, record: bool, folder: Path, world: str = "empty"
+) -> dict[str, float]:
+    """The CLI's real-time factor (start-up included), bare MuJoCo's on its model, the median per-round ratio, that
+    of the run loop alone (start-up, the one-time costs before the loop and the exit left out) and the seconds
+    outside the loop."""
+    controls = recorded_controls(lambda: cli_row(count, world), duration)
+    sim = cli_row(count, world)
     model = sim.model
     sim.close()
-    cli, bare, ratio = [], [], []
+    cli, bare, ratio, loop, outside = [], [], [], [], []
     for _ in range(rounds):
-        wall = cli_seconds(count, duration, record, folder)
+        wall, loop_wall = cli_seconds(count, duration, record, folder, world)
         bare_wall = bare_seconds(model, controls, 0)
         cli.append(duration / wall)
         bare.append(duration / bare_wall)
         ratio.append(bare_wall / wall)
-    return {"rtf": statistics.median(cli), "bare": statistics.median(bare), "ratio": statistics.median(ratio)}
+        loop.append(bare_wall / loop_wall)
+        outside.append(wall - loop_wall)
+    return {
+        "rtf": statistics.median(cli),
+        "bare": statistics.median(bare),
+        "ratio": statistics.median(ratio),
+        "loop": statistics.median(loop),
+        "outside": statistics.median(outside),
+    }
 
 
 def recorded_controls(make: Make, duration: float) -> list[tuple[int, np.ndarray]]:
@@ -243,8 +276,16 @@ def main() -> None:
         "--cli-cars", type=int, nargs="*", default=[1, 4, 8], help="fleet sizes run by the CLI (default 1 4 8)"
     )
     p.add_argument("--cli-duration", type=float, default=60.0, help="sim seconds of each CLI run (default 60)")
+    p.add_argument(
+        "--cli-worlds",
+        nargs="*",
+        default=["empty"],
+        choices=("empty", "tunnel", "track"),
+        help="worlds of the CLI runs (default empty; track: the generated oval)",
+    )
     p.add_argument("--quick", action="store_true", help="1 and 2 cars, 4 on the track, 1 s, 1 round: a check it runs")
     args = p.parse_args()
+    print(machine_line(), flush=True)  # absolute figures belong to a machine
     if args.quick:
         args.cars, args.track_cars, args.duration, args.rounds, args.resets = [1, 2], 4, 1.0, 1, 20
         args.cli_cars, args.cli_duration = [2], 1.0
@@ -273,18 +314,25 @@ def main() -> None:
         if args.cli_cars:
             print(
                 f"racecar-sim run --world empty --cars N --driver constant --speed 1 --no-camera --no-video "
-                f"--no-summary --duration {args.cli_duration:g}: a fresh process, start to exit, against bare mj_step "
-                f"replaying its controls from the start; median of {args.rounds} interleaved rounds"
+                f"--no-summary --duration {args.cli_duration:g} (tunnel: --driver wall-follow; track: the oval, "
+                f"--driver pure-pursuit): a fresh process, start to exit, against bare mj_step replaying its controls "
+                f"from the start; the loop ratio leaves out what is outside the run loop; median of {args.rounds} "
+                f"interleaved rounds"
             )
-            print(f"{'recording':<10}{'cars':>5}{'real-time factor':>18}{'bare MuJoCo':>13}{'ratio':>7}")
-            for record in (False, True):
-                for count in args.cli_cars:
-                    r = measure_cli(count, args.cli_duration, args.rounds, record, Path(folder))
-                    print(
-                        f"{'on' if record else 'off':<10}{count:>5}{r['rtf']:>17.1f}x{r['bare']:>12.1f}x"
-                        f"{r['ratio']:>7.2f}",
-                        flush=True,
-                    )
+            print(
+                f"{'world':<8}{'recording':>10}{'cars':>5}{'real-time factor':>18}{'bare MuJoCo':>13}{'ratio':>7}"
+                f"{'loop ratio':>12}{'outside loop':>14}"
+            )
+            for world in args.cli_worlds:
+                where = str(oval_track(Path(folder) / "cli-oval.csv")) if world == "track" else world
+                for record in (False, True):
+                    for count in args.cli_cars:
+                        r = measure_cli(count, args.cli_duration, args.rounds, record, Path(folder), where)
+                        print(
+                            f"{world:<8}{'on' if record else 'off':>10}{count:>5}{r['rtf']:>17.1f}x"
+                            f"{r['bare']:>12.1f}x{r['ratio']:>7.2f}{r['loop']:>12.2f}{r['outside']:>12.2f} s",
+                            flush=True,
+                        )
     print(f"sim.reset() in empty, lidar on, camera off, mean of {args.resets} calls")
     for count in args.reset_cars:
         cost = reset_cost(count, args.resets)

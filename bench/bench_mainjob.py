@@ -20,6 +20,8 @@ import subprocess
 import sys
 import tempfile
 
+from machine_info import machine_line
+
 JOBS = {
     "main job (camera, noise, MCAP, video)": [],
     "no recording": ["--no-record"],
@@ -64,6 +66,7 @@ def main() -> None:
     p.add_argument("--compare", metavar="SRC", help="also run the jobs with PYTHONPATH=SRC (the code before)")
     p.add_argument("--jobs", nargs="*", choices=range(len(JOBS)), type=int, help="job indexes (default all)")
     args = p.parse_args()
+    print(machine_line(), flush=True)  # absolute figures belong to a machine
     names = [n for i, n in enumerate(JOBS) if args.jobs is None or i in args.jobs or n == BARE]
     sides = {"new": os.environ.get("PYTHONPATH")} | ({"old": args.compare} if args.compare else {})
     rates: dict[tuple[str, str], list[float]] = {(s, n): [] for s in sides for n in names}

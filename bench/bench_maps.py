@@ -28,6 +28,7 @@ import yaml
 
 import racecar_sim
 from bench_scaling import CLOCKS, pipeline_rate, step_us
+from machine_info import machine_line
 from map_files import write_map
 from racecar_sim import Simulator
 from racecar_sim.worlds import load_world
@@ -134,6 +135,7 @@ def main() -> None:
         help="cpu: this process's CPU time (default; steady on a shared machine), wall: elapsed time",
     )
     args = p.parse_args()
+    print(machine_line(), flush=True)  # absolute figures belong to a machine
     print(
         f"racecar_sim from {Path(racecar_sim.__file__).parent}; lidar pipeline, camera off, {args.duration:g} sim s "
         f"per measurement, medians of {args.rounds} interleaved rounds, {args.clock} time"

@@ -25,6 +25,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from machine_info import machine_line
 from racecar_sim.bus import Bus
 from racecar_sim.drivers import WallFollower
 from racecar_sim.runtime import Simulator
@@ -181,6 +182,7 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=3, help="interleaved pipeline/bare rounds (default 3)")
     parser.add_argument("--worlds", nargs="+", default=list(WORLDS))
     args = parser.parse_args()
+    print(machine_line(), flush=True)  # absolute figures belong to a machine
     print(
         f"lidar pipeline (camera off, wall-follow) vs bare mj_step; {args.duration:g} sim s, "
         f"median of {args.rounds} interleaved rounds"

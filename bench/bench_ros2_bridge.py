@@ -21,6 +21,7 @@ import sys
 import textwrap
 import time
 
+from machine_info import machine_line
 from racecar_sim import Simulator
 from racecar_sim.bridges.ros2 import Ros2Bridge, Ros2Unavailable, ros2_environment
 from racecar_sim.bridges.ros2.environment import ros2_python
@@ -109,6 +110,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rounds", type=int, default=4, help="turns of each sim, in ABBA order (default 4)")
     parser.add_argument("--quick", action="store_true", help="only check that it runs: 1 round of 0.5 s")
     args = parser.parse_args(argv)
+    print(machine_line(), flush=True)  # absolute figures belong to a machine
     if args.quick:
         args.duration, args.rounds = 0.5, 1
     try:

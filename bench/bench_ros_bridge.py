@@ -22,6 +22,7 @@ import textwrap
 import time
 from pathlib import Path
 
+from machine_info import machine_line
 from racecar_sim import Simulator
 from racecar_sim.bridges.ros1 import RosBridge, ros_python
 from racecar_sim.bridges.ros1.environment import message_path, ros_environment
@@ -123,6 +124,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--quick", action="store_true", help="only check that it runs: 1 round of 0.5 s")
     parser.add_argument("--ros2", action="store_true", help="the ROS 2 bridge instead (bench_ros2_bridge.py)")
     args = parser.parse_args(argv)
+    print(machine_line(), flush=True)  # absolute figures belong to a machine
     if args.ros2:
         sys.path.insert(0, str(Path(__file__).parent))
         from bench_ros2_bridge import main as ros2_main

@@ -33,6 +33,7 @@ import mujoco
 import numpy as np
 
 import racecar_sim
+from machine_info import machine_line
 from racecar_sim import Car, Simulator, Spawn
 from racecar_sim.core.names import NAVIGATION
 from racecar_sim.description import DEFAULT_XACRO
@@ -182,6 +183,7 @@ def main() -> None:
         help="cpu: this process's CPU time (default; steady on a shared machine), wall: elapsed time",
     )
     args = p.parse_args()
+    print(machine_line(), flush=True)  # absolute figures belong to a machine
     print(
         f"racecar_sim from {Path(racecar_sim.__file__).parent}; lidar pipeline, camera off, {args.duration:g} sim s "
         f"per measurement, medians of {args.rounds} interleaved rounds, {args.clock} time"

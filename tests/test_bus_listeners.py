@@ -25,3 +25,19 @@ def test_tap_with_wants_decides_has_listeners() -> None:
     plain()
     remove()
     assert not bus.has_listeners("/scan")
+
+
+def test_an_overhearing_subscriber_gets_what_others_make_published_and_counts_for_nobody() -> None:
+    bus = Bus()
+    heard: list[float] = []
+    sub = bus.overhear("/camera/image", lambda m: heard.append(m.data))
+    assert not bus.has_listeners("/camera/image")  # alone, it makes nothing be published
+    listener = bus.subscribe("/camera/image", lambda m: None)
+    assert bus.has_listeners("/camera/image")
+    bus.publish("/camera/image", Float64(2.0))
+    assert heard == [2.0]  # what is published for another reaches it too
+    listener.unsubscribe()
+    assert not bus.has_listeners("/camera/image")
+    sub.unsubscribe()
+    bus.publish("/camera/image", Float64(3.0))
+    assert heard == [2.0]

@@ -188,6 +188,53 @@ def test_nothing_is_rendered_while_nobody_listens_and_the_schedule_holds():
     assert all(np.array_equal(a.data, b.data) for a, b in zip(quiet_log[IMAGE], busy_log[IMAGE][30:]))
 
 
+@needs_gl
+def test_a_run_log_overhears_the_camera_and_takes_its_one_frame_at_the_end():
+    from racecar_sim.drivers import ConstantCommand
+    from racecar_sim.runtime.run_log import RunLog
+
+    quiet, busy = camera_sim(seed=3), camera_sim(seed=3)
+    for sim in (quiet, busy):
+        ConstantCommand(sim.bus, sim.scheduler, 1.0, 0.3)  # the view changes from frame to frame
+    quiet_log = RunLog(quiet.bus, None, IMAGE)
+    busy_log = Log(busy, IMAGE)
+    quiet.run_until(1.0)
+    busy.run_until(1.0)
+    assert quiet.car.camera.frames_rendered == 0 and quiet.bus.count(IMAGE) == 0  # its log alone wants no frame
+    quiet_log.take_frame(quiet.car.camera, quiet.time_ns)
+    last = busy_log[IMAGE][-1]  # the frame the camera's last tick (at 1.0 s, the 30th) published
+    assert quiet.car.camera.frames_rendered == 1 and stamp_ns(last) == quiet.time_ns
+    assert quiet_log.last_image is not None and not np.array_equal(last.data, busy_log[IMAGE][-2].data)
+    np.testing.assert_array_equal(pixels(quiet_log.last_image), pixels(last))
+
+
+@needs_gl
+@pytest.mark.parametrize("summary", [True, False])
+def test_a_run_with_only_its_summary_to_show_draws_one_frame_at_the_end(tmp_path, monkeypatch, summary):
+    """`racecar-sim run --no-record --no-video`: nothing takes the camera's frames while the run goes, the summary's
+    inset is drawn once at the end (as the last tick's frame: 1 s is 30 camera periods); with --no-summary, none."""
+    from racecar_sim.cli.main import main
+    from racecar_sim.runtime.run_log import RunLog
+
+    taken: list[tuple[int, int, object]] = []
+    take = RunLog.take_frame
+
+    def spy(self, camera, stamp_ns):
+        before = camera.frames_rendered
+        take(self, camera, stamp_ns)
+        taken.append((before, camera.frames_rendered, self.last_image))
+
+    monkeypatch.setattr(RunLog, "take_frame", spy)
+    args = ["run", "--world", "empty", "--duration", "1", "--no-record", "--no-video", "--out", str(tmp_path)]
+    assert main(args + ([] if summary else ["--no-summary"])) == 0
+    if not summary:
+        assert taken == [] and not (tmp_path / "summary.png").exists()
+        return
+    ((before, after, image),) = taken
+    assert (before, after) == (0, 1) and image is not None and stamp_ns(image) == 1_000_000_000
+    assert (image.height, image.width) == (HEIGHT, WIDTH) and (tmp_path / "summary.png").is_file()
+
+
 # --- pixels -----------------------------------------------------------------------------------------------------
 
 PLATES = [(3.0, 0.5, 0.6), (2.0, -0.35, 0.1), (5.0, 0.0, 0.14), (1.5, 0.5, 0.05)]  # x, y, z of plate centres, m

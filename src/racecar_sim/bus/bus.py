@@ -24,6 +24,7 @@ class Subscription:
     callback: Callback
     feeds: tuple[tuple[str, type], ...] = ()  # (topic, message class) it publishes one message on per message
     msgtype: type | None = None  # the message class it declared it takes (it checks what it gets)
+    passive: bool = False  # it takes what others make a topic carry, and makes nothing be published (overhear)
 
     def unsubscribe(self) -> None:
         self.bus._unsubscribe(self)
@@ -38,12 +39,12 @@ class _Topic:
     count: int = 0
     declared: type | None = None  # the message class a subscriber said it takes (what a bridge subscribes as)
     callbacks: tuple[Callback, ...] = ()  # the subscribers' callbacks, rebuilt when they change: publish copies nothing
-    plain: bool = False  # a subscriber that listens for itself (not only to feed other topics)
+    plain: bool = False  # a subscriber that listens for itself (not only to feed other topics, not overhearing)
     feeds: tuple[tuple[str, type], ...] = ()  # what the other subscribers publish per message
 
     def refresh(self) -> None:
         self.callbacks = tuple(sub.callback for sub in self.subscribers)
-        self.plain = any(not sub.feeds for sub in self.subscribers)
+        self.plain = any(not sub.feeds and not sub.passive for sub in self.subscribers)
         self.feeds = tuple(feed for sub in self.subscribers for feed in sub.feeds)
 
 
@@ -165,6 +166,18 @@ class Bus:
         if msgtype is not None:
             t.declared = msgtype
         sub = Subscription(self, topic, callback, tuple((feeds or {}).items()), msgtype)
+        t.subscribers.append(sub)
+        t.refresh()
+        if t.latched and t.last is not None:
+            callback(t.last)
+        return sub
+
+    def overhear(self, topic: str, callback: Callback) -> Subscription:
+        """Call `callback(msg)` for every message on `topic` that is published because someone else listens: an
+        overhearing subscriber does not count for has_listeners(), so a sensor nobody else reads skips its work (a
+        run's log keeping the last camera frame for its summary, while a recording or a video takes every frame)."""
+        t = self._topic(topic)
+        sub = Subscription(self, topic, callback, passive=True)
         t.subscribers.append(sub)
         t.refresh()
         if t.latched and t.last is not None:

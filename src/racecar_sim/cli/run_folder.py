@@ -84,7 +84,7 @@ class RunFolder:
                 RunLog(
                     sim.bus,
                     car.lidar.topic if car.lidar else None,
-                    car.camera.spec.image_topic if car.camera and i == 0 else None,
+                    car.camera.spec.image_topic if car.camera and i == 0 and self.writes_summary else None,
                     odom_topic=car.topic(ODOM),
                 )
                 for i, car in enumerate(sim.cars)
@@ -93,12 +93,14 @@ class RunFolder:
             if out is not None and files and not args.no_video:
                 self.video = _video(sim, out, self.recording)
         except BaseException:
-            self.close()
+            self.close(summary_frame=False)
             raise
 
-    def close(self) -> None:
+    def close(self, summary_frame: bool = True) -> None:
         """Finish the video and the recording (what the writer process holds, then the MCAP's summary and footer);
-        keep the first car's last scan for the summary while the sim still has its lidar. Once only."""
+        keep the first car's last scan for the summary while the sim still has its lidar, and its camera's last
+        frame (drawn now where none was published; not with `summary_frame` False: the run ends in an error, and no
+        summary follows). Once only."""
         if self._closed:
             return
         self._closed = True
@@ -114,12 +116,15 @@ class RunFolder:
         if runlog is not None and lidar is not None and runlog.last_scan is not None:
             origin, ends = lidar.beam_ends(runlog.last_scan.ranges)
             self._scan = (origin[:2], ends[:, :2])
+        camera = self.sim.car.camera
+        if runlog is not None and camera is not None and self.writes_summary and summary_frame:
+            runlog.take_frame(camera, self.sim.time_ns)  # the summary's frame, where none was published
 
     def __enter__(self) -> RunFolder:
         return self
 
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+    def __exit__(self, exc_type: type[BaseException] | None, *exc: object) -> None:
+        self.close(summary_frame=exc_type is None)
 
     # --- after the run ------------------------------------------------------------------------------------------
     def finish(

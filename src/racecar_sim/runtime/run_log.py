@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from racecar_sim.bus import BusPort
+from racecar_sim.bus import Bus, BusPort
 from racecar_sim.drivers.odom import planar_pose
 from racecar_sim.msgs import Image, LaserScan, Odometry, String
 from racecar_sim.runtime.collisions import COLLISIONS, MAX_KEPT
@@ -21,6 +21,7 @@ from racecar_sim.runtime.laps import LAP
 
 if TYPE_CHECKING:
     from racecar_sim.runtime.simulator import Simulator
+    from racecar_sim.sensors.camera import CameraPublisher
 
 TRAJECTORY_ROWS = 1 << 14  # the most path rows kept per car (819 s at 20 Hz, 384 KB); then every other one is dropped
 ODOMETRY_RATE = 20.0  # Hz, the rows of `trajectory` until it is thinned out
@@ -59,8 +60,11 @@ class RunLog:
         bus.subscribe(odom_topic, self._on_odom)
         if scan_topic:
             bus.subscribe(scan_topic, self._on_scan)
-        if image_topic:
-            bus.subscribe(image_topic, self._on_image)
+        if image_topic:  # overheard: the camera draws for the summary's last frame alone only at the end (take_frame)
+            if isinstance(bus, Bus):
+                bus.overhear(image_topic, self._on_image)
+            else:
+                bus.subscribe(image_topic, self._on_image)
 
     def _on_odom(self, msg: Odometry) -> None:
         pose = planar_pose(msg)
@@ -100,6 +104,14 @@ class RunLog:
     def _on_image(self, msg: Image) -> None:
         self.last_image = msg
         self.images += 1
+
+    def take_frame(self, camera: CameraPublisher, stamp_ns: int) -> None:
+        """Where no camera frame was published (nobody but this log wanted one), `camera`'s frame of now, stamped
+        `stamp_ns`, as the last image: the one frame the summary shows, drawn once instead of every frame of the run.
+        At the end of a run whose length is a whole number of camera periods it is the frame the camera's last tick
+        would have published."""
+        if self.last_image is None:
+            self.last_image = camera.frame(stamp_ns)
 
     @property
     def trajectory(self) -> np.ndarray:

@@ -215,19 +215,18 @@ class CameraPublisher(NodeBase):
 
     def _publish(self, stamp_ns: int, pixels: np.ndarray) -> None:
         spec = self.spec
-        self.bus.publish(
-            spec.image_topic,
-            Image(
-                Header.at(stamp_ns, spec.frame_id),
-                spec.height,
-                spec.width,
-                spec.encoding,
-                0,
-                spec.step,
-                pixels.reshape(-1),
-            ),
-        )
+        self.bus.publish(spec.image_topic, self._image(stamp_ns, pixels))
         self.bus.publish(spec.info_topic, spec.camera_info(stamp_ns))
+
+    def _image(self, stamp_ns: int, pixels: np.ndarray) -> Image:
+        spec = self.spec
+        return Image(
+            Header.at(stamp_ns, spec.frame_id), spec.height, spec.width, spec.encoding, 0, spec.step, pixels.reshape(-1)
+        )
+
+    def frame(self, stamp_ns: int) -> Image:
+        """The Image of the current state, stamped `stamp_ns` (with that stamp's noise), drawn now and not published."""
+        return self._image(stamp_ns, self.capture(stamp_ns))
 
     def capture(self, stamp_ns: int) -> np.ndarray:
         """Render the current state: a new (height, width, 3) uint8 array in the spec's encoding, top row first,
