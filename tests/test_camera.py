@@ -652,3 +652,29 @@ def test_a_fleets_cameras_draw_with_one_gl_context_and_the_same_frames():
     np.testing.assert_array_equal(second.capture(100_000_000), both[1])
     assert not np.array_equal(both[0], both[1]), "each camera shows its own view"
     sim.close()
+
+
+@needs_gl
+def test_a_context_begun_early_is_the_one_the_cameras_take_and_an_untaken_one_is_freed_at_exit():
+    """start_shared_context (the Simulator's, as its cameras are planned): shared_context() gives the context it made
+    (one only), its failure comes back as the same one line, and a process whose build stopped before any camera
+    took it exits as usual (the context freed on its own thread, no hang)."""
+    out = _python(
+        "from racecar_sim.render import gl\n"
+        "gl.start_shared_context(320, 240)\n"
+        "made = gl.shared_context()\n"
+        "print(made is gl.shared_context(), made.renderer != '')\n",
+        {},
+    )
+    assert out.split() == ["True", "True"]
+    assert _python("from racecar_sim.render import gl\ngl.start_shared_context()\nprint('left')\n", {}) == "left\n"
+    failed = _python(
+        "from racecar_sim.core.errors import RenderingError\n"
+        "from racecar_sim.render import gl\n"
+        "gl.start_shared_context()\n"
+        "for _ in range(2):\n"
+        "    try:\n        gl.shared_context()\n    except RenderingError as exc:\n        print(exc)\n",
+        {"MUJOCO_GL": "off"},
+    )
+    first, second = failed.strip().splitlines()
+    assert first == second and "MUJOCO_GL=off" in first

@@ -43,7 +43,7 @@ def test_the_main_job_compiles_nothing_inside_the_run():
     """walker, the camera on and listened to, wall-follow: every kernel the run calls (scan, wall fit, frame finish,
     culling) is loaded by the build and the driver's attach; none is loaded or compiled inside the run."""
     out = _child("""
-        import gc, json
+        import gc, json, sys
         import numba.core.dispatcher as dispatcher
         from racecar_sim import Simulator
         from racecar_sim.runtime.driving import attach_driver
@@ -57,10 +57,12 @@ def test_the_main_job_compiles_nothing_inside_the_run():
         frames = []
         sim.subscribe(sim.car.camera.spec.image_topic, frames.append)
         built = loaded()
+        registries = "numba.np.arraymath" in sys.modules
         sim.run_until(0.5)
-        print(json.dumps({"built": built, "after": loaded(), "frames": len(frames)}))
+        print(json.dumps({"built": built, "after": loaded(), "frames": len(frames), "registries": registries}))
     """)
     assert out["frames"] >= 10
+    assert not out["registries"]  # the cached kernels linked in without numba's compiler registries
     assert {name.rsplit(".", 1)[1] for name in out["built"]} >= {
         "level_scan",
         "fit_wall",
@@ -87,8 +89,7 @@ def test_a_kernel_that_needs_blas_still_compiles_and_gives_numpys_answer():
         from racecar_sim.runtime.compiled import load_numba
         load_numba()
         import numba
-        from numba.np import arraymath
-        before = "scipy.linalg" in sys.modules
+        before = [m for m in ("scipy.linalg", "numba.np.arraymath") if m in sys.modules]
 
         @numba.njit
         def both(a, b):
@@ -96,10 +97,50 @@ def test_a_kernel_that_needs_blas_still_compiles_and_gives_numpys_answer():
 
         a, b = np.arange(6.0).reshape(2, 3), np.array([1.0, -2.0, 0.5])
         dot, corr = both(a[0], b)
+        from numba.np import arraymath
         print(json.dumps({"before": before, "have_blas": arraymath._HAVE_BLAS,
                           "scipy": importlib.util.find_spec("scipy") is not None,
                           "dot": [float(dot), float(np.dot(a[0], b))],
                           "corr": [corr.tolist(), np.correlate(a[0], b).tolist()]}))
     """)
-    assert not out["before"] and out["have_blas"] == out["scipy"]
+    assert out["before"] == []  # load_numba loads neither SciPy's linear algebra nor numba's registries
+    assert out["have_blas"] == out["scipy"]
     assert out["dot"][0] == out["dot"][1] and out["corr"][0] == out["corr"][1]
+
+
+def test_other_cached_kernels_load_numbas_own_way(tmp_path):
+    """Only racecar-sim's kernels load without numba's registries: a user's cached kernel, in a process where
+    load_numba ran, is loaded as numba loads it (its registries first) and gives the same answer as when compiled."""
+    (tmp_path / "user_kernel.py").write_text(
+        "import numba\nimport numpy as np\n\n"
+        "@numba.njit(cache=True)\n"
+        "def spread(a):\n    seen = set()\n    for x in a:\n        seen.add(int(x))\n"
+        "    return np.sort(a)[-1] - np.sort(a)[0] + len(seen)\n"
+    )
+    code = f"""
+        import json, sys
+        sys.path.insert(0, {str(tmp_path)!r})
+        import numpy as np
+        from racecar_sim.runtime.compiled import load_numba
+        load_numba()
+        before = "numba.np.arraymath" in sys.modules
+        from user_kernel import spread
+        value = spread(np.array([3.0, -1.0, 3.0, 7.5]))
+        print(json.dumps({{"before": before, "after": "numba.np.arraymath" in sys.modules, "value": value,
+                          "hits": sum(spread.stats.cache_hits.values())}}))
+    """
+    compiled, loaded = _child(code), _child(code)  # the first compiles (and caches), the second loads
+    assert compiled["value"] == loaded["value"] == 8.5 + 3
+    assert [compiled["hits"], loaded["hits"]] == [0, 1]
+    assert not loaded["before"] and loaded["after"]  # numba's own load: its registries, as always
+
+
+def test_a_numba_laid_out_otherwise_is_left_as_it_is():
+    from racecar_sim.runtime.compiled import _light_loads
+
+    class Cache:  # no _load_overload / _guard_against_spurious_io_errors to build on
+        def load_overload(self, sig, target_context):
+            return "numba's own"
+
+    assert not _light_loads(Cache)
+    assert Cache().load_overload(None, None) == "numba's own"

@@ -240,6 +240,8 @@ def test_rgb_array_render_is_a_chase_camera_frame() -> None:
     env.step(FORWARD)
     frame = env.render()
     assert frame.shape == (480, 640, 3) and frame.dtype == np.uint8 and frame.std() > 5
+    context = env.unwrapped._view._chase.target.context
+    assert context.shadowSize > 0 and context.shadowFBO > 0  # drawn with MuJoCo's flags (shadows on): its map kept
     env.close()
 
 

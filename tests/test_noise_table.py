@@ -52,3 +52,23 @@ def test_float32_tables_for_images():
     frame = table.sample(0, 0)
     assert frame.dtype == np.float32 and frame.shape == (640 * 480,)
     assert abs(float(frame.std()) - 1.0) < 0.01
+
+
+def test_a_kept_table_is_the_drawn_one_bit_for_bit(tmp_path, monkeypatch):
+    """The disk cache (core/noise_cache.py) gives exactly the table a fresh draw gives: first drawn and kept, then
+    read back; a cut entry is drawn again, and RACECAR_SIM_NOISE_CACHE=0 neither reads nor writes."""
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    monkeypatch.setenv("RACECAR_SIM_NOISE_CACHE", "0")
+    drawn = NoiseTable("test/kept", 1081).values
+    assert not (tmp_path / "racecar-sim").exists()
+    monkeypatch.delenv("RACECAR_SIM_NOISE_CACHE")
+    first = NoiseTable("test/kept", 1081).values
+    (entry,) = (tmp_path / "racecar-sim" / "noise").iterdir()
+    kept = NoiseTable("test/kept", 1081).values
+    assert drawn.dtype == first.dtype == kept.dtype == np.float64
+    assert drawn.tobytes() == first.tobytes() == kept.tobytes()
+    entry.write_bytes(entry.read_bytes()[:-8])  # a cut entry (a full disk)
+    assert NoiseTable("test/kept", 1081).values.tobytes() == drawn.tobytes()
+    assert NoiseTable("test/kept", 1082).values.size == NoiseTable("test/kept", 1082).size + 1082  # its own entry
+    float32 = NoiseTable("test/kept", 1081, np.float32).values
+    assert float32.dtype == np.float32 and len(list(entry.parent.iterdir())) == 3

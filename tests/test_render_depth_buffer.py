@@ -1,5 +1,6 @@
-"""The cameras' offscreen framebuffer keeps MuJoCo's 32-bit float depth without its stencil (render/depth_buffer.py):
-the frames and the depth images are those of MuJoCo's own depth-stencil buffer, bit for bit."""
+"""The cameras' offscreen framebuffer keeps MuJoCo's 32-bit float depth without its stencil (render/depth_buffer.py),
+and their context has no shadow map (render/offscreen.py): the frames and the depth images are those of MuJoCo's own
+context, bit for bit."""
 
 from __future__ import annotations
 
@@ -55,6 +56,8 @@ def test_frames_and_depth_are_mujocos_with_the_depth_only_buffer(world):
     gl = renderer.gl
     ours = gl.call(_attachments, target.context)
     assert ours == (GL.GL_DEPTH_COMPONENT32F, GL.GL_NONE), "the cameras' framebuffer still has a stencil"
+    assert target.context.shadowSize == 0 == target.context.shadowFBO  # no shadow map: they draw without shadows
+    assert sim.model.vis.quality.shadowsize == 4096  # the model's own setting is left as it was
     for k, _ in enumerate(random_car_poses(sim, 6, seed=23)):
         rgba = renderer.render_later().result().copy()
         scene = target.scene  # the scene just drawn
@@ -62,6 +65,7 @@ def test_frames_and_depth_are_mujocos_with_the_depth_only_buffer(world):
             _draw_with_mujocos_buffer, sim.model, scene, target.rect, renderer.width, renderer.height
         )
         assert made == (GL.GL_DEPTH32F_STENCIL8, GL.GL_RENDERBUFFER), "MuJoCo's own buffer is not the one replaced"
+        # `theirs` comes from MuJoCo's own context, with its shadow map: the same pixels
         assert np.array_equal(rgba, theirs), f"pose {k}: {(rgba != theirs).any(axis=2).sum()} pixels differ"
         rgb, depth, _, _ = renderer.render_depth_later().result()
         rgb, depth = rgb.copy(), depth.copy()

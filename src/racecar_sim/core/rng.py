@@ -9,6 +9,7 @@ from typing import ClassVar, overload
 import numpy as np
 import numpy.typing as npt
 
+from racecar_sim.core import noise_cache
 from racecar_sim.core.errors import ConfigError
 
 
@@ -55,15 +56,19 @@ class NoiseTable:
     def __init__(self, name: str, count: int, dtype: type = np.float64) -> None:
         self.name, self.count = name, count
         self.size = max(1 << 16, 1 << (8 * count - 1).bit_length())  # a power of two, >= 8 windows
-        values = np.random.default_rng([zlib.crc32(name.encode()), 0x7AB1E]).standard_normal(self.size)
+        self.values: npt.NDArray[np.floating] = noise_cache.table(
+            name, count, np.dtype(dtype), self.size + count, lambda: self._draw(dtype)
+        )  # kept on disk: the same table in every run
+        self._key = zlib.crc32(name.encode()) << 32
+
+    def _draw(self, dtype: type) -> npt.NDArray[np.floating]:
+        values = np.random.default_rng([zlib.crc32(self.name.encode()), 0x7AB1E]).standard_normal(self.size)
         # exactly mean 0, variance 1 over the table: every sample reuses its values, so the table's own sampling
         # error would otherwise be a bias shared by all samples, forever
         values = ((values - values.mean()) / values.std()).astype(dtype)
-        self.values: npt.NDArray[np.floating] = np.concatenate(
-            [values, values[:count]]
-        )  # a window starting anywhere is one slice
-        self.values *= np.sqrt(0.5).astype(dtype)  # so that the sum of two windows has unit variance
-        self._key = zlib.crc32(name.encode()) << 32
+        table: npt.NDArray[np.floating] = np.concatenate([values, values[: self.count]])  # any window is one slice
+        table *= np.sqrt(0.5).astype(dtype)  # so that the sum of two windows has unit variance
+        return table
 
     @classmethod
     def shared(cls, name: str, count: int, dtype: type = np.float64) -> NoiseTable:

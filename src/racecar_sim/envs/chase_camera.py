@@ -27,7 +27,8 @@ class ChaseCamera:
         self.camera.type = mujoco.mjtCamera.mjCAMERA_FREE
         self.camera.distance, self.camera.elevation = DISTANCE, ELEVATION
         self.option = visual_only_option()
-        self.target = GLScene(model, self.width, self.height, self.gl, "use render_mode=None (not 'rgb_array')")
+        fix = "use render_mode=None (not 'rgb_array')"
+        self.target = GLScene(model, self.width, self.height, self.gl, fix, shadows=True)  # drawn with MuJoCo's flags
 
     def frame(self) -> np.ndarray:
         """The current state seen from behind the car: a new (height, width, 3) uint8 RGB array, top row first."""

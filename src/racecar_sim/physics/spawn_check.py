@@ -63,7 +63,9 @@ def check_spawn(
     ground under it; warn if it will fall more than DROP_WARN. The car is the body tree of `robot.root`.
     `car_name`: how the message names the car (default: its namespace)."""
     car = _subtree_geoms(model, model.body(names.mj(robot.root)).id)
-    others = np.setdiff1d(np.arange(model.ngeom), car)
+    outside = np.ones(model.ngeom, bool)
+    outside[car] = False
+    others = np.flatnonzero(outside)  # np.setdiff1d's answer, without its import of numpy.ma (~20 ms of a start)
     solid = others[_colliding(model, others)]
     car_name = names.namespace if car_name is None else car_name
     who = f"{car_name}'s " if car_name else ""

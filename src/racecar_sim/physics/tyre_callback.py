@@ -26,7 +26,6 @@ stiffest the explicit step keeps stable.
 from __future__ import annotations
 
 import ctypes
-import hashlib
 import importlib.util
 import os
 import sys
@@ -165,6 +164,8 @@ def kernels() -> ModuleType:
     template = (Path(__file__).parent / "tyre_kernels.py").read_text()
     offsets = layout()
     source = template.replace("OFFSETS: dict[str, int] = {}", f"OFFSETS: dict[str, int] = {offsets!r}", 1)
+    import hashlib  # here: a run without tyres does not load it
+
     digest = hashlib.sha1(f"{mujoco.__version__}\n{source}".encode()).hexdigest()[:16]
     folder = _cache_folder()
     path = folder / f"racecar_tyre_kernels_{digest}.py"

@@ -47,6 +47,7 @@ __all__ = [
     "library_present",
     "mujoco_gl_disabled",
     "shared_context",
+    "start_shared_context",
 ]
 
 
@@ -109,6 +110,8 @@ class GLThread:
 _OFF = ("disable", "disabled", "off", "false", "0")
 _shared: HeadlessGL | None = None
 _shared_error: str | None = None
+_starting: Future[HeadlessGL] | None = None  # start_shared_context()'s, until shared_context() takes it
+_unclaimed: HeadlessGL | None = None  # what it made, until shared_context() takes it
 _requested_before_import: str | None = None
 
 
@@ -151,23 +154,60 @@ def mujoco_gl_disabled() -> Iterator[None]:
             os.environ["MUJOCO_GL"] = previous
 
 
+def start_shared_context(width: int = 640, height: int = 480) -> None:
+    """Begin making the process's headless context (shared_context's) now, on a thread of its own, so that the
+    driver's loading and EGL's set-up (C, without the GIL) overlap what the caller does meanwhile; shared_context()
+    takes it, or its error. Nothing happens where the context exists, has failed, or is being made."""
+    global _starting
+    if _shared is not None or _shared_error is not None or _starting is not None:
+        return
+    starting: Future[HeadlessGL] = Future()
+
+    def make() -> None:
+        try:
+            made = create_context(width, height)
+        except BaseException as exc:
+            starting.set_exception(exc)
+            return
+        global _unclaimed
+        _unclaimed = made
+        atexit.register(_free_unclaimed)  # a build that failed before its camera took it
+        starting.set_result(made)
+
+    _starting = starting
+    threading.Thread(target=make, name="racecar-sim GL start", daemon=True).start()
+
+
 def shared_context(width: int = 640, height: int = 480) -> HeadlessGL:
-    """The process's headless context, created on first use and kept; every camera renders through it.
+    """The process's headless context, created on first use (or by start_shared_context) and kept; every camera
+    renders through it.
 
     Creating a context costs 0.1-1 s, so cameras share one (each has its own MjrContext in it). A failure is
     remembered too, and raised again as the same one-line RenderingError without a second attempt.
     """
-    global _shared, _shared_error
+    global _shared, _shared_error, _starting, _unclaimed
     if _shared is None:
         if _shared_error is not None:
             raise RenderingError(_shared_error)
         try:
-            _shared = create_context(width, height)
+            if _starting is not None:
+                starting, _starting = _starting, None
+                _shared = starting.result()
+                _unclaimed = None  # freed by _free_shared from now on
+            else:
+                _shared = create_context(width, height)
         except RenderingError as exc:
             _shared_error = str(exc)
             raise
         atexit.register(_free_shared)  # while Python still runs: OSMesa's own __del__ fails at interpreter exit
     return _shared
+
+
+def _free_unclaimed() -> None:
+    global _unclaimed
+    if _unclaimed is not None:
+        made, _unclaimed = _unclaimed, None
+        made.free()
 
 
 def _free_shared() -> None:

@@ -76,28 +76,42 @@ def flat_sky(model: mujoco.MjModel) -> np.ndarray | None:
     return sky
 
 
+def _make_context(model: mujoco.MjModel, shadows: bool) -> mujoco.MjrContext:
+    """The model's MjrContext, on the GL thread; without `shadows`, without the shadow map: MuJoCo makes a
+    shadowsize² depth texture (4096² by default) that scenes drawn with mjRND_SHADOW off never touch, and
+    llvmpipe takes ~0.1 s to allocate and set it up (0.2 s of a camera's start the first time)."""
+    quality = model.vis.quality
+    size = quality.shadowsize
+    if not shadows:
+        quality.shadowsize = 0  # put back below; MjrContext holds the GIL, so no other Python thread sees it
+    try:
+        return mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_50)
+    finally:
+        quality.shadowsize = size
+
+
 class _SharedContexts:
-    """The MjrContext of each model in a HeadlessGL, made by the first GLScene of that model and freed with the last
-    (counted); made and freed on the context's thread."""
+    """The MjrContext of each model in a HeadlessGL, with or without the shadow map, made by the first GLScene of that
+    model that asks for it and freed with the last (counted); made and freed on the context's thread."""
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
-        self._contexts: dict[tuple[int, int], tuple[mujoco.MjModel, mujoco.MjrContext, int]] = {}
+        self._contexts: dict[tuple[int, int, bool], tuple[mujoco.MjModel, mujoco.MjrContext, int]] = {}
 
-    def take(self, model: mujoco.MjModel, gl: HeadlessGL) -> mujoco.MjrContext:
-        key = (id(gl), id(model))  # the model is kept while counted, so its id is not reused meanwhile
+    def take(self, model: mujoco.MjModel, gl: HeadlessGL, shadows: bool = False) -> mujoco.MjrContext:
+        key = (id(gl), id(model), shadows)  # the model is kept while counted, so its id is not reused meanwhile
         with self._lock:
             if key in self._contexts:
                 kept, context, users = self._contexts[key]
                 self._contexts[key] = (kept, context, users + 1)
                 return context
-            context = gl.call(mujoco.MjrContext, model, mujoco.mjtFontScale.mjFONTSCALE_50)
+            context = gl.call(_make_context, model, shadows)
             gl.call(drop_stencil, context)
             self._contexts[key] = (model, context, 1)
             return context
 
-    def give_back(self, model: mujoco.MjModel, gl: HeadlessGL) -> None:
-        key = (id(gl), id(model))
+    def give_back(self, model: mujoco.MjModel, gl: HeadlessGL, shadows: bool = False) -> None:
+        key = (id(gl), id(model), shadows)
         with self._lock:
             kept, context, users = self._contexts[key]
             if users > 1:
@@ -114,14 +128,18 @@ class GLScene:
     """A MuJoCo scene and its GL objects in the shared headless context, drawn offscreen on the context's thread into
     an RGB buffer (rows bottom-up, GL order) that the next drawing reuses. `fix`: what the one-line RenderingError
     tells the user to do when MuJoCo cannot render in the context. draw_later() reads RGB (the skybox drawn);
-    draw_rgba_later() reads RGBA, without the skybox where `sky` (flat_sky) is its colour.
+    draw_rgba_later() reads RGBA, without the skybox where `sky` (flat_sky) is its colour. `shadows`: whether its
+    scenes may be drawn with mjRND_SHADOW on (the cameras turn it off: their context has no shadow map).
 
     Two MjvScenes take turns (flip()), each with its own RGBA buffer: the next frame is posed into one while the GL
     thread still draws the other, so the GL thread goes from one frame to the next without waiting for the simulation
     to take the first, and a frame's pixels stay in its buffer until that scene is drawn again."""
 
-    def __init__(self, model: mujoco.MjModel, width: int, height: int, gl: HeadlessGL, fix: str) -> None:
+    def __init__(
+        self, model: mujoco.MjModel, width: int, height: int, gl: HeadlessGL, fix: str, shadows: bool = False
+    ) -> None:
         self.gl = gl
+        self.shadows = shadows
         self.scene = mujoco.MjvScene(model, maxgeom=max(1000, 2 * model.ngeom))
         self.culler = FrustumCuller(self.scene, width, height)
         self.rect = mujoco.MjrRect(0, 0, width, height)
@@ -132,7 +150,7 @@ class GLScene:
         self.sky = flat_sky(model)
         self.model = model
         try:
-            self.context: mujoco.MjrContext | None = _contexts.take(model, gl)  # shared by the model's cameras
+            self.context: mujoco.MjrContext | None = _contexts.take(model, gl, shadows)  # shared by the model's cameras
         except mujoco.FatalError as exc:  # e.g. MuJoCo's GL loader bound to another backend earlier in the process
             raise RenderingError(f"MuJoCo cannot render in the {gl.backend} context ({exc}): {fix}") from None
 
@@ -210,7 +228,7 @@ class GLScene:
         Idempotent."""
         if self.context is not None:
             self.context = None
-            _contexts.give_back(self.model, self.gl)
+            _contexts.give_back(self.model, self.gl, self.shadows)
 
 
 class OffscreenCamera:

@@ -186,6 +186,10 @@ class Car:
         "depth_camera", "imu", ...) that is on."""
         return any(p.kind.name == kind for p in self._planned[1])
 
+    def sensor_specs(self, kind: str) -> list[Any]:
+        """The parsed blocks of the car's sensors of the kind named `kind` that are on."""
+        return [p.spec for p in self._planned[1] if p.kind.name == kind]
+
     @property
     def has_lidar(self) -> bool:
         """Whether the car has a laser that is on."""

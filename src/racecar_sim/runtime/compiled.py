@@ -1,11 +1,19 @@
-"""numba loaded once, when a simulator that will use its kernels is built, and without SciPy's linear algebra.
+"""numba loaded once, when a simulator that will use its kernels is built: racecar-sim's cached kernels linked in
+without numba's registration of its compiler's implementations, and without SciPy's linear algebra.
 
-numba's first compile or cache load registers its implementations, and one of them (numba/np/arraymath.py) imports
-scipy.linalg only to learn whether a BLAS exists for np.correlate / np.convolve: 0.2-0.7 s of a walker run's start,
-for kernels that call neither. Here that import is refused while numba registers (in this thread only), and the
-answer it would have given is put back: whether SciPy is installed. np.dot and np.linalg in a later kernel import
-scipy.linalg themselves, at their own compile, as they always do. Anything unexpected (another numba) falls back
-to numba's own load.
+Before loading a cached kernel, numba refreshes its compiler's registries: it imports some 200 modules of typing
+and lowering implementations (0.4-0.8 s of a walker run's start on a 2-core machine), none of which a kernel that
+is already compiled needs. Running one needs only what its machine code links against: numba's C helpers (put in
+the linker's table when numba's target context is made), the runtime's (NRT) functions, and the hash secret of
+kernels that hash (numba.cpython.hashing). So a kernel of racecar-sim's own (`_OURS`) is loaded after just those;
+anything else numba loads, and every compile (a cache miss: numba's compiler refreshes the registries itself, as
+it always does), goes numba's own way. A numba whose cache is not laid out as this expects is left as it is.
+
+Where the registries are loaded (that numba, or a compile), one of them (numba/np/arraymath.py) imports
+scipy.linalg only to learn whether a BLAS exists for np.correlate / np.convolve (0.2-0.7 s): here that import is
+refused while numba registers (in this thread only), and the answer it would have given is put back: whether SciPy
+is installed. np.dot and np.linalg in a later kernel import scipy.linalg themselves, at their own compile, as they
+always do.
 """
 
 from __future__ import annotations
@@ -16,6 +24,10 @@ import sys
 import threading
 from collections.abc import Sequence
 from types import ModuleType
+from typing import Any
+
+# the modules whose cached kernels load without the registries: racecar-sim's, and the tyre kernels' generated copy
+_OURS = ("racecar_sim.", "racecar_tyre_kernels_")
 
 _done = False
 
@@ -35,12 +47,53 @@ class _NoSciPy(importlib.abc.MetaPathFinder):
 
 
 def load_numba() -> None:
-    """Import numba and register its CPU implementations now (once per process; numba's cached kernels then load
-    in milliseconds each)."""
+    """Import numba and make its cached kernels of racecar-sim load without its compiler's registries (once per
+    process; each kernel then loads in milliseconds)."""
     global _done
     if _done:
         return
     _done = True
+    from numba.core import caching
+
+    if _light_loads(caching.Cache):
+        return
+    _register()  # a numba laid out otherwise: its registries now, as a first cache load would
+
+
+def _light_loads(cache_class: Any) -> bool:
+    """Make `cache_class.load_overload` load racecar-sim's kernels without the registries; False where this numba's
+    Cache lacks what that needs (nothing changed then)."""
+    original = getattr(cache_class, "load_overload", None)
+    needed = ("_load_overload", "_guard_against_spurious_io_errors")
+    if original is None or not all(hasattr(cache_class, name) for name in needed):
+        return False
+    if getattr(original, "racecar_sim_light", False):
+        return True
+
+    def load_overload(self: Any, sig: Any, target_context: Any) -> Any:
+        module = getattr(getattr(self, "_py_func", None), "__module__", None) or ""
+        if not module.startswith(_OURS):
+            return original(self, sig, target_context)
+        _ready_to_link(target_context)
+        with self._guard_against_spurious_io_errors():
+            return self._load_overload(sig, target_context)
+
+    load_overload.racecar_sim_light = True  # type: ignore[attr-defined]
+    cache_class.load_overload = load_overload
+    return True
+
+
+def _ready_to_link(target_context: Any) -> None:
+    """What a compiled kernel's machine code links against, besides the C helpers the target context put in the
+    linker's table when it was made: the runtime's functions and the hash secret."""
+    import numba.cpython.hashing  # noqa: F401 - its import puts the hash secret in the linker's table
+    from numba.core.runtime import rtsys
+
+    rtsys.initialize(target_context)  # once per process; numba's own refresh starts with it
+
+
+def _register() -> None:
+    """numba's registries loaded now (what its first compile or cache load does first), without SciPy."""
     if "scipy.linalg" in sys.modules or "numba.np.arraymath" in sys.modules:
         return  # nothing to save: SciPy's linear algebra or numba's registries are already there
     blocker = _NoSciPy()
@@ -48,7 +101,7 @@ def load_numba() -> None:
     try:
         from numba.core.registry import cpu_target
 
-        cpu_target.target_context.refresh()  # what a dispatcher's first compile or cache load does first
+        cpu_target.target_context.refresh()
     finally:
         sys.meta_path.remove(blocker)
     arraymath = sys.modules.get("numba.np.arraymath")

@@ -176,11 +176,13 @@ def _prepare_camera(spec: mujoco.MjSpec, camera: Any, mount: Mount) -> None:
 
 
 def _parse_camera(block: Block, mount: Mount) -> Any:
-    from racecar_sim.sensors import ros2_dialect
     from racecar_sim.sensors.camera_spec import CameraSpec
+    from racecar_sim.sensors.sensor_xml import is_ros2
 
     assert isinstance(block, Sensor)
-    if block.plugins and ros2_dialect.is_ros2(block.plugins[0]):
+    if block.plugins and is_ros2(block.plugins[0]):
+        from racecar_sim.sensors import ros2_dialect
+
         return ros2_dialect.camera_spec(block, mount.robot)
     return CameraSpec.from_sensor(block)
 
@@ -240,11 +242,13 @@ def _prepare_depth(spec: mujoco.MjSpec, depth: Any, mount: Mount) -> None:
 
 
 def _parse_depth(block: Block, mount: Mount) -> Any:
-    from racecar_sim.sensors import ros2_dialect
     from racecar_sim.sensors.depth_camera import DepthSpec
+    from racecar_sim.sensors.sensor_xml import is_ros2
 
     assert isinstance(block, Sensor)
-    if block.plugins and ros2_dialect.is_ros2(block.plugins[0]):
+    if block.plugins and is_ros2(block.plugins[0]):
+        from racecar_sim.sensors import ros2_dialect
+
         return ros2_dialect.depth_spec(block, mount.robot)
     return DepthSpec.from_sensor(block)
 
@@ -262,10 +266,12 @@ def _imu(ctx: NodeContext, spec: Any) -> Node:
 
 
 def _parse_imu(block: Block, mount: Mount) -> Any:
-    from racecar_sim.sensors import ros2_dialect
     from racecar_sim.sensors.imu import ImuSpec
+    from racecar_sim.sensors.sensor_xml import is_ros2
 
-    if isinstance(block, Sensor) and block.plugins and ros2_dialect.is_ros2(block.plugins[0]):
+    if isinstance(block, Sensor) and block.plugins and is_ros2(block.plugins[0]):
+        from racecar_sim.sensors import ros2_dialect
+
         return ros2_dialect.imu_spec(block, mount.robot)
     if isinstance(block, Sensor):
         return ImuSpec.from_sensor(block, mount.names.model)

@@ -27,6 +27,7 @@ from racecar_sim.description.vehicle_params import DEFAULT_VEHICLE, VehicleParam
 from racecar_sim.nodes import Node
 from racecar_sim.physics import check_spawn, load_preset, route_mujoco_warnings
 from racecar_sim.physics.scene import Scene
+from racecar_sim.render.gl import start_shared_context
 from racecar_sim.runtime.car import Car
 from racecar_sim.runtime.clock import CLOCK_RATE, ClockPublisher
 from racecar_sim.runtime.collisions import COLLISIONS, Collision, Crash, Crashes, WatchedCar
@@ -137,6 +138,7 @@ class Simulator:
         self.cars = checked_fleet(cars)
         for index, car in enumerate(self.cars):
             car.load(self.cars[index - 1] if index else None)  # a fleet of identical cars expands the xacro once
+        self._start_gl()
         first = self.cars[0]
         self.world = (
             world
@@ -179,6 +181,13 @@ class Simulator:
         if self.laps is not None:
             self.world_nodes.append(self.laps)
         self._load_compiled()
+
+    def _start_gl(self) -> None:
+        """Begin the cameras' headless GL context now, on its own thread, at the first camera's image size (the size
+        it would ask for): the driver's loading and EGL's set-up overlap the world's build and numba's load."""
+        sizes = [(spec.width, spec.height) for car in self.cars for spec in car.sensor_specs("camera")]
+        if sizes:
+            start_shared_context(*sizes[0])
 
     def _load_compiled(self) -> None:
         """numba, and the compiled scan of a world with walls, loaded by the build: a one-time cost of the start, not

@@ -32,15 +32,9 @@ RAY_SENSOR = "libgazebo_ros_ray_sensor.so"
 IMU_SENSOR = "libgazebo_ros_imu_sensor.so"
 CAMERA = "libgazebo_ros_camera.so"
 DEPTH_CAMERA = "libgazebo_ros_depth_camera.so"
-ROS2_PARAMS = ("frame_name", "output_type", "camera_name")
 if TYPE_CHECKING:
     from racecar_sim.sensors.depth_camera import DepthSpec
 log = logging.getLogger("racecar_sim")
-
-
-def is_ros2(plugin: Plugin) -> bool:
-    """Whether a plugin block is written in the ROS 2 dialect."""
-    return plugin.element.find("ros") is not None or any(p in plugin.params for p in ROS2_PARAMS)
 
 
 @dataclass(frozen=True)

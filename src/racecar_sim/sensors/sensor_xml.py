@@ -4,8 +4,21 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
+from typing import TYPE_CHECKING
 
 from racecar_sim.core.errors import DescriptionError
+
+if TYPE_CHECKING:
+    from racecar_sim.description.urdf import Plugin
+
+# a plugin block with a <ros> element or one of these parameters is in the ROS 2 dialect (sensors/ros2_dialect.py)
+ROS2_PARAMS = ("frame_name", "output_type", "camera_name")
+
+
+def is_ros2(plugin: Plugin) -> bool:
+    """Whether a plugin block is written in the ROS 2 dialect (here, not in ros2_dialect: a description in ROS 1's
+    does without that module's imports)."""
+    return plugin.element.find("ros") is not None or any(p in plugin.params for p in ROS2_PARAMS)
 
 
 def sensor_number(el: ET.Element, path: str, where: str, default: float | None = None, integer: bool = False) -> float:

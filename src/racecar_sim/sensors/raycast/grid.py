@@ -170,7 +170,9 @@ class Grid:
         lo = np.floor((boxes[:2] - reach) / self.size)
         hi = np.floor((boxes[2:] + reach) / self.size)
         long = np.flatnonzero((hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) > LONG_CELLS)  # floats: no overflow
-        short = np.setdiff1d(np.arange(boxes.shape[1]), long)
+        registered = np.ones(boxes.shape[1], bool)
+        registered[long] = False
+        short = np.flatnonzero(registered)  # np.setdiff1d's answer, without its import of numpy.ma
         lo, hi = lo[:, short].astype(np.int64), hi[:, short].astype(np.int64)
         nx, ny = hi[0] - lo[0] + 1, hi[1] - lo[1] + 1
         counts = nx * ny
