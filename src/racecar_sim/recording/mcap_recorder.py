@@ -342,7 +342,10 @@ class McapRecorder:
             try:
                 append = self._append
                 for topic, msgtype, data, log_time_ns in messages:
-                    log_time = _timestamp(log_time_ns, "log_time_ns")
+                    if type(log_time_ns) is int and 0 <= log_time_ns <= _UINT64_MAX:  # the sim clock's, always
+                        log_time = log_time_ns
+                    else:
+                        log_time = _timestamp(log_time_ns, "log_time_ns")
                     append(topic, msgtype, data, log_time, log_time)
             except OSError as exc:
                 raise self._give_up(exc, f"at sim time {log_time / 1e9:.3f} s") from None
