@@ -12,7 +12,7 @@ from __future__ import annotations
 import keyword
 import struct
 from collections.abc import Callable
-from functools import cache, lru_cache
+from functools import cache, lru_cache, partial
 from itertools import chain
 from operator import attrgetter
 from typing import Any
@@ -369,6 +369,37 @@ def _uniform_leaves(element_type: str) -> tuple[tuple[str, ...], str] | None:
     return tuple(path for path, _ in found), type_name
 
 
+def _flattener(paths: tuple[str, ...]) -> Callable[[Any], Any]:
+    """`flatten(items)`: every item's numbers at `paths`, item after item, in one sequence. Compiled into one loop
+    that reads each nested message once (a Pose's position, then its x, y, z) where the paths are attribute chains;
+    else attrgetter's."""
+    if not all(_attribute_chain(path) for path in paths):
+        getter = attrgetter(*paths)
+        return (lambda items: chain.from_iterable(map(getter, items))) if len(paths) > 1 else partial(map, getter)
+    names: dict[str, str] = {}  # a nested message's path -> its local
+    lines = ["def flatten(items):", "    out = []", "    for item in items:"]
+
+    def local(path: str) -> str:  # the local holding the nested message at `path` ("": the item), read once
+        if not path:
+            return "item"
+        if path not in names:
+            parent, _, attr = path.rpartition(".")
+            owner = local(parent)
+            names[path] = f"v{len(names)}"
+            lines.append(f"        {names[path]} = {owner}.{attr}")
+        return names[path]
+
+    values = []
+    for path in paths:
+        parent, _, leaf = path.rpartition(".")
+        values.append(f"{local(parent)}.{leaf}")
+    lines += [f"        out += ({', '.join(values)},)", "    return out"]
+    namespace: dict[str, Any] = {}
+    exec(compile("\n".join(lines), f"<cdr flattener of {', '.join(paths)}>", "exec"), namespace)  # noqa: S102
+    flatten: Callable[[Any], Any] = namespace["flatten"]
+    return flatten
+
+
 @lru_cache(maxsize=256)  # a few array lengths repeat (links, models); a PoseArray of any length must not pile up
 def _packer(code: str, count: int) -> struct.Struct:
     return struct.Struct(f"<{count}{code}")
@@ -399,7 +430,7 @@ def _message_array_op(msgtype: str, path: str, element_type: str, size: int | No
 
     paths, type_name = uniform
     code, width = SCALARS[type_name]
-    getter, per_item = attrgetter(*paths), len(paths)
+    flatten, per_item = _flattener(paths), len(paths)
     packers: dict[int, struct.Struct] = {}  # by element count
 
     def op_uniform(msg: Any, out: list[Any], pos: int) -> int:
@@ -418,7 +449,7 @@ def _message_array_op(msgtype: str, path: str, element_type: str, size: int | No
             return pos
         try:
             packer = packers.get(count) or _packer(code, count * per_item)
-            data = packer.pack(*chain.from_iterable(map(getter, items)) if per_item > 1 else map(getter, items))
+            data = packer.pack(*flatten(items))
         except (struct.error, TypeError, AttributeError, OverflowError):
             out.append(prefix)
             return one_by_one(items, out, pos)
