@@ -82,7 +82,9 @@ def _encoder(msgtype: str) -> Encoder:
     return _compiled(msgtype, steps, encode) or encode
 
 
-def _compiled(msgtype: str, steps: list[tuple[Encoder, list[tuple[str, str]] | str]], checked: Encoder) -> Encoder | None:
+def _compiled(
+    msgtype: str, steps: list[tuple[Encoder, list[tuple[str, str]] | str]], checked: Encoder
+) -> Encoder | None:
     """The encoder as one Python function: each scalar run one precompiled struct's pack() of the attributes read
     inline (its op where it is not kept), the other fields by their ops. It writes what the ops write (the same
     structs, the same kept strings). Where it meets anything the ops would refuse or diagnose (a missing attribute,
@@ -123,7 +125,9 @@ def _compiled(msgtype: str, steps: list[tuple[Encoder, list[tuple[str, str]] | s
         "        return _checked(msg, out, start)",
         "    return pos",
     ]
-    exec(compile("\n".join(lines), f"<cdr encoder of {msgtype}>", "exec"), names)  # noqa: S102  # from the field model
+    exec(
+        compile("\n".join(lines), f"<cdr encoder of {msgtype}>", "exec"), names
+    )  # the source is made from the field model
     encode: Encoder = names["encode"]
     return encode
 
@@ -395,7 +399,7 @@ def _flattener(paths: tuple[str, ...]) -> Callable[[Any], Any]:
         values.append(f"{local(parent)}.{leaf}")
     lines += [f"        out += ({', '.join(values)},)", "    return out"]
     namespace: dict[str, Any] = {}
-    exec(compile("\n".join(lines), f"<cdr flattener of {', '.join(paths)}>", "exec"), namespace)  # noqa: S102
+    exec(compile("\n".join(lines), f"<cdr flattener of {', '.join(paths)}>", "exec"), namespace)
     flatten: Callable[[Any], Any] = namespace["flatten"]
     return flatten
 
