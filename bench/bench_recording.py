@@ -4,8 +4,13 @@ Prints, per message type: our ``serialize`` rate, the rosbags ``serialize_cdr`` 
 the same message (if rosbags is installed) and their ratio, then the
 ``McapRecorder.write`` rate (serialize + write, zstd chunks) and the compression ratio.
 Not part of the test suite; timings on a shared machine are noisy (take the median of 3).
+``--fleet N``: instead, what a run of N cars (`racecar-sim run --world empty --cars N --driver constant --speed 1
+--no-camera`, built in-process as bench_fleet's cli_row) records in one sim second: per message type, the count and
+the milliseconds ``serialize`` takes for them, then the microseconds a message the writer process's McapRecorder
+takes (``write_many`` of 256 at a time, as a hand-over; ``write_serialized`` one by one in code without it), zstd
+chunks included. ``PYTHONPATH=OLD/src`` gives the code before.
 
-    python bench/bench_recording.py [--scale 0.2]
+    python bench/bench_recording.py [--scale 0.2] [--fleet 4]
 """
 
 from __future__ import annotations
@@ -71,12 +76,62 @@ def _record_rate(topic: str, pool: list[Any], count: int, workdir: Path, compres
     return statistics.median(rates), ratio
 
 
+def fleet_second(cars: int, repeats: int = 5) -> None:
+    """Print what `cars` cars record in one sim second: serialize's cost per type, and the writer's per message."""
+    from bench_fleet import cli_row
+    from machine_info import machine_line
+
+    print(machine_line())
+    sim = cli_row(cars, "empty")
+    messages: list[tuple[str, Any]] = []
+    sim.bus.tap(lambda topic, msg: messages.append((topic, msg)))
+    sim.run_until(1.0)
+    sim.close()
+    by_type: dict[str, list[Any]] = {}
+    for _, msg in messages:
+        by_type.setdefault(type(msg).__name__, []).append(msg)
+    rows, total = [], 0.0
+    for name, pool in by_type.items():
+        times = []
+        for _ in range(repeats):
+            start = time.perf_counter()
+            for msg in pool:
+                msgs.serialize(msg)
+            times.append(time.perf_counter() - start)
+        rows.append((statistics.median(times), name, len(pool)))
+        total += rows[-1][0]
+    print(f"{cars} cars in empty, one sim second: {len(messages)} messages; serialize, median of {repeats}")
+    for seconds, name, count in sorted(rows, reverse=True):
+        print(f"  {name:<22} {count:>5}  {seconds * 1e3:6.2f} ms  {seconds / count * 1e6:6.2f} µs each")
+    print(f"  {'all':<22} {len(messages):>5}  {total * 1e3:6.2f} ms")
+    records = [(topic, msgs.msgtype_of(msg), msgs.serialize(msg), i) for i, (topic, msg) in enumerate(messages)]
+    per_message = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for run in range(repeats):
+            with McapRecorder(Path(tmp) / f"{run}.mcap") as rec:
+                start = time.perf_counter()
+                for second in range(5):  # 5 sim s: chunks close by time, as in a run
+                    batch = [(t, m, d, second * 10**9 + i) for t, m, d, i in records]
+                    if hasattr(rec, "write_many"):
+                        for first in range(0, len(batch), 256):
+                            rec.write_many(batch[first : first + 256])
+                    else:
+                        for topic, msgtype, data, stamp in batch:
+                            rec.write_serialized(topic, msgtype, data, stamp)
+                per_message.append((time.perf_counter() - start) / (5 * len(records)))
+    print(f"writer: {statistics.median(per_message) * 1e6:.2f} µs a message (McapRecorder, zstd), median of {repeats}")
+
+
 def main() -> None:
     """Run the benchmark and print one line per message type."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--scale", type=float, default=1.0, help="multiply message counts")
     parser.add_argument("--compression", default="zstd", choices=["zstd", "lz4", "none"])
+    parser.add_argument("--fleet", type=int, metavar="N", help="a run of N cars' messages instead (see above)")
     args = parser.parse_args()
+    if args.fleet:
+        fleet_second(args.fleet)
+        return
     try:
         from rosbags.typesys import Stores, get_typestore
 

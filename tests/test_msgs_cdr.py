@@ -12,7 +12,7 @@ import pytest
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from racecar_sim import msgs
-from racecar_sim.msgs import idl
+from racecar_sim.msgs import cdr, idl
 from racecar_sim.msgs._base import Message
 from racecar_sim.msgs.fields import DTYPES, SCALARS
 
@@ -553,3 +553,26 @@ def test_field_spec_attr_defaults_to_the_name() -> None:
     assert idl.FieldSpec("k", "float64", True, 9).attr == "k"
     assert idl.FieldSpec("seq", "uint32", attr=None).attr is None
     assert idl.FieldSpec("K", "float64", True, 9, attr="k").attr == "k"
+
+
+def test_compiled_encoders_write_what_the_ops_write(typestore: Any) -> None:
+    """Every type's encoder is one compiled function (cdr._compiled) that writes the bytes of its field ops run one
+    by one, and rosbags' bytes; a string encoded once is then looked up at every start alignment (frame ids of
+    different lengths before it), and a value refused late in a message is named as the ops name it."""
+    rng = np.random.default_rng(11)
+    for msgtype in idl.available_msgtypes():
+        encode = cdr._encoder(msgtype)
+        assert encode.__code__.co_filename == f"<cdr encoder of {msgtype}>", msgtype
+    for frame in ("", "a", "ab", "abc", "base_link", "a", "ab"):  # the second "a", "ab": kept encodings
+        state = msgs.JointControllerState(msgs.Header.at(1_500_000_001, frame), set_point=rng.random(), p=0.5)
+        tf = msgs.TFMessage([_transform(frame, 0.25), _transform(frame + "x", 0.5)])
+        for msg in (state, tf, msgs.Odometry(msgs.Header.at(3, frame), child_frame_id=frame * 2)):
+            msgtype = msgs.msgtype_of(msg)
+            data = msgs.serialize(msg)
+            assert data == typestore.serialize_cdr(to_rosbags(msg, typestore), msgtype), (msgtype, frame)
+            by_ops: list[Any] = [cdr.CDR_LE_HEADER]
+            cdr._encoder(msgtype).__globals__["_checked"](msg, by_ops, 0)
+            assert b"".join(by_ops) == data
+    scan = msgs.LaserScan(msgs.Header.at(0, "laser"), range_max="far")  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match=r"sensor_msgs/msg/LaserScan: field 'range_max'"):
+        msgs.serialize(scan)

@@ -159,13 +159,16 @@ def _interrupt_mid_write(path: Path) -> None:
     rng = np.random.default_rng(2)
     rec = McapRecorder(path, chunk_size=1)
     rec.write("/scan", _scan(0, rng), 0)
-    add_message = rec._writer.add_message  # the private writer, to signal mid-write
+    # what adds the message to the private writer (its chunk, or mcap's add_message), to signal mid-write
+    owner = rec._chunk_messages if rec._chunk_messages is not None else rec._writer
+    name = "add" if rec._chunk_messages is not None else "add_message"
+    add_message = getattr(owner, name)
 
-    def interrupted_add_message(*args: Any, **kwargs: Any) -> None:
+    def interrupted_add_message(*args: Any, **kwargs: Any) -> Any:
         os.kill(os.getpid(), signal.SIGINT)
-        add_message(*args, **kwargs)
+        return add_message(*args, **kwargs)
 
-    rec._writer.add_message = interrupted_add_message  # type: ignore[method-assign]
+    setattr(owner, name, interrupted_add_message)
     with pytest.raises(KeyboardInterrupt):
         rec.write("/scan", _scan(1, rng), 1)
     rec.close()

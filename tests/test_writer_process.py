@@ -313,8 +313,9 @@ class _NiceRecorder:
         self.nice: list[int] = []
         self.reports = None
 
-    def do(self, op):
-        self.nice.append(os.getpriority(os.PRIO_PROCESS, 0))  # the calling thread's, on Linux
+    def do_all(self, ops):
+        for _ in ops:
+            self.nice.append(os.getpriority(os.PRIO_PROCESS, 0))  # the calling thread's, on Linux
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="per-thread nice values are Linux's")

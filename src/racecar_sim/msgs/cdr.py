@@ -9,9 +9,10 @@ Alignment is counted from the end of the 4-byte encapsulation header.
 
 from __future__ import annotations
 
+import keyword
 import struct
 from collections.abc import Callable
-from functools import cache, lru_cache
+from functools import cache, lru_cache, partial
 from itertools import chain
 from operator import attrgetter
 from typing import Any
@@ -59,26 +60,81 @@ def _error(kind: type[Exception], msgtype: str, path: str, detail: str) -> Excep
 @cache
 def _encoder(msgtype: str) -> Encoder:
     msgtype = normalize_msgtype(msgtype)
-    ops: list[Encoder] = []
+    steps: list[tuple[Encoder, list[tuple[str, str]] | str]] = []  # each op, and its scalar run or field path
     run: list[tuple[str, str]] = []
     for path, spec in leaves(msgtype):
         if not spec.is_array and spec.type in SCALARS:
             run.append((path, spec.type))
             continue
         if run:
-            ops.append(_scalar_run_op(msgtype, run))
+            steps.append((_scalar_run_op(msgtype, run), run))
             run = []
-        ops.append(_field_op(msgtype, path, spec))
+        steps.append((_field_op(msgtype, path, spec), path))
     if run:
-        ops.append(_scalar_run_op(msgtype, run))
-    op_tuple = tuple(ops)
+        steps.append((_scalar_run_op(msgtype, run), run))
+    op_tuple = tuple(op for op, _ in steps)
 
     def encode(msg: Any, out: list[Any], pos: int) -> int:
         for op in op_tuple:
             pos = op(msg, out, pos)
         return pos
 
+    return _compiled(msgtype, steps, encode) or encode
+
+
+def _compiled(
+    msgtype: str, steps: list[tuple[Encoder, list[tuple[str, str]] | str]], checked: Encoder
+) -> Encoder | None:
+    """The encoder as one Python function: each scalar run one precompiled struct's pack() of the attributes read
+    inline (its op where it is not kept), the other fields by their ops. It writes what the ops write (the same
+    structs, the same kept strings). Where it meets anything the ops would refuse or diagnose (a missing attribute,
+    a value struct refuses), it drops what it appended and hands the message to `checked`, the ops one by one, which
+    encode it or raise their one-line error. None where a path is no Python attribute chain."""
+    names: dict[str, Any] = {"_checked": checked, "_errors": (struct.error, TypeError, AttributeError, OverflowError)}
+    lines = ["def encode(msg, out, pos):", "    start, count = pos, len(out)", "    try:"]
+    for index, (op, what) in enumerate(steps):
+        if isinstance(what, list):  # a scalar run: its structs by start alignment, as _scalar_run_op keeps them
+            paths = [path for path, _ in what]
+            if not all(_attribute_chain(path) for path in paths):
+                return None
+            names[f"_run{index}"] = op.structs  # type: ignore[attr-defined]
+            values = ", ".join(f"msg.{path}" for path in paths)
+            lines += [
+                f"        packer = _run{index}[pos & 7]",
+                f"        out.append(packer.pack({values}))",
+                "        pos += packer.size",
+            ]
+        elif hasattr(op, "kept"):  # a string: its kept encodings by start alignment, as _string_op keeps them
+            if not _attribute_chain(what):
+                return None
+            names[f"_kept{index}"], names[f"_op{index}"] = op.kept, op
+            lines += [
+                f"        data = _kept{index}[pos & 3].get(msg.{what})",
+                "        if data is None:",  # not kept (yet): the op encodes it (and keeps it), or says what is wrong
+                f"            pos = _op{index}(msg, out, pos)",
+                "        else:",
+                "            out.append(data)",
+                "            pos += len(data)",
+            ]
+        else:
+            names[f"_op{index}"] = op
+            lines.append(f"        pos = _op{index}(msg, out, pos)")
+    lines += [
+        "    except _errors:",
+        "        del out[count:]",
+        "        return _checked(msg, out, start)",
+        "    return pos",
+    ]
+    exec(
+        compile("\n".join(lines), f"<cdr encoder of {msgtype}>", "exec"), names
+    )  # the source is made from the field model
+    encode: Encoder = names["encode"]
     return encode
+
+
+def _attribute_chain(path: str) -> bool:
+    """Whether `msg.<path>` is Python for the dotted attribute path (never a keyword, never anything but names)."""
+    return all(part.isidentifier() and not keyword.iskeyword(part) for part in path.split("."))
 
 
 def _field_op(msgtype: str, path: str, spec: FieldSpec) -> Encoder:
@@ -119,6 +175,7 @@ def _scalar_run_op(msgtype: str, run: list[tuple[str, str]]) -> Encoder:
             raise _diagnose_scalars(msgtype, msg, run) from None
         return pos + packer.size
 
+    op.structs = structs  # type: ignore[attr-defined]  # what the compiled encoder packs with (_compiled)
     return op
 
 
@@ -187,6 +244,7 @@ def _string_op(msgtype: str, path: str) -> Encoder:
             cache[value] = out[-1]
         return end
 
+    op.kept = kept  # type: ignore[attr-defined]  # what the compiled encoder looks up (_compiled)
     return op
 
 
@@ -315,6 +373,37 @@ def _uniform_leaves(element_type: str) -> tuple[tuple[str, ...], str] | None:
     return tuple(path for path, _ in found), type_name
 
 
+def _flattener(paths: tuple[str, ...]) -> Callable[[Any], Any]:
+    """`flatten(items)`: every item's numbers at `paths`, item after item, in one sequence. Compiled into one loop
+    that reads each nested message once (a Pose's position, then its x, y, z) where the paths are attribute chains;
+    else attrgetter's."""
+    if not all(_attribute_chain(path) for path in paths):
+        getter = attrgetter(*paths)
+        return (lambda items: chain.from_iterable(map(getter, items))) if len(paths) > 1 else partial(map, getter)
+    names: dict[str, str] = {}  # a nested message's path -> its local
+    lines = ["def flatten(items):", "    out = []", "    for item in items:"]
+
+    def local(path: str) -> str:  # the local holding the nested message at `path` ("": the item), read once
+        if not path:
+            return "item"
+        if path not in names:
+            parent, _, attr = path.rpartition(".")
+            owner = local(parent)
+            names[path] = f"v{len(names)}"
+            lines.append(f"        {names[path]} = {owner}.{attr}")
+        return names[path]
+
+    values = []
+    for path in paths:
+        parent, _, leaf = path.rpartition(".")
+        values.append(f"{local(parent)}.{leaf}")
+    lines += [f"        out += ({', '.join(values)},)", "    return out"]
+    namespace: dict[str, Any] = {}
+    exec(compile("\n".join(lines), f"<cdr flattener of {', '.join(paths)}>", "exec"), namespace)
+    flatten: Callable[[Any], Any] = namespace["flatten"]
+    return flatten
+
+
 @lru_cache(maxsize=256)  # a few array lengths repeat (links, models); a PoseArray of any length must not pile up
 def _packer(code: str, count: int) -> struct.Struct:
     return struct.Struct(f"<{count}{code}")
@@ -345,7 +434,7 @@ def _message_array_op(msgtype: str, path: str, element_type: str, size: int | No
 
     paths, type_name = uniform
     code, width = SCALARS[type_name]
-    getter, per_item = attrgetter(*paths), len(paths)
+    flatten, per_item = _flattener(paths), len(paths)
     packers: dict[int, struct.Struct] = {}  # by element count
 
     def op_uniform(msg: Any, out: list[Any], pos: int) -> int:
@@ -364,7 +453,7 @@ def _message_array_op(msgtype: str, path: str, element_type: str, size: int | No
             return pos
         try:
             packer = packers.get(count) or _packer(code, count * per_item)
-            data = packer.pack(*chain.from_iterable(map(getter, items)) if per_item > 1 else map(getter, items))
+            data = packer.pack(*flatten(items))
         except (struct.error, TypeError, AttributeError, OverflowError):
             out.append(prefix)
             return one_by_one(items, out, pos)

@@ -479,8 +479,7 @@ class _Workers:
             return  # later operations are not done, but read on: the parent never waits on a pipe nobody reads
         try:
             body, buffers = hand_over
-            for op in pickle.loads(body, buffers=buffers):
-                self.files.do(op)
+            self.files.do_all(pickle.loads(body, buffers=buffers))
         except BaseException as exc:
             self.error = exc
             self.files.reports.send("error", exc)
@@ -605,6 +604,18 @@ class _Files:
         self.holding = frame
         start = _RING_HEAD + (frame % slots) * slot_size
         return memoryview(self.ring)[start : start + nbytes]
+
+    def do_all(self, ops: list[tuple[Any, ...]]) -> None:
+        """do() each op in turn; a run of messages goes to the recorder at once (McapRecorder.write_many)."""
+        start = 0
+        for end, op in enumerate(ops):
+            if op[0] != MESSAGE:
+                if start < end:
+                    self.recorder.write_many([message[1:] for message in ops[start:end]])
+                self.do(op)
+                start = end + 1
+        if start < len(ops):
+            self.recorder.write_many([message[1:] for message in ops[start:]])
 
     def do(self, op: tuple[Any, ...]) -> None:
         kind = op[0]
