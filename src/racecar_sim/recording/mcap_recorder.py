@@ -317,10 +317,7 @@ class McapRecorder:
         log_time = _timestamp(log_time_ns, "log_time_ns")
         publish_time = log_time if publish_time_ns is None else _timestamp(publish_time_ns, "publish_time_ns")
         with self._lock:
-            if self._failed is not None:
-                raise self._failed
-            if self._closed:
-                raise ValueError(f"write to a closed recorder ({self.path})")
+            self._check_writable()
             self._interrupt.hold()
             try:
                 self._append(topic, msgtype, data, log_time, publish_time)
@@ -333,10 +330,7 @@ class McapRecorder:
         """:meth:`write_serialized` of each ``(topic, msgtype, data, log_time_ns)`` in turn (publish time = log time),
         under one hold of the lock and of SIGINT: what a writer process does with a hand-over's messages."""
         with self._lock:
-            if self._failed is not None:
-                raise self._failed
-            if self._closed:
-                raise ValueError(f"write to a closed recorder ({self.path})")
+            self._check_writable()
             self._interrupt.hold()
             log_time = 0
             try:
@@ -351,6 +345,13 @@ class McapRecorder:
                 raise self._give_up(exc, f"at sim time {log_time / 1e9:.3f} s") from None
             finally:
                 self._interrupt.release()
+
+    def _check_writable(self) -> None:
+        """Raise what a write to a failed or closed recorder raises (the lock held)."""
+        if self._failed is not None:
+            raise self._failed
+        if self._closed:
+            raise ValueError(f"write to a closed recorder ({self.path})")
 
     def _append(self, topic: str, msgtype: str, data: bytes, log_time: int, publish: int) -> None:
         if self._chunk_times is not None:
