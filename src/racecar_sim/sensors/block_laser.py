@@ -16,7 +16,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import mujoco
 import numpy as np
 
 from racecar_sim.core.rng import NoiseTable
@@ -24,10 +23,10 @@ from racecar_sim.description.urdf import Sensor
 from racecar_sim.msgs.geometry_msgs import Point32
 from racecar_sim.msgs.sensor_msgs import ChannelFloat32, PointCloud
 from racecar_sim.msgs.std_msgs import Header
-from racecar_sim.nodes import NodeBase, NodeContext
+from racecar_sim.nodes import NodeContext
 from racecar_sim.sensors.ray_block import Beams, OnRay, RayBlock, directions
 from racecar_sim.sensors.sensor_xml import topic_and_frame
-from racecar_sim.sensors.velodyne import BeamCaster, noise_stddev
+from racecar_sim.sensors.velodyne import CloudPublisher, noise_stddev
 
 PLUGIN = "libgazebo_ros_block_laser.so"
 EPSILON_DIFF = 1e-6  # the plugin's: a range this close to the cap is a beam that hit nothing (no noise)
@@ -55,25 +54,17 @@ def _shifted(beams: Beams) -> np.ndarray:
     return beams.min_angle + beams.step * 0.5 * (index + np.minimum(index + 1, beams.samples - 1))
 
 
-class BlockLaserPublisher(NodeBase):
+class BlockLaserPublisher(CloudPublisher):
     """gazebo_ros_block_laser: PointCloud on its topic at the sensor's rate (see the module doc)."""
 
     def __init__(self, ctx: NodeContext, spec: BlockLaserSpec) -> None:
-        names = ctx.names
-        self.ctx, self.spec, self.seed = ctx, spec, ctx.seed
-        self.topic = names.topic(spec.topic)
-        self.frame_id = spec.frame_id if spec.frame_id in ("world", "map") else names.frame(spec.frame_id)
+        self.spec = spec
         ray = spec.ray
-        self.beams = BeamCaster(ctx, spec.pose, "a block laser")
+        super().__init__(ctx, spec, spec.topic, spec.frame_id, ray.update_rate, "block laser")
         self._local = ray.directions()  # where each beam points (rows of the vertical samples)
         self._placed = directions(_shifted(ray.horizontal), _shifted(ray.vertical), -1.0)  # its point (z down)
         self.noise = ctx.noise and spec.gaussian_noise > 0
         self.noise_table = NoiseTable.shared(ctx.noise_stream(f"block_laser/{spec.name}"), 4 * len(self._local))
-        self._task = ctx.timers.every(ray.update_rate, self._tick, f"block laser {spec.name}")
-
-    def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        """Cast in a recompiled model (its site's id is bound for the node)."""
-        self.beams.rebind(model, data)
 
     def cloud(self, stamp_ns: int) -> PointCloud:
         """The cloud of a scan taken now, stamped `stamp_ns`."""
@@ -92,15 +83,3 @@ class BlockLaserPublisher(NodeBase):
         points = [Point32(x, y, z) for x, y, z in xyz.astype(np.float32).tolist()]
         channel = ChannelFloat32("", intensity.astype(np.float32))
         return PointCloud(Header.at(stamp_ns, self.frame_id), points, [channel])
-
-    def _tick(self, now_ns: int) -> None:
-        if self.ctx.bus.has_listeners(self.topic):
-            self.ctx.bus.publish(self.topic, self.cloud(now_ns))
-
-    def reset(self, seed: int) -> None:
-        """Noise from `seed` from now on."""
-        self.seed = seed
-
-    def close(self) -> None:
-        """Stop publishing."""
-        self._task.cancel()

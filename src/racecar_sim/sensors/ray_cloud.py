@@ -13,15 +13,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import mujoco
 import numpy as np
 
 from racecar_sim.msgs.geometry_msgs import Point32
 from racecar_sim.msgs.sensor_msgs import ChannelFloat32, PointCloud, PointCloud2, PointField
 from racecar_sim.msgs.std_msgs import Header
-from racecar_sim.nodes import NodeBase, NodeContext
+from racecar_sim.nodes import NodeContext
 from racecar_sim.sensors.ray_block import OnRay, RayBlock
-from racecar_sim.sensors.velodyne import BeamCaster
+from racecar_sim.sensors.velodyne import CloudPublisher
 
 FIELDS = tuple(PointField(name, 4 * i, PointField.FLOAT32, 1) for i, name in enumerate(("x", "y", "z", "intensity")))
 
@@ -37,23 +36,15 @@ class RayCloudSpec(OnRay):
     min_intensity: float
 
 
-class RayCloudPublisher(NodeBase):
+class RayCloudPublisher(CloudPublisher):
     """gazebo_ros_ray_sensor's point cloud output (see the module doc)."""
 
     def __init__(self, ctx: NodeContext, spec: RayCloudSpec) -> None:
-        names = ctx.names
-        self.ctx, self.spec = ctx, spec
-        self.topic = names.topic(spec.topic)
-        self.frame_id = spec.frame_id if spec.frame_id in ("world", "map") else names.frame(spec.frame_id)
-        self.beams = BeamCaster(ctx, spec.pose, "a ray sensor")
+        self.spec = spec
         ray = spec.ray
-        self._local = ray.directions()
         rate = ray.update_rate if ray.update_rate > 0 else 1e9 / ctx.timers.step_ns  # 0: every physics step
-        self._task = ctx.timers.every(rate, self._tick, f"ray sensor {spec.name}")
-
-    def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        """Cast in a recompiled model (its site's id is bound for the node)."""
-        self.beams.rebind(model, data)
+        super().__init__(ctx, spec, spec.topic, spec.frame_id, rate, "ray sensor")
+        self._local = ray.directions()
 
     def cloud(self, stamp_ns: int) -> PointCloud2 | PointCloud:
         """The cloud of a scan taken now, stamped `stamp_ns`."""
@@ -69,11 +60,3 @@ class RayCloudPublisher(NodeBase):
         data = np.concatenate([xyz, intensity[:, None]], axis=1).astype("<f4")
         n = len(data)
         return PointCloud2(header, 1, n, list(FIELDS), False, 16, 16 * n, data.tobytes(), True)
-
-    def _tick(self, now_ns: int) -> None:
-        if self.ctx.bus.has_listeners(self.topic):
-            self.ctx.bus.publish(self.topic, self.cloud(now_ns))
-
-    def close(self) -> None:
-        """Stop publishing."""
-        self._task.cancel()

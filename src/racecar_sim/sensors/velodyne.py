@@ -26,7 +26,7 @@ from racecar_sim.core.errors import DescriptionError
 from racecar_sim.core.rng import NoiseTable
 from racecar_sim.core.transforms import quat_from_rpy, quat_to_matrix
 from racecar_sim.description.urdf import Origin, Sensor
-from racecar_sim.msgs.sensor_msgs import PointCloud2, PointField
+from racecar_sim.msgs.sensor_msgs import PointCloud, PointCloud2, PointField
 from racecar_sim.msgs.std_msgs import Header
 from racecar_sim.nodes import NodeBase, NodeContext
 from racecar_sim.physics import COLLISION_GROUP
@@ -112,27 +112,52 @@ class BeamCaster:
         return self.rays.cast_rays(origin, local @ axes.T, range_min, range_max)
 
 
-class VelodynePublisher(NodeBase):
+class CloudPublisher(NodeBase):
+    """A 3-D lidar's node (Velodyne, block laser, ROS 2's ray sensor cloud): its topic and frame by the plugin's rule,
+    its beams cast by a BeamCaster, and `cloud(stamp_ns)` published at `rate` while someone listens. Subclasses build
+    the cloud; `seed` is the noise's seed from the last reset."""
+
+    def __init__(self, ctx: NodeContext, spec: OnRay, topic: str, frame_id: str, rate: float, label: str) -> None:
+        self.ctx, self.seed = ctx, ctx.seed
+        self.topic = ctx.names.topic(topic)
+        self.frame_id = frame_id if frame_id in ("world", "map") else ctx.names.frame(frame_id)
+        self.beams = BeamCaster(ctx, spec.pose, f"a {label}")
+        self._task = ctx.timers.every(rate, self._tick, f"{label.lower()} {spec.name}")
+
+    def cloud(self, stamp_ns: int) -> PointCloud2 | PointCloud:
+        """The cloud of a scan taken now, stamped `stamp_ns`."""
+        raise NotImplementedError
+
+    def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """Cast in a recompiled model (its site's id is bound for the node)."""
+        self.beams.rebind(model, data)
+
+    def _tick(self, now_ns: int) -> None:
+        if self.ctx.bus.has_listeners(self.topic):
+            self.ctx.bus.publish(self.topic, self.cloud(now_ns))
+
+    def reset(self, seed: int) -> None:
+        """Noise from `seed` from now on."""
+        self.seed = seed
+
+    def close(self) -> None:
+        """Stop publishing."""
+        self._task.cancel()
+
+
+class VelodynePublisher(CloudPublisher):
     """The Velodyne plugin's node: PointCloud2 on its topic at the sensor's rate (see the module doc)."""
 
     def __init__(self, ctx: NodeContext, spec: VelodyneSpec) -> None:
-        names = ctx.names
-        self.ctx, self.spec, self.seed = ctx, spec, ctx.seed
-        self.topic = names.topic(spec.topic)
-        self.frame_id = spec.frame_id if spec.frame_id in ("world", "map") else names.frame(spec.frame_id)
+        self.spec = spec
         ray = spec.ray
-        self.beams = BeamCaster(ctx, spec.pose, "a Velodyne")
+        super().__init__(ctx, spec, spec.topic, spec.frame_id, ray.update_rate, "Velodyne")
         self._local = ray.directions()
         self._rings = np.repeat(np.arange(ray.vertical.samples, dtype=np.uint16), ray.horizontal.samples)
         self.noise = ctx.noise and spec.gaussian_noise > 0
         self.noise_table = NoiseTable.shared(ctx.noise_stream(f"velodyne/{spec.name}"), len(self._local))
         self._lo = max(spec.min_range, ray.range_min)
         self._hi = min(spec.max_range, ray.range_max - ray.range_min - 0.01)
-        self._task = ctx.timers.every(ray.update_rate, self._tick, f"velodyne {spec.name}")
-
-    def rebind(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        """Cast in a recompiled model (its site's id is bound for the node)."""
-        self.beams.rebind(model, data)
 
     def ranges(self, stamp_ns: int) -> np.ndarray:
         """Every beam's range (m) now, ring by ring, as the plugin reads it (no hit: the span; with noise)."""
@@ -154,15 +179,3 @@ class VelodynePublisher(NodeBase):
         n = len(points)
         header = Header.at(stamp_ns, self.frame_id)
         return PointCloud2(header, 1, n, list(FIELDS), False, POINT_STEP, n * POINT_STEP, points.tobytes(), True)
-
-    def _tick(self, now_ns: int) -> None:
-        if self.ctx.bus.has_listeners(self.topic):
-            self.ctx.bus.publish(self.topic, self.cloud(now_ns))
-
-    def reset(self, seed: int) -> None:
-        """Noise from `seed` from now on."""
-        self.seed = seed
-
-    def close(self) -> None:
-        """Stop publishing."""
-        self._task.cancel()
