@@ -32,7 +32,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Protocol, cast
+from typing import Any, Protocol, cast
 
 import mujoco
 import numpy as np
@@ -42,7 +42,8 @@ from racecar_sim.core.errors import RacecarSimError, WorldError
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.throttle import ThrottledWarning
 from racecar_sim.core.transforms import compose, quat_mul, quat_rotate, quat_to_matrix, yaw_of
-from racecar_sim.msgs import Header, Point, Pose, Quaternion, Twist, Vector3
+from racecar_sim.msgs import Header, Point, Pose, Quaternion, Twist, Vector3, serialize
+from racecar_sim.msgs.cdr_layout import CdrLayout
 from racecar_sim.msgs.gazebo_msgs import (
     DeleteModelRequest,
     DeleteModelResponse,
@@ -249,6 +250,10 @@ class GazeboApi(NodeBase):
         self._free_links = [(i, link) for i, link in enumerate(self._links) if link.body >= 0 and link.qpos >= 0]
         self._posed_links = [(i, link) for i, link in enumerate(self._links) if link.body >= 0 and link.qpos < 0]
         self._posed_bodies = np.array([link.body for _, link in self._posed_links], np.intp)  # a list costs 10x more
+        # the CDR layouts of the state messages (bytes for a recorder alone), with the names they were read off and
+        # a message's numbers (the static links' and models' never change): made at the first such message
+        self._link_shape: tuple[list[str], CdrLayout, list[Any]] | None = None
+        self._model_shape: tuple[tuple[str, ...], CdrLayout, list[Any]] | None = None
 
     def _link(self, name: str, body: int, static_pose: PoseArrays = _IDENTITY) -> _Link:
         model = self.sim.model
@@ -304,10 +309,82 @@ class GazeboApi(NodeBase):
         return not (self.bus.has_listeners(LINK_STATES) or self.bus.has_listeners(MODEL_STATES))
 
     def _tick(self, now_ns: int) -> None:
-        if self.bus.has_listeners(LINK_STATES):
-            self.bus.publish(LINK_STATES, self.link_states())
-        if self.bus.has_listeners(MODEL_STATES):
-            self.bus.publish(MODEL_STATES, self.model_states())
+        bus = self.bus
+        if bus.has_listeners(LINK_STATES):
+            if bus.cdr_only(LINK_STATES):  # only a recorder takes it: its bytes, made from the numbers
+                bus.publish_cdr(LINK_STATES, LinkStates, self._link_states_cdr())
+            else:
+                bus.publish(LINK_STATES, self.link_states())
+        if bus.has_listeners(MODEL_STATES):
+            if bus.cdr_only(MODEL_STATES):
+                bus.publish_cdr(MODEL_STATES, ModelStates, self._model_states_cdr())
+            else:
+                bus.publish(MODEL_STATES, self.model_states())
+
+    def _link_states_cdr(self) -> bytes:
+        """link_states() serialized, packed from its numbers: the static links' read off a first message made the
+        object way (again when the links change), the moving links' as link_states() reads them."""
+        shape = self._link_shape
+        if shape is None or shape[0] is not self._link_names:
+            msg = self.link_states()
+            made = CdrLayout.of(msg)
+            if made is None:  # not a shape a layout holds: the object's bytes
+                return serialize(msg)
+            self._link_shape = shape = (self._link_names, made[0], made[1])
+            return made[0].pack(made[1])
+        _, layout, template = shape
+        numbers = template.copy()  # every link's pose (7 numbers), then every link's twist (6)
+        twist_at = 7 * len(self._link_names)
+        model, data, vel, velocity = self.sim.model, self.sim.data, self._vel, mujoco.mj_objectVelocity
+        qpos = data.qpos
+        for i, link in self._free_links:
+            px, py, pz, w, x, y, z = qpos[link.qpos : link.qpos + 7].tolist()
+            velocity(model, data, _XBODY, link.body, vel, 0)
+            wx, wy, wz, vx, vy, vz = vel.tolist()
+            numbers[7 * i : 7 * i + 7] = px, py, pz, x, y, z, w
+            numbers[twist_at + 6 * i : twist_at + 6 * i + 6] = vx, vy, vz, wx, wy, wz
+        if self._posed_links:
+            kin, bodies = self._posed(), self._posed_bodies
+            for (i, link), (px, py, pz), (w, x, y, z) in zip(
+                self._posed_links, kin.xpos[bodies].tolist(), kin.xquat[bodies].tolist()
+            ):
+                velocity(model, data, _XBODY, link.body, vel, 0)
+                wx, wy, wz, vx, vy, vz = vel.tolist()
+                numbers[7 * i : 7 * i + 7] = px, py, pz, x, y, z, w
+                numbers[twist_at + 6 * i : twist_at + 6 * i + 6] = vx, vy, vz, wx, wy, wz
+        return layout.pack(numbers)
+
+    def _model_states_cdr(self) -> bytes:
+        """model_states() serialized, packed from its numbers (as _link_states_cdr): the cars' from base_odometry(),
+        the other moving models' from _model_state(), the static ones' read off a first message."""
+        models = tuple(self.models)
+        shape = self._model_shape
+        if shape is None or shape[0] != models:
+            msg = self.model_states()
+            made = CdrLayout.of(msg)
+            if made is None:
+                return serialize(msg)
+            self._model_shape = shape = (models, made[0], made[1])
+            return made[0].pack(made[1])
+        _, layout, template = shape
+        numbers = template.copy()
+        twist_at = 7 * len(models)
+        for i, m in enumerate(self.models.values()):
+            if m.name in self._static_models:
+                continue
+            if m.car is not None:
+                x, y, z, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = m.car.state.base_odometry()
+                numbers[7 * i : 7 * i + 7] = x, y, z, qx, qy, qz, qw
+                numbers[twist_at + 6 * i : twist_at + 6 * i + 6] = vx, vy, vz, wx, wy, wz
+            else:
+                (pos, quat), (linear, angular) = self._model_state(m)
+                w, x, y, z = (float(v) for v in quat)
+                numbers[7 * i : 7 * i + 7] = (*(float(v) for v in pos), x, y, z, w)
+                numbers[twist_at + 6 * i : twist_at + 6 * i + 6] = (
+                    *(float(v) for v in linear),
+                    *(float(v) for v in angular),
+                )
+        return layout.pack(numbers)
 
     def model_states(self) -> ModelStates:
         """Every model's pose and twist now, as /gazebo/model_states carries them."""
