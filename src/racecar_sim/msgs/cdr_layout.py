@@ -14,12 +14,15 @@ import struct
 from collections.abc import Callable, Sequence
 from typing import Any
 
+import numpy as np
+
 from racecar_sim.msgs.cdr import CDR_LE_HEADER, serialize
 from racecar_sim.msgs.fields import SCALARS, message_fields
 from racecar_sim.msgs.registry import msgtype_of
 
 _U32 = struct.Struct("<I")
 _BYTE_TYPES = frozenset({"uint8", "byte", "char"})
+_NOT_NUMBER_CODES = str.maketrans("", "", "0123456789s")  # a format's literals ("12s") left out
 
 
 class _Unsupported(Exception):
@@ -47,9 +50,11 @@ class _Shape:
     def number(self, type_name: str, value: Any) -> None:
         code, size = SCALARS[type_name]
         pad = -self.pos % size
-        self.fmt.append("x" * pad + code)
+        if pad:  # padding is fixed bytes too: a run of numbers between two literals lies end to end
+            self.literal(b"\0" * pad)
+        self.fmt.append(code)
         self.numbers.append(value)
-        self.pos += pad + size
+        self.pos += size
 
     def length(self, count: int) -> None:
         self.literal(b"\0" * (-self.pos & 3) + _U32.pack(count))
@@ -99,6 +104,10 @@ class CdrLayout:
         self.count = count  # how many numbers a message has
         self._struct = struct.Struct(fmt)
         self.pack: Callable[[Sequence[Any]], bytes] = self._packer(literals, count)
+        # all numbers float64: each literal, then the numbers up to the next one (pack_doubles)
+        self._doubles = fmt.lstrip("<").translate(_NOT_NUMBER_CODES) == "d" * count
+        ends = [at for at, _ in literals[1:]] + [count]
+        self._segments = [(data, at, end) for (at, data), end in zip(literals, ends)]
 
     def _packer(self, literals: list[tuple[int, bytes]], count: int) -> Callable[[Sequence[Any]], bytes]:
         """One function that hands the struct the literals and the slices of numbers between them, in order."""
@@ -116,6 +125,14 @@ class CdrLayout:
         exec(compile(source, f"<cdr layout of {self.msgtype}>", "exec"), names)  # made from the field model
         pack: Callable[[Sequence[Any]], bytes] = names["pack"]
         return pack
+
+    def pack_doubles(self, numbers: np.ndarray) -> bytes:
+        """pack() of a float64 array, its runs copied as they are: for a layout whose numbers are all float64
+        (poses, twists); pack() for any other."""
+        if not self._doubles or numbers.size != self.count:
+            return self.pack(numbers.tolist())
+        numbers = numbers.astype("<f8", copy=False)
+        return b"".join(part for data, start, end in self._segments for part in (data, numbers[start:end].tobytes()))
 
     @classmethod
     def of(cls, msg: Any) -> tuple[CdrLayout, list[Any]] | None:
