@@ -1,6 +1,6 @@
 """A recording whose topics only the recorder takes is written from CDR bytes packed straight from the publishers'
 numbers (Bus.publish_cdr): run.mcap is byte for byte the file the message objects give, and the moving links' twists
-are mj_objectVelocity's, bit for bit."""
+are mj_objectVelocity's, bit for bit, and their poses those read one link at a time."""
 
 from __future__ import annotations
 
@@ -59,9 +59,11 @@ def test_link_twists_are_mj_object_velocity_bit_for_bit() -> None:
     for step in range(1, 40):
         sim.run_until(0.02 * step)
         poses, twists = api.link_arrays()
-        for body, pose, twist in zip(api._moving_bodies.tolist(), poses, twists):
+        for row, body, pose, twist in zip(api._moving_rows.tolist(), api._moving_bodies.tolist(), poses, twists):
             mujoco.mj_objectVelocity(sim.model, sim.data, mujoco.mjtObj.mjOBJ_XBODY, body, velocity, 0)
             assert twist.tobytes() == np.concatenate((velocity[3:], velocity[:3])).tobytes()
+            (position, quat), _ = api._link_state(api._links[row], None)  # a link's pose, one by one
+            assert pose.tobytes() == np.concatenate((position, quat[1:], quat[:1])).tobytes()
             compared += 1
     assert np.abs(twists).max() > 0.5  # the cars move
     sim.close()
