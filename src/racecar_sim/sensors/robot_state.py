@@ -133,13 +133,18 @@ class RobotStatePublisher(NodeBase):
                 )
             elif name in self.sliding:
                 slider = self.sliding[name]
-                pos, (w, x, y, z) = joint_transform(slider, float(position))
+                (px, py, pz), (w, x, y, z) = joint_transform(slider, float(position))
                 frames.append(
                     (
                         self.frame(slider.parent),
                         self.frame(slider.child),
-                        *(float(v) for v in pos),
-                        *map(float, (x, y, z, w)),
+                        float(px),
+                        float(py),
+                        float(pz),
+                        float(x),
+                        float(y),
+                        float(z),
+                        float(w),
                     )
                 )
         cdr = bus.cdr_only(TF)  # only a recorder takes /tf: its bytes, packed from the numbers
