@@ -15,6 +15,7 @@ from racecar_sim.bus import Bus
 from racecar_sim.cli.main import main
 from racecar_sim.drivers import ConstantCommand
 from racecar_sim.drivers.constant import NAVIGATION
+from racecar_sim.recording.run_recording import RunRecording
 
 RUN = ["run", "--world", "empty", "--cars", "3", "--driver", "constant", "--speed", "1", "--no-camera", "--no-video",
        "--no-summary", "--duration", "1.2"]  # fmt: skip
@@ -68,3 +69,25 @@ def test_link_twists_are_mj_object_velocity_bit_for_bit() -> None:
     assert np.abs(twists).max() > 0.5  # the cars move
     sim.close()
     assert compared > 200
+
+
+def _one_car(path: Path, process: bool) -> bytes:
+    """A constant-command car's 0.7 s recorded by RunRecording to `path`."""
+    sim = Simulator(world="empty", cars=[Car("car1", camera=False)])
+    ConstantCommand(sim.bus, sim.scheduler, 1.5, 0.2, topic=sim.cars[0].topic(NAVIGATION))
+    with RunRecording(sim.bus, lambda: sim.time_ns, path, process=process):
+        sim.run_until(0.7)
+    sim.close()
+    return path.read_bytes()
+
+
+@pytest.mark.parametrize("process", [False, True])
+def test_run_recording_writes_the_same_bytes_both_ways(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, process: bool
+) -> None:
+    """RunRecording on a writer thread (no process) and on a writer process: the same file from bytes and objects."""
+    with monkeypatch.context() as patch:
+        patch.setattr(Bus, "cdr_only", lambda self, topic: False)
+        from_objects = _one_car(tmp_path / "objects.mcap", process)
+    from_bytes = _one_car(tmp_path / "bytes.mcap", process)
+    assert len(from_bytes) > 20_000 and from_bytes == from_objects
