@@ -8,7 +8,9 @@ Not part of the test suite; timings on a shared machine are noisy (take the medi
 --no-camera`, built in-process as bench_fleet's cli_row) records in one sim second: per message type, the count and
 the milliseconds ``serialize`` takes for them, then the microseconds a message the writer process's McapRecorder
 takes (``write_many`` of 256 at a time, as a hand-over; ``write_serialized`` one by one in code without it), zstd
-chunks included. ``PYTHONPATH=OLD/src`` gives the code before.
+chunks included, and the CPU a sim second of the run loop's main thread without recording and with the CLI's
+recording (a writer process), the topics only it takes handed over as CDR bytes or (as before) made as objects.
+``PYTHONPATH=OLD/src`` gives the code before.
 
     python bench/bench_recording.py [--scale 0.2] [--fleet 4]
 """
@@ -120,6 +122,49 @@ def fleet_second(cars: int, repeats: int = 5) -> None:
                             rec.write_serialized(topic, msgtype, data, stamp)
                 per_message.append((time.perf_counter() - start) / (5 * len(records)))
     print(f"writer: {statistics.median(per_message) * 1e6:.2f} µs a message (McapRecorder, zstd), median of {repeats}")
+    runs: dict[str, list[float]] = {"bytes": [], "objects": [], "off": []}
+    for _ in range(3):  # interleaved: the machine's load moves all alike
+        for way in runs:
+            runs[way].append(_loop_cpu(cars, way))
+    cpu = {way: statistics.median(seconds) * 1e3 for way, seconds in runs.items()}
+    print(
+        f"main thread, CPU a sim second (run loop after 1 s, {LOOP_SECONDS:g} sim s, median of 3): {cpu['off']:.1f} ms "
+        f"without recording; recording (RunRecording, a writer process) {cpu['bytes']:.1f} ms "
+        f"(the recording's {cpu['bytes'] - cpu['off']:.1f} ms), {cpu['objects']:.1f} ms with every message made as an "
+        f"object ({cpu['objects'] - cpu['off']:.1f} ms)"
+    )
+
+
+LOOP_SECONDS = 5.0
+
+
+def _loop_cpu(cars: int, way: str) -> float:
+    """CPU seconds of the main thread a sim second in `cars` cars' run loop (cli_row): with the CLI's recording
+    ("bytes": what a recorder alone takes is handed over as CDR bytes; "objects": every message made as an object, as
+    before Bus.cdr_only) or without it ("off"). Thread time, which other processes on the machine leave alone better
+    than wall time."""
+    from bench_fleet import cli_row
+    from racecar_sim.bus import Bus
+    from racecar_sim.recording.run_recording import RunRecording
+
+    sim = cli_row(cars, "empty")
+    cdr_only = getattr(Bus, "cdr_only", None)
+    if way == "objects" and cdr_only is not None:
+        Bus.cdr_only = lambda self, topic: False  # type: ignore[method-assign]
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            recording = RunRecording(sim.bus, lambda: sim.time_ns, Path(tmp) / "run.mcap") if way != "off" else None
+            sim.run_until(1.0)
+            start = time.thread_time()
+            sim.run_until(1.0 + LOOP_SECONDS)
+            seconds = time.thread_time() - start
+            if recording is not None:
+                recording.close()
+            sim.close()
+    finally:
+        if cdr_only is not None:
+            Bus.cdr_only = cdr_only  # type: ignore[method-assign]
+    return seconds / LOOP_SECONDS
 
 
 def main() -> None:

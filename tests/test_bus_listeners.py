@@ -1,4 +1,7 @@
-"""Bus additions for bridges: declared subscriber types (listened) and taps that want only some topics."""
+"""Bus additions for bridges: declared subscriber types (listened) and taps that want only some topics; taps that take
+CDR bytes (a recorder), which a publisher hands its bytes alone where nobody else listens (cdr_only, publish_cdr)."""
+
+import pytest
 
 from racecar_sim.bus import Bus
 from racecar_sim.msgs import AckermannDriveStamped, Float64
@@ -41,3 +44,50 @@ def test_an_overhearing_subscriber_gets_what_others_make_published_and_counts_fo
     sub.unsubscribe()
     bus.publish("/camera/image", Float64(3.0))
     assert heard == [2.0]
+
+
+def test_cdr_only_when_every_taker_takes_cdr_bytes() -> None:
+    bus = Bus()
+    assert not bus.cdr_only("/state")  # nobody listens
+    got: list[tuple[str, type, bytes]] = []
+    objects: list[str] = []
+    remove = bus.tap(lambda topic, msg: objects.append(topic), cdr=lambda *item: got.append(item))
+    assert bus.cdr_only("/state") and bus.has_listeners("/state")
+    bus.publish_cdr("/state", Float64, b"\x00\x01\x00\x00" + bytes(8))
+    assert got == [("/state", Float64, b"\x00\x01\x00\x00" + bytes(8))] and not objects
+    assert bus.count("/state") == 1 and bus.topics()["/state"] is Float64
+
+    sub = bus.subscribe("/state", lambda m: None)  # a subscriber takes the message object
+    assert not bus.cdr_only("/state")
+    sub.unsubscribe()
+    heard = bus.overhear("/state", lambda m: None)  # so does one overhearing it
+    assert not bus.cdr_only("/state")
+    heard.unsubscribe()
+    bridge = bus.tap(lambda topic, msg: None, wants=lambda topic: topic == "/state")  # a tap of objects that wants it
+    assert not bus.cdr_only("/state") and bus.cdr_only("/other")
+    bridge()
+    recorder = bus.tap(lambda topic, msg: None)  # a tap of objects for every topic
+    assert not bus.cdr_only("/other")
+    recorder()
+    assert bus.cdr_only("/other")
+    remove()
+    assert not bus.cdr_only("/other")
+
+
+def test_publish_cdr_counts_tallies_feeds_and_refuses_what_publish_would() -> None:
+    bus = Bus()
+    bus.tap(lambda topic, msg: None, cdr=lambda *item: None)
+    bus.subscribe("/joint_states", lambda m: None, feeds={"/tf": AckermannDriveStamped})
+    assert not bus.cdr_only("/joint_states")  # its subscriber makes /tf, which the recorder hears
+    quiet = Bus()
+    quiet.tap(lambda topic, msg: None, cdr=lambda *item: None, wants=lambda topic: topic == "/joint_states")
+    quiet.subscribe("/joint_states", lambda m: None, feeds={"/tf": AckermannDriveStamped})
+    assert quiet.cdr_only("/joint_states")  # nobody hears /tf: the bytes are enough, /tf is counted unheard
+    quiet.publish_cdr("/joint_states", Float64, b"")
+    assert quiet.count("/tf") == 1 and quiet.topics()["/tf"] is AckermannDriveStamped
+    bus.publish_cdr("/x", Float64, b"")
+    with pytest.raises(TypeError, match="carries Float64"):
+        bus.publish_cdr("/x", AckermannDriveStamped, b"")
+    bus.latch("/latched")
+    with pytest.raises(ValueError, match="latched"):
+        bus.publish_cdr("/latched", Float64, b"")

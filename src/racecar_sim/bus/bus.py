@@ -13,6 +13,8 @@ from typing import Any
 
 Callback = Callable[[Any], None]
 Tap = Callable[[str, Any], None]
+CdrTap = Callable[[str, type, bytes], None]
+"""``cdr_tap(topic, message class, CDR bytes)``: a tap that takes a message as its serialized bytes (a recorder)."""
 
 
 @dataclass
@@ -40,11 +42,13 @@ class _Topic:
     declared: type | None = None  # the message class a subscriber said it takes (what a bridge subscribes as)
     callbacks: tuple[Callback, ...] = ()  # the subscribers' callbacks, rebuilt when they change: publish copies nothing
     plain: bool = False  # a subscriber that listens for itself (not only to feed other topics, not overhearing)
+    overheard: bool = False  # an overhearing subscriber: it takes message objects whenever they are made
     feeds: tuple[tuple[str, type], ...] = ()  # what the other subscribers publish per message
 
     def refresh(self) -> None:
         self.callbacks = tuple(sub.callback for sub in self.subscribers)
         self.plain = any(not sub.feeds and not sub.passive for sub in self.subscribers)
+        self.overheard = any(sub.passive for sub in self.subscribers)
         self.feeds = tuple(feed for sub in self.subscribers for feed in sub.feeds)
 
 
@@ -52,6 +56,7 @@ class _Topic:
 class _Tap:
     callback: Tap
     wants: Callable[[str], bool] | None
+    cdr: CdrTap | None = None  # how it takes a message's CDR bytes instead of the message (None: it does not)
 
 
 def type_name(msg_or_cls: object) -> str:
@@ -77,6 +82,8 @@ class Bus:
         self._taps: list[Tap] = []
         self._tap_entries: list[_Tap] = []
         self._all_taps = False  # a tap without `wants` listens to every topic
+        self._object_taps_all = False  # a tap without `wants` that takes only message objects
+        self._cdr_entries: tuple[_Tap, ...] = ()  # the taps that take CDR bytes
         self._services: dict[str, Callable[[Any], Any]] = {}
 
     def advertise_service(self, name: str, handler: Callable[[Any], Any]) -> None:
@@ -184,23 +191,34 @@ class Bus:
             callback(t.last)
         return sub
 
-    def tap(self, callback: Tap, wants: Callable[[str], bool] | None = None) -> Callable[[], None]:
+    def tap(
+        self, callback: Tap, wants: Callable[[str], bool] | None = None, cdr: CdrTap | None = None
+    ) -> Callable[[], None]:
         """Call `callback(topic, msg)` for every message on every topic (recorders, bridges); returns a remover.
 
         `wants(topic)`: whether this tap needs the topic's messages made at all (a bridge: whether a ROS node
         subscribes); has_listeners() asks it, so a sensor nobody reads skips its work. Without it, every topic.
+        `cdr(topic, message class, data)`: the tap also takes a message as its CDR bytes (a recorder). A publisher
+        whose only takers are such taps (cdr_only()) hands them the bytes with publish_cdr(), made straight from
+        its numbers, and no message object is made.
         """
-        entry = _Tap(callback, wants)
+        entry = _Tap(callback, wants, cdr)
         self._taps.append(callback)
         self._tap_entries.append(entry)
-        self._all_taps = any(e.wants is None for e in self._tap_entries)
+        self._retap()
 
         def remove() -> None:
             self._taps.remove(callback)
             self._tap_entries.remove(entry)
-            self._all_taps = any(e.wants is None for e in self._tap_entries)
+            self._retap()
 
         return remove
+
+    def _retap(self) -> None:
+        entries = self._tap_entries
+        self._all_taps = any(e.wants is None for e in entries)
+        self._object_taps_all = any(e.wants is None and e.cdr is None for e in entries)
+        self._cdr_entries = tuple(e for e in entries if e.cdr is not None)
 
     def _unsubscribe(self, sub: Subscription) -> None:
         t = self._topics[sub.topic]
@@ -224,6 +242,44 @@ class Bus:
             return True
         # no tap without `wants` here (_all_taps is False)
         return bool(self._tap_entries) and any(e.wants(topic) for e in self._tap_entries if e.wants is not None)
+
+    def cdr_only(self, topic: str) -> bool:
+        """Whether a message on `topic` would reach only taps that take its CDR bytes (a recorder): then
+        publish_cdr() hands them the bytes and no message object is needed. False when nobody listens at all, when a
+        subscriber (an overhearing one too, or one feeding a topic someone listens to) would take it, and when a tap
+        that takes message objects wants it."""
+        if not self._cdr_entries or self._object_taps_all:
+            return False
+        t = self._topics.get(topic)
+        if t is not None and t.callbacks:
+            if t.plain or t.overheard or any(self.has_listeners(feed) for feed, _ in t.feeds):
+                return False
+        heard = False
+        for e in self._tap_entries:
+            if e.wants is None or e.wants(topic):
+                if e.cdr is None:
+                    return False
+                heard = True
+        return heard
+
+    def publish_cdr(self, topic: str, msgtype: type, data: bytes) -> None:
+        """Publish a message of class `msgtype` as its CDR bytes `data` (encapsulation header included), where
+        cdr_only(topic) says its only takers are taps that take bytes: they get `data`, and the topic counts it as
+        publish() would (what its subscribers would have published in turn is tallied, unheard). Not for a latched
+        topic (a late subscriber would get its last message)."""
+        t = self._topics.get(topic) or self._topic(topic)
+        if t.latched:
+            raise ValueError(f"topic {topic} is latched: publish its messages")
+        if msgtype is not t.msgtype:
+            if t.msgtype is not None:
+                raise TypeError(f"topic {topic} carries {t.msgtype.__name__}, got {msgtype.__name__}")
+            t.msgtype = msgtype
+        t.count += 1
+        for feed, feed_type in t.feeds:
+            self.tally(feed, feed_type)
+        for e in self._cdr_entries:
+            if e.wants is None or e.wants(topic):
+                e.cdr(topic, msgtype, data)  # type: ignore[misc]  # a _cdr_entries entry has one
 
     def listened(self) -> dict[str, type | None]:
         """Every topic with a subscriber, and the message class a subscriber declared for it (None: none did)."""

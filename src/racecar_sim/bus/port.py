@@ -7,7 +7,8 @@ from typing import Any, Protocol
 
 
 class BusPort(Protocol):
-    """Publish, subscribe, count unheard messages, offer and call services."""
+    """Publish (message objects, or CDR bytes for a recorder alone), subscribe, count unheard messages, offer and call
+    services."""
 
     def publish(self, topic: str, msg: Any) -> None: ...
 
@@ -22,6 +23,10 @@ class BusPort(Protocol):
     def has_listeners(self, topic: str) -> bool: ...
 
     def tally(self, topic: str, msgtype: type) -> None: ...
+
+    def cdr_only(self, topic: str) -> bool: ...
+
+    def publish_cdr(self, topic: str, msgtype: type, data: bytes) -> None: ...
 
     def latch(self, topic: str) -> None: ...
 

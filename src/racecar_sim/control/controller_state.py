@@ -17,13 +17,16 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
 from racecar_sim.bus import BusPort
 from racecar_sim.control.controllers import VELOCITY, ControllerConfig, JointController
 from racecar_sim.core.names import CarNames
+from racecar_sim.core.time import NS_PER_S
 from racecar_sim.msgs import Header, JointControllerState
+from racecar_sim.msgs.cdr_layout import CdrLayout
 from racecar_sim.nodes import Timers
 from racecar_sim.physics.state import CarState
 
@@ -62,6 +65,7 @@ class ControllerStatePublisher:
         ]
         # the MjData whose arrays these views are, and the views (MjData makes a new view object at every access)
         self._views: tuple[object, np.ndarray, np.ndarray, np.ndarray] = (None, *(np.zeros(0),) * 3)
+        self._layout: CdrLayout | None | Literal[False] = False  # read off the first message (None: none holds it)
         scheduler.every(STATE_RATE, self.publish, "controller_state", unheard=self._unheard)
 
     def _unheard(self, _now_ns: int) -> bool:
@@ -73,13 +77,24 @@ class ControllerStatePublisher:
         return True
 
     def publish(self, now_ns: int) -> None:
-        listened = self.bus.has_listeners  # asked first: the cheaper question, and mostly no
+        bus = self.bus
+        listened = bus.has_listeners  # asked first: the cheaper question, and mostly no
         time_step = None
         for c in self.controllers:
             if listened(c.topic) and self.running(c.config.name):
                 if time_step is None:
                     time_step = float(self.state.model.opt.timestep)
-                self.bus.publish(c.topic, self._message(c, now_ns, time_step))
+                if self._layout and bus.cdr_only(c.topic):  # only a recorder takes it: its bytes
+                    sec, nanosec = divmod(now_ns, NS_PER_S)
+                    bus.publish_cdr(
+                        c.topic, JointControllerState, self._layout.pack((sec, nanosec, *self._numbers(c, time_step)))
+                    )
+                    continue
+                msg = self._message(c, now_ns, time_step)
+                if self._layout is False:  # the first message: its shape is every message's (frame id "")
+                    made = CdrLayout.of(msg)
+                    self._layout = None if made is None else made[0]
+                bus.publish(c.topic, msg)
 
     def message(self, c: _Controller, now_ns: int) -> JointControllerState:
         """The state message of one controller now."""
@@ -99,6 +114,13 @@ class ControllerStatePublisher:
         return c.addresses
 
     def _message(self, c: _Controller, now_ns: int, time_step: float) -> JointControllerState:
+        return JointControllerState(Header.at(now_ns), *self._numbers(c, time_step))
+
+    def _numbers(
+        self, c: _Controller, time_step: float
+    ) -> tuple[float, float, float, float, float, float, float, float, float, float, bool]:
+        """The message's fields after its header: set point, process value and its rate, error, time step, command,
+        the gains p, i, d, the integral clamp, antiwindup."""
         g, state = c.config.gains, self.state
         qpos, dof, ctrl, act = self._addresses(c) if c.model is not state.model else c.addresses
         data, qpos_, qvel, ctrl_ = self._views
@@ -122,17 +144,4 @@ class ControllerStatePublisher:
         else:
             value, value_dot, error = q, w, set_point - q
             command = g.p * error - g.d * w + i_term
-        return JointControllerState(
-            Header.at(now_ns),
-            set_point,
-            value,
-            value_dot,
-            error,
-            time_step,
-            command,
-            g.p,
-            g.i,
-            g.d,
-            g.i_clamp,
-            False,
-        )
+        return set_point, value, value_dot, error, time_step, command, g.p, g.i, g.d, g.i_clamp, False

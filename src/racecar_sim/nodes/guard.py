@@ -77,6 +77,8 @@ class GuardedBus:
         self.publish = bus.publish
         self.has_listeners = bus.has_listeners
         self.tally = bus.tally
+        self.cdr_only = bus.cdr_only
+        self.publish_cdr = bus.publish_cdr
         self.latch = bus.latch
         self.call = bus.call
 

@@ -19,6 +19,8 @@ class ScopedBus:
         self.publish = bus.publish  # the hot paths, as plain attributes: no wrapper call per message
         self.has_listeners = bus.has_listeners
         self.tally = bus.tally
+        self.cdr_only = bus.cdr_only
+        self.publish_cdr = bus.publish_cdr
         self.latch = bus.latch
         self.call = bus.call
         self._subscriptions: list[Any] = []

@@ -12,6 +12,7 @@ The file is byte for byte the one ``add_message`` gives (tests/test_mcap_chunk_m
 from __future__ import annotations
 
 import struct
+from collections.abc import Callable
 from itertools import chain
 from typing import Any
 
@@ -20,16 +21,16 @@ from mcap.opcode import Opcode
 from mcap.records import MessageIndex
 from mcap.writer import Writer
 
-_MESSAGE = struct.Struct("<BQHIQQ")  # opcode 0x05, record length, channel id, sequence, log time, publish time
-_OPCODE = 0x05
-_FIXED = _MESSAGE.size - 9  # the record's bytes before its data, opcode and length left out
+MESSAGE_RECORD = struct.Struct("<BQHIQQ")  # opcode 0x05, record length, channel id, sequence, log time, publish time
+MESSAGE_OPCODE = 0x05
+MESSAGE_FIXED = MESSAGE_RECORD.size - 9  # the record's bytes before its data, opcode and length left out
 # the Writer's private state this reads and updates (name-mangled attributes)
 _CHUNK_BUILDER, _STATISTICS, _CHUNK_SIZE = "_Writer__chunk_builder", "_Writer__statistics", "_Writer__chunk_size"
 _FINALIZE = "_Writer__finalize_chunk"
 _INDEX_HEAD = struct.Struct("<BQHI")  # opcode 0x07, record length, channel id, the entries' byte length
 
 
-class _ChunkIndex(MessageIndex):
+class ChunkIndex(MessageIndex):
     """A chunk's message index of one channel that writes its (log time, offset) entries with one struct.pack, not
     two writes each: the bytes MessageIndex.write gives."""
 
@@ -48,10 +49,12 @@ class ChunkMessages:
 
     def __init__(self, writer: Writer) -> None:
         self._writer = writer
-        self._builder: Any = getattr(writer, _CHUNK_BUILDER)
-        self._statistics: Any = getattr(writer, _STATISTICS)
-        self._chunk_size: int = getattr(writer, _CHUNK_SIZE)
-        self._finalize = getattr(writer, _FINALIZE)
+        # the writer's chunk in progress, its statistics, its chunk size and how it closes a chunk (McapRecorder's
+        # write_many makes add()'s updates inline)
+        self.builder: Any = getattr(writer, _CHUNK_BUILDER)
+        self.statistics: Any = getattr(writer, _STATISTICS)
+        self.chunk_size: int = getattr(writer, _CHUNK_SIZE)
+        self.finalize: Callable[[], None] = getattr(writer, _FINALIZE)
 
     @classmethod
     def of(cls, writer: Writer) -> ChunkMessages | None:
@@ -74,7 +77,7 @@ class ChunkMessages:
 
     def add(self, channel_id: int, log_time: int, data: bytes, publish_time: int, sequence: int) -> bool:
         """Add one message; whether that closed the chunk (written to the stream, as add_message's would be)."""
-        statistics = self._statistics
+        statistics = self.statistics
         if statistics.message_count == 0:
             statistics.message_start_time = log_time
         elif log_time < statistics.message_start_time:
@@ -83,7 +86,7 @@ class ChunkMessages:
             statistics.message_end_time = log_time
         statistics.channel_message_counts[channel_id] += 1
         statistics.message_count += 1
-        builder = self._builder
+        builder = self.builder
         if builder.num_messages == 0:
             builder.message_start_time = log_time
         elif log_time < builder.message_start_time:
@@ -94,12 +97,14 @@ class ChunkMessages:
         offset = buffer.tell()
         index = builder.message_indices.get(channel_id)
         if index is None:
-            index = builder.message_indices[channel_id] = _ChunkIndex(channel_id=channel_id, records=[])
+            index = builder.message_indices[channel_id] = ChunkIndex(channel_id=channel_id, records=[])
         index.records.append((log_time, offset))
         builder.num_messages += 1
-        buffer.write(_MESSAGE.pack(_OPCODE, _FIXED + len(data), channel_id, sequence, log_time, publish_time))
+        buffer.write(
+            MESSAGE_RECORD.pack(MESSAGE_OPCODE, MESSAGE_FIXED + len(data), channel_id, sequence, log_time, publish_time)
+        )
         buffer.write(data)
-        if buffer.tell() > self._chunk_size:
-            self._finalize()
+        if buffer.tell() > self.chunk_size:
+            self.finalize()
             return True
         return False

@@ -20,7 +20,13 @@ from mcap.writer import CompressionType, Writer
 from racecar_sim.core.errors import RecordingError
 from racecar_sim.msgs import msgtype_of, schema_text, serialize
 from racecar_sim.recording.chunk_index_spill import spill_chunk_indexes
-from racecar_sim.recording.chunk_messages import ChunkMessages
+from racecar_sim.recording.chunk_messages import (
+    MESSAGE_FIXED,
+    MESSAGE_OPCODE,
+    MESSAGE_RECORD,
+    ChunkIndex,
+    ChunkMessages,
+)
 
 _COMPRESSION = {
     "zstd": CompressionType.ZSTD,
@@ -334,17 +340,71 @@ class McapRecorder:
             self._interrupt.hold()
             log_time = 0
             try:
-                append = self._append
-                for topic, msgtype, data, log_time_ns in messages:
-                    if type(log_time_ns) is int and 0 <= log_time_ns <= _UINT64_MAX:  # the sim clock's, always
-                        log_time = log_time_ns
-                    else:
+                if self._chunk_messages is not None:
+                    log_time = self._append_many(messages, self._chunk_messages)
+                else:
+                    for topic, msgtype, data, log_time_ns in messages:
                         log_time = _timestamp(log_time_ns, "log_time_ns")
-                    append(topic, msgtype, data, log_time, log_time)
+                        self._append(topic, msgtype, data, log_time, log_time)
             except OSError as exc:
                 raise self._give_up(exc, f"at sim time {log_time / 1e9:.3f} s") from None
             finally:
                 self._interrupt.release()
+
+    def _append_many(self, messages: Iterable[tuple[str, str, bytes, int]], fast: ChunkMessages) -> int:
+        """_append() of each message (publish time = log time), the usual one inline: a topic already recorded with
+        that type, in the chunk in progress, less than CHUNK_DURATION_NS after its first message (the updates
+        ChunkMessages.add makes, with the writer's state read once). The others (a new topic, a chunk to close by time)
+        go through _append. Returns the last log time."""
+        statistics, builder, chunk_size = fast.statistics, fast.builder, fast.chunk_size
+        indices, channel_counts = builder.message_indices, statistics.channel_message_counts
+        channels, counts, pack, fixed = self._channels, self._counts, MESSAGE_RECORD.pack, MESSAGE_FIXED
+        buffer = builder.record_writer._buffer
+        span = self._chunk_times
+        log_time = 0
+        for topic, msgtype, data, log_time in messages:
+            if type(log_time) is not int or not 0 <= log_time <= _UINT64_MAX:
+                log_time = _timestamp(log_time, "log_time_ns")
+            channel = channels.get(topic)
+            if (
+                span is None
+                or channel is None
+                or channel[1] != msgtype
+                or log_time < span[0]
+                or log_time - span[0] >= CHUNK_DURATION_NS
+            ):
+                self._chunk_times = span
+                self._append(topic, msgtype, data, log_time, log_time)
+                span = self._chunk_times
+                buffer = builder.record_writer._buffer
+                continue
+            # the chunk holds a message already, none before log_time: no start time moves
+            channel_id = channel[0]
+            count = counts[topic] + 1
+            counts[topic] = count
+            if log_time > statistics.message_end_time:
+                statistics.message_end_time = log_time
+            channel_counts[channel_id] += 1
+            statistics.message_count += 1
+            if log_time > builder.message_end_time:
+                builder.message_end_time = log_time
+            index = indices.get(channel_id)
+            if index is None:
+                index = indices[channel_id] = ChunkIndex(channel_id=channel_id, records=[])
+            index.records.append((log_time, buffer.tell()))
+            builder.num_messages += 1
+            buffer.write(pack(MESSAGE_OPCODE, fixed + len(data), channel_id, count & 0xFFFFFFFF, log_time, log_time))
+            buffer.write(data)
+            if log_time > span[1]:
+                span = (span[0], log_time)
+            if buffer.tell() > chunk_size:  # full: closed as add_message closes it
+                self._chunk_times = span
+                fast.finalize()
+                self._chunk_written()
+                span = self._chunk_times
+                buffer = builder.record_writer._buffer
+        self._chunk_times = span
+        return log_time
 
     def _check_writable(self) -> None:
         """Raise what a write to a failed or closed recorder raises (the lock held)."""

@@ -81,7 +81,8 @@ class RunRecording:
         except BaseException:
             self.close()
             raise
-        self._untap = bus.tap(self._record)
+        self._msgtypes: dict[type, str] = {}  # message class -> pkg/msg/Name, for what comes as CDR bytes
+        self._untap = bus.tap(self._record, cdr=self._record_cdr)
 
     def _record(self, topic: str, msg: object) -> None:
         if self.process is not None:
@@ -104,6 +105,18 @@ class RunRecording:
             self._batch.append((self.compressed[topic], None, msg, self.clock()))
         else:
             self._batch.append((topic, msgtype_of(msg), serialize(msg), self.clock()))
+        if len(self._batch) >= THREAD_BATCH:
+            self._submit()
+
+    def _record_cdr(self, topic: str, cls: type, data: bytes) -> None:
+        """A message handed over as its CDR bytes (Bus.publish_cdr: the recording is its only taker)."""
+        msgtype = self._msgtypes.get(cls)
+        if msgtype is None:
+            msgtype = self._msgtypes[cls] = msgtype_of(cls)
+        if self.process is not None:
+            self.process.message(topic, msgtype, data, self.clock())
+            return
+        self._batch.append((topic, msgtype, data, self.clock()))
         if len(self._batch) >= THREAD_BATCH:
             self._submit()
 

@@ -5,7 +5,9 @@ from __future__ import annotations
 
 from racecar_sim.bus import BusPort
 from racecar_sim.core.names import CLOCK
+from racecar_sim.core.time import NS_PER_S
 from racecar_sim.msgs import Clock, Time
+from racecar_sim.msgs.cdr_layout import CdrLayout
 from racecar_sim.nodes import NodeBase, Timers
 
 CLOCK_RATE = 100.0  # Hz of sim time: gazebo_ros's pub_clock_frequency default
@@ -16,11 +18,20 @@ class ClockPublisher(NodeBase):
 
     def __init__(self, bus: BusPort, timers: Timers, rate: float = CLOCK_RATE) -> None:
         self.bus = bus
+        self._layout: CdrLayout | None = None  # the CDR layout of a Clock, read off the first one published
         self._task = timers.every(rate, self._publish, "clock", unheard=self._unheard)
 
     def _publish(self, now_ns: int) -> None:
-        if not self._unheard(now_ns):
-            self.bus.publish(CLOCK, Clock(Time.from_ns(now_ns)))
+        if self._unheard(now_ns):
+            return
+        if self._layout is not None and self.bus.cdr_only(CLOCK):  # only a recorder takes it: its bytes
+            self.bus.publish_cdr(CLOCK, Clock, self._layout.pack(divmod(now_ns, NS_PER_S)))
+            return
+        msg = Clock(Time.from_ns(now_ns))
+        if self._layout is None:
+            made = CdrLayout.of(msg)
+            self._layout = None if made is None else made[0]
+        self.bus.publish(CLOCK, msg)
 
     def _unheard(self, _now_ns: int) -> bool:
         if self.bus.has_listeners(CLOCK):

@@ -32,7 +32,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Protocol, cast
+from typing import Any, Protocol, cast
 
 import mujoco
 import numpy as np
@@ -42,7 +42,8 @@ from racecar_sim.core.errors import RacecarSimError, WorldError
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.throttle import ThrottledWarning
 from racecar_sim.core.transforms import compose, quat_mul, quat_rotate, quat_to_matrix, yaw_of
-from racecar_sim.msgs import Header, Point, Pose, Quaternion, Twist, Vector3
+from racecar_sim.msgs import Header, Point, Pose, Quaternion, Twist, Vector3, serialize
+from racecar_sim.msgs.cdr_layout import CdrLayout
 from racecar_sim.msgs.gazebo_msgs import (
     DeleteModelRequest,
     DeleteModelResponse,
@@ -76,6 +77,9 @@ NAMESPACE = "/gazebo"
 WORLD_FRAMES = ("", "world", "map", "/map")  # what gazebo_ros takes for the inertial frame
 _IDENTITY = (np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]))
 _ZERO_TWIST = (np.zeros(3), np.zeros(3))
+_FREE_POSE_ROS = np.array([0, 1, 2, 4, 5, 6, 3])  # a free joint's qpos (x y z, qw qx qy qz) as a ROS pose's order
+_XYZW = np.array([1, 2, 3, 0])  # MuJoCo's quaternion (w x y z) in ROS's order
+_NEXT, _AFTER = np.array([1, 2, 0]), np.array([2, 0, 1])  # a cross product's components: a[next] b[after] - ...
 _XBODY = int(mujoco.mjtObj.mjOBJ_XBODY)  # as a plain int: MuJoCo's functions take it, and convert it faster
 
 PoseArrays = tuple[np.ndarray, np.ndarray]  # position (3,), quaternion (w, x, y, z)
@@ -249,6 +253,16 @@ class GazeboApi(NodeBase):
         self._free_links = [(i, link) for i, link in enumerate(self._links) if link.body >= 0 and link.qpos >= 0]
         self._posed_links = [(i, link) for i, link in enumerate(self._links) if link.body >= 0 and link.qpos < 0]
         self._posed_bodies = np.array([link.body for _, link in self._posed_links], np.intp)  # a list costs 10x more
+        # the moving links (free ones first, then posed ones), as link_arrays() gives their numbers
+        moving = self._free_links + self._posed_links
+        self._moving_rows = np.array([i for i, _ in moving], np.intp)
+        self._moving_bodies = np.array([link.body for _, link in moving], np.intp)
+        self._moving_roots = model.body_rootid[self._moving_bodies]
+        self._free_qpos = np.array([link.qpos for _, link in self._free_links], np.intp)[:, None] + _FREE_POSE_ROS
+        # the CDR layouts of the state messages (bytes for a recorder alone), with the names they were read off and
+        # a message's numbers (the static links' and models' never change): made at the first such message
+        self._link_shape: tuple[list[str], CdrLayout, np.ndarray] | None = None
+        self._model_shape: tuple[tuple[str, ...], CdrLayout, list[Any]] | None = None
 
     def _link(self, name: str, body: int, static_pose: PoseArrays = _IDENTITY) -> _Link:
         model = self.sim.model
@@ -304,10 +318,89 @@ class GazeboApi(NodeBase):
         return not (self.bus.has_listeners(LINK_STATES) or self.bus.has_listeners(MODEL_STATES))
 
     def _tick(self, now_ns: int) -> None:
-        if self.bus.has_listeners(LINK_STATES):
-            self.bus.publish(LINK_STATES, self.link_states())
-        if self.bus.has_listeners(MODEL_STATES):
-            self.bus.publish(MODEL_STATES, self.model_states())
+        bus = self.bus
+        if bus.has_listeners(LINK_STATES):
+            if bus.cdr_only(LINK_STATES):  # only a recorder takes it: its bytes, made from the numbers
+                bus.publish_cdr(LINK_STATES, LinkStates, self._link_states_cdr())
+            else:
+                bus.publish(LINK_STATES, self.link_states())
+        if bus.has_listeners(MODEL_STATES):
+            if bus.cdr_only(MODEL_STATES):
+                bus.publish_cdr(MODEL_STATES, ModelStates, self._model_states_cdr())
+            else:
+                bus.publish(MODEL_STATES, self.model_states())
+
+    def _link_states_cdr(self) -> bytes:
+        """link_states() serialized, packed from its numbers: the static links' read off a first message made the
+        object way (again when the links change), the moving links' from link_arrays()."""
+        shape = self._link_shape
+        if shape is None or shape[0] is not self._link_names:
+            msg = self.link_states()
+            made = CdrLayout.of(msg)
+            if made is None:  # not a shape a layout holds: the object's bytes
+                return serialize(msg)
+            self._link_shape = (self._link_names, made[0], np.array(made[1], float))
+            return made[0].pack(made[1])
+        _, layout, template = shape
+        numbers = template.copy()  # every link's pose (7 numbers), then every link's twist (6)
+        count = len(self._link_names)
+        rows = self._moving_rows
+        numbers[: 7 * count].reshape(count, 7)[rows], numbers[7 * count :].reshape(count, 6)[rows] = self.link_arrays()
+        return layout.pack_doubles(numbers)
+
+    def link_arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        """The moving links' poses (x, y, z, qx, qy, qz, qw) and twists (vx, vy, vz, wx, wy, wz) now, one row each in
+        `_moving_rows` order: free-joint links from qpos, the others from the posed data, and the twists as
+        mj_objectVelocity(mjOBJ_XBODY, world frame) gives them, with its arithmetic (mju_transformSpatial: the body's
+        cvel moved from its subtree's centre of mass to its frame's origin) for every link at once: the same bits
+        (tests/test_recording_direct.py)."""
+        data, bodies = self.sim.data, self._moving_bodies
+        poses = np.empty((len(bodies), 7))
+        free = len(self._free_links)
+        poses[:free] = data.qpos[self._free_qpos]
+        if self._posed_links:
+            kin, posed = self._posed(), self._posed_bodies
+            poses[free:, :3] = kin.xpos[posed]
+            poses[free:, 3:] = kin.xquat[posed[:, None], _XYZW]
+        cvel = data.cvel[bodies]
+        offset, angular = data.xpos[bodies] - data.subtree_com[self._moving_roots], cvel[:, :3]
+        twists = np.empty((len(bodies), 6))
+        twists[:, 3:] = angular
+        # the linear velocity at the frame's origin: minus offset x angular, component by component as mju_cross
+        twists[:, :3] = cvel[:, 3:] - (offset[:, _NEXT] * angular[:, _AFTER] - offset[:, _AFTER] * angular[:, _NEXT])
+        return poses, twists
+
+    def _model_states_cdr(self) -> bytes:
+        """model_states() serialized, packed from its numbers (as _link_states_cdr): the cars' from base_odometry(),
+        the other moving models' from _model_state(), the static ones' read off a first message."""
+        models = tuple(self.models)
+        shape = self._model_shape
+        if shape is None or shape[0] != models:
+            msg = self.model_states()
+            made = CdrLayout.of(msg)
+            if made is None:
+                return serialize(msg)
+            self._model_shape = shape = (models, made[0], made[1])
+            return made[0].pack(made[1])
+        _, layout, template = shape
+        numbers = template.copy()
+        twist_at = 7 * len(models)
+        for i, m in enumerate(self.models.values()):
+            if m.name in self._static_models:
+                continue
+            if m.car is not None:
+                x, y, z, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = m.car.state.base_odometry()
+                numbers[7 * i : 7 * i + 7] = x, y, z, qx, qy, qz, qw
+                numbers[twist_at + 6 * i : twist_at + 6 * i + 6] = vx, vy, vz, wx, wy, wz
+            else:
+                (pos, quat), (linear, angular) = self._model_state(m)
+                w, x, y, z = (float(v) for v in quat)
+                numbers[7 * i : 7 * i + 7] = (*(float(v) for v in pos), x, y, z, w)
+                numbers[twist_at + 6 * i : twist_at + 6 * i + 6] = (
+                    *(float(v) for v in linear),
+                    *(float(v) for v in angular),
+                )
+        return layout.pack(numbers)
 
     def model_states(self) -> ModelStates:
         """Every model's pose and twist now, as /gazebo/model_states carries them."""
@@ -330,27 +423,14 @@ class GazeboApi(NodeBase):
 
     def link_states(self) -> LinkStates:
         """Every link's pose and twist now, as /gazebo/link_states carries them. A static link's Pose and Twist
-        objects are shared by every message (they never change)."""
-        # the numbers _link_state() gives, read as Python floats straight from the arrays (this runs at 100 Hz when a
-        # run records): free-joint links from qpos, the others from the posed data, twists from mj_objectVelocity
+        objects are shared by every message (they never change); the moving links' numbers are link_arrays()'."""
         poses, twists = self._link_poses.copy(), self._link_twists.copy()
-        model, data, vel, velocity = self.sim.model, self.sim.data, self._vel, mujoco.mj_objectVelocity
-        qpos = data.qpos
-        for i, link in self._free_links:
-            px, py, pz, w, x, y, z = qpos[link.qpos : link.qpos + 7].tolist()
-            velocity(model, data, _XBODY, link.body, vel, 0)
-            wx, wy, wz, vx, vy, vz = vel.tolist()
+        moving_poses, moving_twists = self.link_arrays()
+        for i, (px, py, pz, x, y, z, w), (vx, vy, vz, wx, wy, wz) in zip(
+            self._moving_rows.tolist(), moving_poses.tolist(), moving_twists.tolist()
+        ):
             poses[i] = Pose(Point(px, py, pz), Quaternion(x, y, z, w))
             twists[i] = Twist(Vector3(vx, vy, vz), Vector3(wx, wy, wz))
-        if self._posed_links:  # their poses from the kinematics of the live qpos
-            kin, bodies = self._posed(), self._posed_bodies
-            for (i, link), (px, py, pz), (w, x, y, z) in zip(
-                self._posed_links, kin.xpos[bodies].tolist(), kin.xquat[bodies].tolist()
-            ):
-                velocity(model, data, _XBODY, link.body, vel, 0)
-                wx, wy, wz, vx, vy, vz = vel.tolist()
-                poses[i] = Pose(Point(px, py, pz), Quaternion(x, y, z, w))
-                twists[i] = Twist(Vector3(vx, vy, vz), Vector3(wx, wy, wz))
         # every None of the templates was a moving link's, filled in above
         return LinkStates(self._link_names.copy(), cast(list[Pose], poses), cast(list[Twist], twists))
 

@@ -16,6 +16,7 @@ import numpy as np
 from racecar_sim.bus import BusPort
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import ODOM, ODOM_RELAY, TF, CarNames
+from racecar_sim.core.time import NS_PER_S
 from racecar_sim.msgs import (
     Header,
     Odometry,
@@ -30,6 +31,7 @@ from racecar_sim.msgs import (
     TwistWithCovariance,
     Vector3,
 )
+from racecar_sim.msgs.cdr_layout import CdrLayout
 from racecar_sim.nodes import NodeBase, Timers
 from racecar_sim.physics.state import CarState
 
@@ -54,6 +56,7 @@ class OdometryPublisher(NodeBase):
             raise ConfigError(f"odometry mode {mode!r} is not one of {', '.join(FRAMES)}")
         self.bus, self.state, self.mode, self.topic = bus, state, mode, names.topic(topic)
         self.frame, self.child = (names.frame(f) for f in FRAMES[mode])
+        self._tf_layout: CdrLayout | None = None  # the CDR layout of its /tf message (bytes for a recorder alone)
         self._local = mode == "ros"  # twist in the body frame
         if relay_topic:
             relay = names.topic(relay_topic)
@@ -74,15 +77,18 @@ class OdometryPublisher(NodeBase):
         if not bus.has_listeners(TF):  # nobody would receive it: counted, not built
             bus.tally(TF, TFMessage)
             return
-        bus.publish(
-            TF,
-            TFMessage(
-                [
-                    TransformStamped(
-                        Header.at(now_ns, self.frame),
-                        self.child,
-                        Transform(Vector3(px, py, pz), Quaternion(x, y, z, w)),
-                    )
-                ]
-            ),
+        cdr = bus.cdr_only(TF)
+        if cdr and self._tf_layout is not None:  # only a recorder takes /tf: its bytes, packed from the numbers
+            bus.publish_cdr(TF, TFMessage, self._tf_layout.pack((*divmod(now_ns, NS_PER_S), px, py, pz, x, y, z, w)))
+            return
+        tf = TFMessage(
+            [
+                TransformStamped(
+                    Header.at(now_ns, self.frame), self.child, Transform(Vector3(px, py, pz), Quaternion(x, y, z, w))
+                )
+            ]
         )
+        if cdr:  # its frames are every message's
+            made = CdrLayout.of(tf)
+            self._tf_layout = None if made is None else made[0]
+        bus.publish(TF, tf)

@@ -25,6 +25,7 @@ from racecar_sim.msgs import (
     TransformStamped,
     Vector3,
 )
+from racecar_sim.msgs.cdr_layout import CdrLayout
 from racecar_sim.nodes import NodeBase, StaticTf
 
 
@@ -95,14 +96,18 @@ class RobotStatePublisher(NodeBase):
             description = names.topic(ROBOT_DESCRIPTION)
             bus.latch(description)
             bus.publish(description, String(robot.urdf))
+        # the CDR layout of a /tf message and the (parent, child) frames it was read off (bytes for a recorder alone)
+        self._layout: tuple[tuple[tuple[str, str], ...], CdrLayout] | None = None
         bus.subscribe(joint_states_topic, self._on_joint_states, feeds={TF: TFMessage})
 
     def _on_joint_states(self, msg: JointState) -> None:
-        if not self.bus.has_listeners(TF):  # as a ROS publisher with no subscriber, nothing goes out: no need to build
-            self.bus.tally(TF, TFMessage)
+        bus = self.bus
+        if not bus.has_listeners(TF):  # as a ROS publisher with no subscriber, nothing goes out: no need to build
+            bus.tally(TF, TFMessage)
             return
-        sec, nanosec = divmod(msg.header.stamp.to_ns(), NS_PER_S)
-        transforms = []
+        stamp_ns = msg.header.stamp.to_ns()
+        sec, nanosec = divmod(stamp_ns, NS_PER_S)
+        frames = []  # parent, child, translation x y z, rotation x y z w: one transform each
         moving = self._moving
         for name, position in zip(msg.name, _floats(msg.position)):
             joint = moving.get(name)
@@ -113,32 +118,55 @@ class RobotStatePublisher(NodeBase):
                 half = 0.5 * position
                 s = math.sin(half)
                 bw, bx, by, bz = math.cos(half), ux * s, uy * s, uz * s
-                transforms.append(
-                    TransformStamped(
-                        Header(Time(sec, nanosec), parent),
+                frames.append(
+                    (
+                        parent,
                         child,
-                        Transform(
-                            Vector3(px, py, pz),
-                            Quaternion(
-                                aw * bx + ax * bw + ay * bz - az * by,
-                                aw * by - ax * bz + ay * bw + az * bx,
-                                aw * bz + ax * by - ay * bx + az * bw,
-                                aw * bw - ax * bx - ay * by - az * bz,
-                            ),
-                        ),
+                        px,
+                        py,
+                        pz,
+                        aw * bx + ax * bw + ay * bz - az * by,
+                        aw * by - ax * bz + ay * bw + az * bx,
+                        aw * bz + ax * by - ay * bx + az * bw,
+                        aw * bw - ax * bx - ay * by - az * bz,
                     )
                 )
             elif name in self.sliding:
                 slider = self.sliding[name]
-                transforms.append(
-                    transform_msg(
-                        msg.header.stamp.to_ns(),
+                (px, py, pz), (w, x, y, z) = joint_transform(slider, float(position))
+                frames.append(
+                    (
                         self.frame(slider.parent),
                         self.frame(slider.child),
-                        *joint_transform(slider, float(position)),
+                        float(px),
+                        float(py),
+                        float(pz),
+                        float(x),
+                        float(y),
+                        float(z),
+                        float(w),
                     )
                 )
-        self.bus.publish(TF, TFMessage(transforms))
+        cdr = bus.cdr_only(TF)  # only a recorder takes /tf: its bytes, packed from the numbers
+        if cdr and self._layout is not None:
+            if self._layout[0] == tuple(frame[:2] for frame in frames):
+                numbers = [value for frame in frames for value in (sec, nanosec, *frame[2:])]
+                bus.publish_cdr(TF, TFMessage, self._layout[1].pack(numbers))
+                return
+        tf = TFMessage(
+            [
+                TransformStamped(
+                    Header(Time(sec, nanosec), parent),
+                    child,
+                    Transform(Vector3(px, py, pz), Quaternion(qx, qy, qz, qw)),
+                )
+                for parent, child, px, py, pz, qx, qy, qz, qw in frames
+            ]
+        )
+        if cdr:  # the layout of this message's frames, for the next ones
+            made = CdrLayout.of(tf)
+            self._layout = None if made is None else (tuple(frame[:2] for frame in frames), made[0])
+        bus.publish(TF, tf)
 
 
 def _floats(values: np.ndarray | Sequence[float]) -> list[float]:

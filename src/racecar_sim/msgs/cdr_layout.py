@@ -1,0 +1,154 @@
+"""The CDR bytes of messages that differ only in their numbers, packed straight from those numbers.
+
+A publisher whose only taker is a recorder (Bus.cdr_only) need not make message objects: its messages keep one shape
+(the same frame ids and names, the same array lengths) and only their numbers change. :meth:`CdrLayout.of` reads that
+shape off one message: its strings, sequence lengths and padding become fixed bytes, and its numbers the fields of
+one ``struct`` format. ``layout.pack(numbers)`` then gives the bytes ``serialize()`` gives a message of that shape
+with those numbers, in one ``struct.pack``. A layout is only made after it packed the sample's own numbers into the
+sample's ``serialize()`` bytes, so it can never write other bytes than the message objects would.
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from racecar_sim.msgs.cdr import CDR_LE_HEADER, serialize
+from racecar_sim.msgs.fields import SCALARS, message_fields
+from racecar_sim.msgs.registry import msgtype_of
+
+_U32 = struct.Struct("<I")
+_BYTE_TYPES = frozenset({"uint8", "byte", "char"})
+_NOT_NUMBER_CODES = str.maketrans("", "", "0123456789s")  # a format's literals ("12s") left out
+
+
+class _Unsupported(Exception):
+    """A field a layout does not hold (a byte array, a wire-only field): the message goes the object way."""
+
+
+class _Shape:
+    """What walking a message gives: the struct format (literals as ``Ns``), the literals, the numbers."""
+
+    def __init__(self) -> None:
+        self.fmt: list[str] = []
+        self.literals: list[tuple[int, bytes]] = []  # (index among the numbers it goes before, bytes)
+        self.numbers: list[Any] = []
+        self.pos = 0  # the body's offset (alignment counts from after the encapsulation header)
+
+    def literal(self, data: bytes) -> None:
+        self.pos += len(data)
+        if self.literals and self.literals[-1][0] == len(self.numbers):  # right after another literal: one
+            index, before = self.literals.pop()
+            self.fmt.pop()
+            data = before + data
+        self.literals.append((len(self.numbers), data))
+        self.fmt.append(f"{len(data)}s")
+
+    def number(self, type_name: str, value: Any) -> None:
+        code, size = SCALARS[type_name]
+        pad = -self.pos % size
+        if pad:  # padding is fixed bytes too: a run of numbers between two literals lies end to end
+            self.literal(b"\0" * pad)
+        self.fmt.append(code)
+        self.numbers.append(value)
+        self.pos += size
+
+    def length(self, count: int) -> None:
+        self.literal(b"\0" * (-self.pos & 3) + _U32.pack(count))
+
+    def string(self, value: str) -> None:
+        data = value.encode()
+        self.literal(b"\0" * (-self.pos & 3) + _U32.pack(len(data) + 1) + data + b"\0")
+
+    def message(self, msgtype: str, msg: Any) -> None:
+        for spec in message_fields(msgtype):
+            if spec.attr is None:
+                raise _Unsupported(spec.name)
+            value = getattr(msg, spec.attr)
+            if not spec.is_array:
+                if spec.type == "string":
+                    self.string(value)
+                elif spec.type in SCALARS:
+                    self.number(spec.type, value)
+                else:
+                    self.message(spec.type, value)
+                continue
+            if spec.type in _BYTE_TYPES:
+                raise _Unsupported(spec.name)
+            items = list(value)
+            if spec.size is None:
+                self.length(len(items))
+            if spec.type == "string":
+                for item in items:
+                    self.string(item)
+            elif spec.type in SCALARS:
+                for item in items:  # an empty sequence is not aligned (as serialize() writes it)
+                    self.number(spec.type, item.item() if hasattr(item, "item") else item)
+            else:
+                for item in items:
+                    self.message(spec.type, item)
+
+
+class CdrLayout:
+    """The CDR bytes of messages of one shape, packed from their numbers; see the module docstring.
+
+    `pack(numbers)`: the serialized message (encapsulation header included) whose numeric fields are `numbers`, in
+    wire order (nested messages' fields in turn, array elements one after the other).
+    """
+
+    def __init__(self, msgtype: str, fmt: str, literals: list[tuple[int, bytes]], count: int) -> None:
+        self.msgtype = msgtype
+        self.count = count  # how many numbers a message has
+        self._struct = struct.Struct(fmt)
+        self.pack: Callable[[Sequence[Any]], bytes] = self._packer(literals, count)
+        # all numbers float64: each literal, then the numbers up to the next one (pack_doubles)
+        self._doubles = fmt.lstrip("<").translate(_NOT_NUMBER_CODES) == "d" * count
+        ends = [at for at, _ in literals[1:]] + [count]
+        self._segments = [(data, at, end) for (at, data), end in zip(literals, ends)]
+
+    def _packer(self, literals: list[tuple[int, bytes]], count: int) -> Callable[[Sequence[Any]], bytes]:
+        """One function that hands the struct the literals and the slices of numbers between them, in order."""
+        names: dict[str, Any] = {"_pack": self._struct.pack}
+        args, start = [], 0
+        for index, (at, data) in enumerate(literals):
+            if at > start:
+                args.append(f"*v[{start}:{at}]")
+            names[f"_l{index}"] = data
+            args.append(f"_l{index}")
+            start = at
+        if count > start:
+            args.append(f"*v[{start}:]" if start else "*v")
+        source = f"def pack(v):\n    return _pack({', '.join(args)})"
+        exec(compile(source, f"<cdr layout of {self.msgtype}>", "exec"), names)  # made from the field model
+        pack: Callable[[Sequence[Any]], bytes] = names["pack"]
+        return pack
+
+    def pack_doubles(self, numbers: np.ndarray) -> bytes:
+        """pack() of a float64 array, its runs copied as they are: for a layout whose numbers are all float64
+        (poses, twists); pack() for any other."""
+        if not self._doubles or numbers.size != self.count:
+            return self.pack(numbers.tolist())
+        numbers = numbers.astype("<f8", copy=False)
+        return b"".join(part for data, start, end in self._segments for part in (data, numbers[start:end].tobytes()))
+
+    @classmethod
+    def of(cls, msg: Any) -> tuple[CdrLayout, list[Any]] | None:
+        """The layout of `msg`'s shape and `msg`'s numbers; None where a field is not one a layout holds (a byte
+        array) or the packed sample would differ from ``serialize(msg)``."""
+        msgtype = msgtype_of(msg)
+        shape = _Shape()
+        shape.literal(CDR_LE_HEADER)
+        shape.pos = 0
+        try:
+            shape.message(msgtype, msg)
+        except (_Unsupported, AttributeError, TypeError):
+            return None
+        layout = cls(msgtype, "<" + "".join(shape.fmt), shape.literals, len(shape.numbers))
+        try:
+            same = layout.pack(shape.numbers) == serialize(msg)
+        except (struct.error, TypeError, ValueError, OverflowError):
+            same = False
+        return (layout, shape.numbers) if same else None

@@ -1,0 +1,85 @@
+"""CdrLayout: a message's bytes packed from its numbers are serialize()'s bytes of the message with those numbers
+(serialize itself is checked against rosbags in test_msgs_cdr.py), for every kind of field a state topic has."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from racecar_sim import msgs
+from racecar_sim.msgs.cdr_layout import CdrLayout
+
+
+def _pose(k: float) -> msgs.Pose:
+    return msgs.Pose(msgs.Point(k, -k, 0.5), msgs.Quaternion(0.0, 0.0, np.sin(k), np.cos(k)))
+
+
+def _twist(k: float) -> msgs.Twist:
+    return msgs.Twist(msgs.Vector3(k, 2 * k, -k), msgs.Vector3(0.1, 0.0, k / 3))
+
+
+def _link_states(k: float) -> msgs.LinkStates:
+    names = ["ground_plane::link", "car1::base_link", "car1::left_front_wheel"]
+    return msgs.LinkStates(names, [_pose(k + i) for i in range(3)], [_twist(k - i) for i in range(3)])
+
+
+def _state(k: float) -> msgs.JointControllerState:
+    return msgs.JointControllerState(msgs.Header.at(int(k * 1e9)), k, -k, 0.0, 2 * k, 0.001, k / 7, 1.0, 0.5, 0.0,
+                                     10.0, k > 1)  # fmt: skip
+
+
+def _tf(k: float) -> msgs.TFMessage:
+    return msgs.TFMessage(
+        [
+            msgs.TransformStamped(
+                msgs.Header.at(int(k * 1e9), parent),
+                child,
+                msgs.Transform(msgs.Vector3(k, 0, 1), msgs.Quaternion(0, 0, np.sin(k), np.cos(k))),
+            )  # fmt: skip
+            for parent, child in (("car1/base_link", "car1/left_front_wheel"), ("odom", "car1/base_footprint"))
+        ]
+    )
+
+
+def _odometry(k: float) -> msgs.Odometry:
+    cov = np.arange(36.0) * k
+    return msgs.Odometry(msgs.Header.at(int(k * 1e9), "odom"), "base_link", msgs.PoseWithCovariance(_pose(k), cov),
+                         msgs.TwistWithCovariance(_twist(k), -cov))  # fmt: skip
+
+
+def _scan(k: float) -> msgs.LaserScan:
+    ranges = (np.linspace(0.1, 10, 7) * k).astype(np.float32)
+    return msgs.LaserScan(msgs.Header.at(int(k * 1e9), "laser"), -2.3, 2.3, 0.004, 0.0, 0.025, 0.1, 10.0, ranges,
+                          np.zeros(0, np.float32))  # fmt: skip
+
+
+def _joint_state(k: float) -> msgs.JointState:
+    return msgs.JointState(msgs.Header.at(int(k * 1e9)), ["a", "bb", "ccc"], np.array([k, 2 * k, 3.0]),
+                           np.array([1.0, -k, 0.0]), np.zeros(0))  # fmt: skip
+
+
+MAKERS = [_link_states, _state, _tf, _odometry, _scan, _joint_state, lambda k: msgs.Clock(msgs.Time(int(k), 17))]
+
+
+@pytest.mark.parametrize("make", MAKERS)
+def test_packed_numbers_are_serialize_bytes(make) -> None:
+    layout, numbers = CdrLayout.of(make(1.25))
+    assert layout.count == len(numbers)
+    other = make(2.5)  # the same shape, other numbers (and another bool)
+    again = CdrLayout.of(other)
+    assert again is not None
+    assert layout.pack(again[1]) == msgs.serialize(other)
+    assert numbers != again[1]
+
+
+def test_pack_doubles_gives_pack_bytes_for_float64_layouts() -> None:
+    layout, _ = CdrLayout.of(_link_states(0.3))
+    _, numbers = CdrLayout.of(_link_states(4.0))
+    assert layout.pack_doubles(np.array(numbers)) == msgs.serialize(_link_states(4.0))
+    state, state_numbers = CdrLayout.of(_state(1.5))  # not all float64: pack_doubles packs it as pack does
+    assert state.pack_doubles(np.array(state_numbers, dtype=object)) == msgs.serialize(_state(1.5))
+
+
+def test_no_layout_for_byte_arrays() -> None:
+    image = msgs.Image(msgs.Header.at(0, "camera"), 2, 2, "rgb8", 0, 6, np.zeros(12, np.uint8))
+    assert CdrLayout.of(image) is None

@@ -1,0 +1,93 @@
+"""A recording whose topics only the recorder takes is written from CDR bytes packed straight from the publishers'
+numbers (Bus.publish_cdr): run.mcap is byte for byte the file the message objects give, and the moving links' twists
+are mj_objectVelocity's, bit for bit, and their poses those read one link at a time."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from racecar_sim import Car, Simulator, Spawn
+from racecar_sim.bus import Bus
+from racecar_sim.cli.main import main
+from racecar_sim.drivers import ConstantCommand
+from racecar_sim.drivers.constant import NAVIGATION
+from racecar_sim.recording.run_recording import RunRecording
+
+RUN = ["run", "--world", "empty", "--cars", "3", "--driver", "constant", "--speed", "1", "--no-camera", "--no-video",
+       "--no-summary", "--duration", "1.2"]  # fmt: skip
+DIRECT = {"/gazebo/link_states", "/gazebo/model_states", "/clock", "/tf",
+          "/car2/racecar/left_rear_wheel_velocity_controller/state"}  # fmt: skip
+
+
+def _run(out: Path, monkeypatch: pytest.MonkeyPatch, objects: bool) -> tuple[bytes, set[str]]:
+    """run.mcap of RUN, and the topics handed over as bytes; `objects`: every message made as an object."""
+    direct: set[str] = set()
+    publish_cdr = Bus.publish_cdr
+
+    def counted(self: Bus, topic: str, msgtype: type, data: bytes) -> None:
+        direct.add(topic)
+        publish_cdr(self, topic, msgtype, data)
+
+    with monkeypatch.context() as patch:
+        patch.setattr(Bus, "publish_cdr", counted)
+        if objects:
+            patch.setattr(Bus, "cdr_only", lambda self, topic: False)
+        assert main([*RUN, "--out", str(out)]) == 0
+    return (out / "run.mcap").read_bytes(), direct
+
+
+def test_run_mcap_is_the_same_from_bytes_and_from_objects(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from_objects, none = _run(tmp_path / "objects", monkeypatch, objects=True)
+    from_bytes, direct = _run(tmp_path / "bytes", monkeypatch, objects=False)
+    assert not none
+    assert DIRECT <= direct  # the direct way was taken: the comparison compares something
+    assert len(from_bytes) > 100_000 and from_bytes == from_objects
+
+
+def test_link_twists_are_mj_object_velocity_bit_for_bit() -> None:
+    cars = [Car("car1", spawn=Spawn(0.0, 0.0, 0.05, 0.0), camera=False),
+            Car("car2", spawn=Spawn(-1.5, 0.0, 0.05, 0.3), camera=False)]  # fmt: skip
+    sim = Simulator(world="tunnel", cars=cars)
+    for k, car in enumerate(sim.cars):
+        ConstantCommand(sim.bus, sim.scheduler, 2.0 + k, 0.3 - 0.5 * k, topic=car.topic(NAVIGATION))
+    api = sim.gazebo
+    velocity = np.zeros(6)
+    compared = 0
+    for step in range(1, 40):
+        sim.run_until(0.02 * step)
+        poses, twists = api.link_arrays()
+        for row, body, pose, twist in zip(api._moving_rows.tolist(), api._moving_bodies.tolist(), poses, twists):
+            mujoco.mj_objectVelocity(sim.model, sim.data, mujoco.mjtObj.mjOBJ_XBODY, body, velocity, 0)
+            assert twist.tobytes() == np.concatenate((velocity[3:], velocity[:3])).tobytes()
+            (position, quat), _ = api._link_state(api._links[row], None)  # a link's pose, one by one
+            assert pose.tobytes() == np.concatenate((position, quat[1:], quat[:1])).tobytes()
+            compared += 1
+    assert np.abs(twists).max() > 0.5  # the cars move
+    sim.close()
+    assert compared > 200
+
+
+def _one_car(path: Path, process: bool) -> bytes:
+    """A constant-command car's 0.7 s recorded by RunRecording to `path`."""
+    sim = Simulator(world="empty", cars=[Car("car1", camera=False)])
+    ConstantCommand(sim.bus, sim.scheduler, 1.5, 0.2, topic=sim.cars[0].topic(NAVIGATION))
+    with RunRecording(sim.bus, lambda: sim.time_ns, path, process=process):
+        sim.run_until(0.7)
+    sim.close()
+    return path.read_bytes()
+
+
+@pytest.mark.parametrize("process", [False, True])
+def test_run_recording_writes_the_same_bytes_both_ways(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, process: bool
+) -> None:
+    """RunRecording on a writer thread (no process) and on a writer process: the same file from bytes and objects."""
+    with monkeypatch.context() as patch:
+        patch.setattr(Bus, "cdr_only", lambda self, topic: False)
+        from_objects = _one_car(tmp_path / "objects.mcap", process)
+    from_bytes = _one_car(tmp_path / "bytes.mcap", process)
+    assert len(from_bytes) > 20_000 and from_bytes == from_objects
