@@ -13,7 +13,7 @@ Where the registries are loaded (that numba, or a compile), one of them (numba/n
 scipy.linalg only to learn whether a BLAS exists for np.correlate / np.convolve (0.2-0.7 s): here that import is
 refused while numba registers (in this thread only), and the answer it would have given is put back: whether SciPy
 is installed. np.dot and np.linalg in a later kernel import scipy.linalg themselves, at their own compile, as they
-always do.
+always do. SciPy is refused to numba's own import too, which imports it only to check its version.
 """
 
 from __future__ import annotations
@@ -22,7 +22,8 @@ import importlib.abc
 import importlib.util
 import sys
 import threading
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from types import ModuleType
 from typing import Any
 
@@ -46,6 +47,17 @@ class _NoSciPy(importlib.abc.MetaPathFinder):
         return None
 
 
+@contextmanager
+def _scipy_refused() -> Iterator[None]:
+    """Inside, this thread cannot import SciPy."""
+    blocker = _NoSciPy()
+    sys.meta_path.insert(0, blocker)
+    try:
+        yield
+    finally:
+        sys.meta_path.remove(blocker)
+
+
 def load_numba() -> None:
     """Import numba and make its cached kernels of racecar-sim load without its compiler's registries (once per
     process; each kernel then loads in milliseconds)."""
@@ -53,6 +65,9 @@ def load_numba() -> None:
     if _done:
         return
     _done = True
+    if "scipy" not in sys.modules:
+        with _scipy_refused():  # numba's import only checks SciPy's version, where SciPy imports (13 modules, 30 ms)
+            import numba  # noqa: F401
     from numba.core import caching
 
     if _light_loads(caching.Cache):
@@ -96,14 +111,10 @@ def _register() -> None:
     """numba's registries loaded now (what its first compile or cache load does first), without SciPy."""
     if "scipy.linalg" in sys.modules or "numba.np.arraymath" in sys.modules:
         return  # nothing to save: SciPy's linear algebra or numba's registries are already there
-    blocker = _NoSciPy()
-    sys.meta_path.insert(0, blocker)
-    try:
+    with _scipy_refused():
         from numba.core.registry import cpu_target
 
         cpu_target.target_context.refresh()
-    finally:
-        sys.meta_path.remove(blocker)
     arraymath = sys.modules.get("numba.np.arraymath")
     if arraymath is not None and hasattr(arraymath, "_HAVE_BLAS"):
         setattr(arraymath, "_HAVE_BLAS", importlib.util.find_spec("scipy") is not None)  # noqa: B010 (numba's own)
