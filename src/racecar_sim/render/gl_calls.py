@@ -31,6 +31,15 @@ GL_DEPTH_STENCIL_ATTACHMENT = 0x821A
 GL_DEPTH32F_STENCIL8 = 0x8CAD
 GL_DEPTH_COMPONENT32F = 0x8CAC
 GL_FRAMEBUFFER_COMPLETE = 0x8CD5
+GL_RGB = 0x1907
+GL_SRGB8 = 0x8C41
+GL_SRGB8_ALPHA8 = 0x8C43
+GL_TEXTURE0 = 0x84C0
+GL_TEXTURE_2D = 0x0DE1
+GL_TEXTURE_CUBE_MAP = 0x8513
+GL_TEXTURE_CUBE_MAP_POSITIVE_X = 0x8515
+GL_TEXTURE_MIN_FILTER = 0x2801
+GL_LINEAR_MIPMAP_LINEAR = 0x2703
 
 _uint, _int, _sizei, _void_p = ctypes.c_uint, ctypes.c_int, ctypes.c_int, ctypes.c_void_p
 # name: (result type, argument types)
@@ -45,6 +54,16 @@ _SIGNATURES: dict[str, tuple[Any, list[Any]]] = {
     "glFramebufferRenderbuffer": (None, [_uint, _uint, _uint, _uint]),
     "glRenderbufferStorage": (None, [_uint, _uint, _sizei, _sizei]),
     "glCheckFramebufferStatus": (_uint, [_uint]),
+    "glGenTextures": (None, [_sizei, ctypes.POINTER(_uint)]),
+    "glDeleteTextures": (None, [_sizei, ctypes.POINTER(_uint)]),
+    "glActiveTexture": (None, [_uint]),
+    "glEnable": (None, [_uint]),
+    "glDisable": (None, [_uint]),
+    "glBindTexture": (None, [_uint, _uint]),
+    "glTexParameteri": (None, [_uint, _uint, _int]),
+    "glTexImage2D": (None, [_uint, _int, _int, _sizei, _sizei, _int, _uint, _uint, _void_p]),
+    "glGenerateMipmap": (None, [_uint]),
+    "glFinish": (None, []),
 }
 
 
@@ -122,3 +141,28 @@ def renderbuffer_storage(target: int, internal_format: int, width: int, height: 
 def check_framebuffer_status(target: int) -> int:
     result: int = _call("glCheckFramebufferStatus", target)
     return result
+
+
+def mipmapped_texture(target: int, internal_format: int, width: int, height: int, channels: int) -> None:
+    """Upload a texture of zeros of this kind and size as MuJoCo's mjr_uploadTexture does (a cube map: six faces
+    of width x width), generate its mipmaps, and delete it: the GL state is left as it was (texture unit 0 active,
+    nothing bound, the target disabled)."""
+    name = _uint(0)
+    _call("glGenTextures", 1, ctypes.byref(name))
+    try:
+        _call("glActiveTexture", GL_TEXTURE0)
+        _call("glEnable", target)
+        _call("glBindTexture", target, name.value)
+        _call("glTexParameteri", target, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR)
+        pixel_format = GL_RGBA if channels == 4 else GL_RGB
+        zeros = np.zeros(width * max(height, width) * channels, np.uint8)
+        faces = [GL_TEXTURE_2D] if target == GL_TEXTURE_2D else [GL_TEXTURE_CUBE_MAP_POSITIVE_X + i for i in range(6)]
+        for face in faces:
+            _call("glTexImage2D", face, 0, internal_format, width, height, 0, pixel_format, GL_UNSIGNED_BYTE,
+                  zeros.ctypes.data)  # fmt: skip
+        _call("glGenerateMipmap", target)
+        _call("glFinish")
+    finally:
+        _call("glBindTexture", target, 0)
+        _call("glDisable", target)
+        _call("glDeleteTextures", 1, ctypes.byref(name))

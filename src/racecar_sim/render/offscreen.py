@@ -19,6 +19,7 @@ same bit for bit: the same drawing into the same-sized buffer at the same place.
 from __future__ import annotations
 
 import copy
+import logging
 import threading
 from concurrent.futures import Future
 from dataclasses import dataclass
@@ -33,6 +34,7 @@ from racecar_sim.render.culling import FrustumCuller
 from racecar_sim.render.depth_buffer import drop_stencil
 from racecar_sim.render.gl import HeadlessGL, shared_context, when_shared_context
 
+log = logging.getLogger("racecar_sim")
 _OFF = (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION, mujoco.mjtRndFlag.mjRND_HAZE)
 _SKYBOX = mujoco.mjtRndFlag.mjRND_SKYBOX
 
@@ -87,6 +89,7 @@ def _make_context(model: mujoco.MjModel, shadows: bool) -> mujoco.MjrContext:
     if not shadows:
         model = copy.copy(model)
         model.vis.quality.shadowsize = 0
+    _warm_textures(model)
     context = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_50)
     drop_stencil(context)
     return context
@@ -101,6 +104,39 @@ class _Made:
     gl: HeadlessGL
     context: Future[mujoco.MjrContext]
     users: int = 0
+
+
+def _warm_textures(model: mujoco.MjModel) -> None:
+    """Upload and mipmap, once, a texture of each kind and size of the model's, through ctypes (gl_calls), before
+    MjrContext uploads the real ones.
+
+    Mesa's llvmpipe spends 0.2-0.5 s on the first upload of a texture of a given size in a process (the second is
+    milliseconds), and MjrContext holds the GIL all that time: a camera's start would wait that long for Python
+    on its other threads. A ctypes call lets go of the GIL, so done here that time overlaps the build (numba's load)
+    instead. The textures are zeros, deleted at once: MjrContext then makes and draws with its own as always."""
+    kinds: set[tuple[int, int, int, int, int]] = set()
+    srgb = getattr(getattr(mujoco, "mjtColorSpace", None), "mjCOLORSPACE_SRGB", None)
+    for tex in range(model.ntex):
+        channels, width, height = int(model.tex_nchannel[tex]), int(model.tex_width[tex]), int(model.tex_height[tex])
+        if channels not in (3, 4):
+            continue  # MuJoCo's classic renderer skips them too
+        if model.tex_type[tex] != mujoco.mjtTexture.mjTEXTURE_2D:
+            kinds.add((gl_calls.GL_TEXTURE_CUBE_MAP, gl_calls.GL_RGB, width, width, 3))  # six faces of width²
+            continue
+        is_srgb = srgb is not None and int(model.tex_colorspace[tex]) == int(srgb)
+        internal = {
+            (4, False): gl_calls.GL_RGBA,
+            (4, True): gl_calls.GL_SRGB8_ALPHA8,
+            (3, False): gl_calls.GL_RGB,
+            (3, True): gl_calls.GL_SRGB8,
+        }[(channels, is_srgb)]
+        kinds.add((gl_calls.GL_TEXTURE_2D, internal, width, height, channels))
+    for kind in sorted(kinds):
+        try:
+            gl_calls.mipmapped_texture(*kind)
+        except gl_calls.GLError as exc:  # only time is at stake: MjrContext uploads as always
+            log.debug("no texture warm-up: %s", exc)
+            return
 
 
 class _SharedContexts:
