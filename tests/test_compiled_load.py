@@ -135,6 +135,46 @@ def test_other_cached_kernels_load_numbas_own_way(tmp_path):
     assert not loaded["before"] and loaded["after"]  # numba's own load: its registries, as always
 
 
+def test_our_cached_kernels_run_numbas_inlined_code_without_importing_it(tmp_path):
+    """A kernel of racecar-sim's (here one named as the generated tyre kernels are) that inlines numba's own array,
+    string and exception code: loaded from the cache, its environments are rebuilt without importing numba's
+    lowering modules, and it gives what it gave when compiled - values, inf from a division by zero (numpy's error
+    model), and the exception it raises with its arguments."""
+    (tmp_path / "racecar_tyre_kernels_probe.py").write_text(
+        "import numpy as np\nfrom numba import njit\n\n"
+        '@njit(cache=True, error_model="numpy")\n'
+        "def probe(n, a):\n    out = np.empty(n)\n    for i in range(n):\n"
+        "        out[i] = a[i % a.size] / (i - 1.0)\n"
+        '    if n > 10:\n        raise ValueError("too many", n)\n'
+        '    return out, len(str(n) + "x"), out.copy().sum()\n'
+    )
+    code = f"""
+        import json, sys
+        sys.path.insert(0, {str(tmp_path)!r})
+        import numpy as np
+        from racecar_sim.runtime.compiled import load_numba
+        load_numba()
+        from racecar_tyre_kernels_probe import probe
+        out, length, total = probe(4, np.arange(3.0))
+        try:
+            probe(11, np.arange(3.0))
+            raised = None
+        except ValueError as exc:
+            raised = list(exc.args)
+        lowering = ("numba.np.arrayobj", "numba.cpython.unicode")
+        print(json.dumps({{"out": repr(out.tolist()), "length": length, "total": repr(total), "raised": raised,
+                          "hits": sum(probe.stats.cache_hits.values()),
+                          "imported": [m for m in lowering if m in sys.modules]}}))
+    """
+    compiled, loaded = _child(code), _child(code)  # the first compiles (and caches), the second loads
+    assert [compiled["hits"], loaded["hits"]] == [0, 1]
+    assert loaded["imported"] == [] and compiled["imported"] != []
+    assert loaded["out"] == compiled["out"] == "[-0.0, inf, 2.0, 0.0]"
+    assert loaded["total"] == compiled["total"] == "inf"
+    assert loaded["length"] == compiled["length"] == 2
+    assert loaded["raised"] == compiled["raised"] == ["too many", 11]
+
+
 def test_a_numba_laid_out_otherwise_is_left_as_it_is():
     from racecar_sim.runtime.compiled import _light_loads
 

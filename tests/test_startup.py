@@ -247,3 +247,38 @@ def test_the_ros_help_texts_name_the_bridges_own_address():
     from racecar_sim.cli import ros_env
 
     assert (ros_env.LOOPBACK, ros_env.DEFAULT_PORT) == (environment.LOOPBACK, master.DEFAULT_PORT)
+
+
+COLLECTOR_PROBE = """
+import gc, json, sys
+from racecar_sim.nodes import NodeBase
+
+
+class Probe(NodeBase):
+    def __init__(self, ctx) -> None:
+        self.seen = None
+        ctx.timers.every(20.0, self.tick, "probe")
+        self.out = sys.argv[sys.argv.index("--out") + 1] + ".probe.json"
+
+    def tick(self, now_ns: int) -> None:
+        if self.seen is None:
+            self.seen = {"enabled": gc.isenabled(), "frozen": gc.get_freeze_count()}
+            with open(self.out, "w") as f:
+                json.dump(self.seen, f)
+"""
+
+
+def test_a_cli_run_has_the_collector_on_in_its_loop(tmp_path):
+    """The `racecar-sim` process holds the cyclic collector off while it imports and builds (cli/collector.py), and a
+    run turns it back on before its loop, with what the build made frozen: garbage the run makes is collected."""
+    (tmp_path / "probe.py").write_text(COLLECTOR_PROBE)
+    out = tmp_path / "run"
+    result = subprocess.run(
+        [sys.executable, "-m", "racecar_sim", "run", "--world", "empty", "--no-camera", "--no-record", "--no-video",
+         "--no-summary", "--driver", f"{tmp_path / 'probe.py'}:Probe", "--duration", "0.1", "--out", str(out)],
+        capture_output=True, text=True, timeout=300, check=False,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    seen = json.loads((tmp_path / "run.probe.json").read_text())
+    assert seen["enabled"] is True
+    assert seen["frozen"] > 10_000  # the imports' and the build's objects, out of the collector's way

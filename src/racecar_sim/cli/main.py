@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from types import ModuleType
 
 from racecar_sim import __version__
+from racecar_sim.cli import collector
 from racecar_sim.core.errors import NodeError, RacecarSimError
 from racecar_sim.render.gl import guard_mujoco_import, mujoco_gl_disabled
 
@@ -31,6 +32,8 @@ SUBCOMMANDS = {
     "sweep": "sweep",
     "play": "play",
 }
+
+HOLD_COLLECTOR = ("run",)  # the subcommands that release the held collector themselves, once built (cli/collector.py)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -89,20 +92,37 @@ def _main(argv: list[str] | None = None) -> int:
     whole_process = argv is None  # the command itself, not a caller's main([...]) (a test's)
     argv = sys.argv[1:] if argv is None else list(argv)
     command = _command_named(argv)
-    # importing the subcommand makes ~10^5 objects that live as long as the process: the cyclic collector would
-    # walk them again and again while they are made (5-8 % of the imports' time), and at every full collection after
-    gc.disable()
+    if not whole_process:  # importing the subcommand makes ~10^5 objects: not walked while they are made
+        gc.disable()
+        try:
+            with mujoco_gl_disabled():
+                parser = build_parser(None if command is None else [command])
+        finally:
+            gc.enable()
+        guard_mujoco_import()
+        return _command(parser, argv)
+    collector.hold()  # until the subcommand is built (cli/collector.py): `run` releases it before its loop
     try:
         with mujoco_gl_disabled():  # the camera's context comes from sensors.gl, the viewer's from glfw
             parser = build_parser(None if command is None else [command])
+        guard_mujoco_import()  # for a subcommand that imports mujoco later
+        return _command(parser, argv)
     finally:
-        if whole_process:  # out of the collector's way from now on (in a caller's process, its garbage too: not)
-            gc.freeze()
-        gc.enable()
-    guard_mujoco_import()  # for a subcommand that imports mujoco later
+        collector.settle()
+
+
+def _command(parser: argparse.ArgumentParser, argv: list[str]) -> int:
+    """Parse argv and run its subcommand."""
     args = parser.parse_args(argv)
     if args.command is None:
         args = parser.parse_args(["run", *argv])
+    if args.command not in HOLD_COLLECTOR:
+        collector.release()
+    return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
+    """The subcommand's exit code; the errors a user can cause as one line."""
     try:
         return subcommand(args.command).main(args)
     except RacecarSimError as exc:

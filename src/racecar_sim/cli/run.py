@@ -23,6 +23,7 @@ from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from racecar_sim.cli import collector
 from racecar_sim.cli.args import (
     MIN_RATE,
     add_driver_arguments,
@@ -298,6 +299,7 @@ def main(args: argparse.Namespace, attach: Callable[[argparse.Namespace, Simulat
             else:
                 _attach_driver(args, sim, car, drivers[index], settings[index])
         args.driver = driver_label(sim, drivers) if any(driven) else "none (ROS drives: /drive)"
+        collector.release()  # built: the collector back on for what the run makes (before a writer process starts)
         with RunFolder(args, sim, out, record) as folder, LiveViews(sim, args.viewer, args.foxglove) as live:
             wall, interrupted, failure = _drive(args, sim, live)
     if failure is not None:  # a user's node raised: the files hold the run up to that event, marked so

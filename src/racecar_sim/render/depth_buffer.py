@@ -13,35 +13,35 @@ import logging
 
 import mujoco
 
+from racecar_sim.render import gl_calls as gl
+
 log = logging.getLogger("racecar_sim")
 
 
 def drop_stencil(context: mujoco.MjrContext) -> bool:
     """Make `context`'s offscreen depth-stencil renderbuffer a depth-only one of the same size and precision; on the
     context's GL thread, before it draws. Whether it was changed (False: left as MuJoCo made it)."""
-    from OpenGL import GL  # bound to the context's backend: the context was made through mujoco.egl/osmesa
-
     if context.offSamples or not context.offFBO or not context.offDepthStencil:
         return False  # a multisampled buffer is resolved through a second one: left to MuJoCo
     width, height = context.offWidth, context.offHeight
-    GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, context.offFBO)
-    GL.glBindRenderbuffer(GL.GL_RENDERBUFFER, context.offDepthStencil)
-    made = GL.glGetRenderbufferParameteriv(GL.GL_RENDERBUFFER, GL.GL_RENDERBUFFER_INTERNAL_FORMAT)
-    if made != GL.GL_DEPTH32F_STENCIL8:
+    gl.bind_framebuffer(gl.GL_FRAMEBUFFER, context.offFBO)
+    gl.bind_renderbuffer(gl.GL_RENDERBUFFER, context.offDepthStencil)
+    made = gl.renderbuffer_parameter(gl.GL_RENDERBUFFER, gl.GL_RENDERBUFFER_INTERNAL_FORMAT)
+    if made != gl.GL_DEPTH32F_STENCIL8:
         return False  # another depth precision (another MuJoCo): a depth-only one of it is not worth the check
     try:
-        GL.glFramebufferRenderbuffer(GL.GL_FRAMEBUFFER, GL.GL_DEPTH_STENCIL_ATTACHMENT, GL.GL_RENDERBUFFER, 0)
-        GL.glRenderbufferStorage(GL.GL_RENDERBUFFER, GL.GL_DEPTH_COMPONENT32F, width, height)
-        GL.glFramebufferRenderbuffer(
-            GL.GL_FRAMEBUFFER, GL.GL_DEPTH_ATTACHMENT, GL.GL_RENDERBUFFER, context.offDepthStencil
+        gl.framebuffer_renderbuffer(gl.GL_FRAMEBUFFER, gl.GL_DEPTH_STENCIL_ATTACHMENT, gl.GL_RENDERBUFFER, 0)
+        gl.renderbuffer_storage(gl.GL_RENDERBUFFER, gl.GL_DEPTH_COMPONENT32F, width, height)
+        gl.framebuffer_renderbuffer(
+            gl.GL_FRAMEBUFFER, gl.GL_DEPTH_ATTACHMENT, gl.GL_RENDERBUFFER, context.offDepthStencil
         )
-        if GL.glCheckFramebufferStatus(GL.GL_FRAMEBUFFER) == GL.GL_FRAMEBUFFER_COMPLETE:
+        if gl.check_framebuffer_status(gl.GL_FRAMEBUFFER) == gl.GL_FRAMEBUFFER_COMPLETE:
             return True
-    except GL.GLError as exc:
+    except gl.GLError as exc:
         log.debug("the offscreen depth buffer keeps its stencil: %s", exc)
-    GL.glFramebufferRenderbuffer(GL.GL_FRAMEBUFFER, GL.GL_DEPTH_ATTACHMENT, GL.GL_RENDERBUFFER, 0)
-    GL.glRenderbufferStorage(GL.GL_RENDERBUFFER, GL.GL_DEPTH32F_STENCIL8, width, height)
-    GL.glFramebufferRenderbuffer(
-        GL.GL_FRAMEBUFFER, GL.GL_DEPTH_STENCIL_ATTACHMENT, GL.GL_RENDERBUFFER, context.offDepthStencil
+    gl.framebuffer_renderbuffer(gl.GL_FRAMEBUFFER, gl.GL_DEPTH_ATTACHMENT, gl.GL_RENDERBUFFER, 0)
+    gl.renderbuffer_storage(gl.GL_RENDERBUFFER, gl.GL_DEPTH32F_STENCIL8, width, height)
+    gl.framebuffer_renderbuffer(
+        gl.GL_FRAMEBUFFER, gl.GL_DEPTH_STENCIL_ATTACHMENT, gl.GL_RENDERBUFFER, context.offDepthStencil
     )
     return False

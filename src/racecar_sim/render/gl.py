@@ -48,6 +48,7 @@ __all__ = [
     "mujoco_gl_disabled",
     "shared_context",
     "start_shared_context",
+    "when_shared_context",
 ]
 
 
@@ -178,6 +179,17 @@ def start_shared_context(width: int = 640, height: int = 480) -> None:
     threading.Thread(target=make, name="racecar-sim GL start", daemon=True).start()
 
 
+def when_shared_context(fn: Callable[[HeadlessGL], object]) -> None:
+    """Call fn(context) with the process's headless context once it is made: now where it is, or on the thread that
+    start_shared_context() began; never where none is made or being made, or where making it failed. For work to
+    hand to the context's thread early (fn must not wait for it)."""
+    made = _shared or _unclaimed
+    if made is not None:
+        fn(made)
+    elif _starting is not None:
+        _starting.add_done_callback(lambda done: None if done.exception() is not None else fn(done.result()))
+
+
 def shared_context(width: int = 640, height: int = 480) -> HeadlessGL:
     """The process's headless context, created on first use (or by start_shared_context) and kept; every camera
     renders through it.
@@ -306,11 +318,10 @@ def library_present(backend: str) -> bool:
 
 
 def _renderer_string() -> str:
-    try:
-        from OpenGL import GL
+    from racecar_sim.render import gl_calls  # not PyOpenGL's GL module: 0.1-0.2 s of imports holding the GIL
 
-        renderer: str = GL.glGetString(GL.GL_RENDERER).decode()
-        return renderer
+    try:
+        return gl_calls.renderer()
     except Exception:
         return "unknown"
 

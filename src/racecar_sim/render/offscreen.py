@@ -18,18 +18,23 @@ same bit for bit: the same drawing into the same-sized buffer at the same place.
 
 from __future__ import annotations
 
+import copy
+import logging
 import threading
 from concurrent.futures import Future
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
 from racecar_sim.core.errors import RenderingError
 from racecar_sim.physics.world_geoms import VISUAL_GROUP
+from racecar_sim.render import gl_calls
 from racecar_sim.render.culling import FrustumCuller
 from racecar_sim.render.depth_buffer import drop_stencil
-from racecar_sim.render.gl import HeadlessGL, shared_context
+from racecar_sim.render.gl import HeadlessGL, shared_context, when_shared_context
 
+log = logging.getLogger("racecar_sim")
 _OFF = (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION, mujoco.mjtRndFlag.mjRND_HAZE)
 _SKYBOX = mujoco.mjtRndFlag.mjRND_SKYBOX
 
@@ -79,49 +84,133 @@ def flat_sky(model: mujoco.MjModel) -> np.ndarray | None:
 def _make_context(model: mujoco.MjModel, shadows: bool) -> mujoco.MjrContext:
     """The model's MjrContext, on the GL thread; without `shadows`, without the shadow map: MuJoCo makes a
     shadowsize² depth texture (4096² by default) that scenes drawn with mjRND_SHADOW off never touch, and
-    llvmpipe takes ~0.1 s to allocate and set it up (0.2 s of a camera's start the first time)."""
-    quality = model.vis.quality
-    size = quality.shadowsize
+    llvmpipe takes ~0.1 s to allocate and set it up (0.2 s of a camera's start the first time). Made from a copy
+    whose shadowsize is 0: MjrContext releases the GIL while it uploads, so the live model is never changed."""
     if not shadows:
-        quality.shadowsize = 0  # put back below; MjrContext holds the GIL, so no other Python thread sees it
-    try:
-        return mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_50)
-    finally:
-        quality.shadowsize = size
+        model = copy.copy(model)
+        model.vis.quality.shadowsize = 0
+    _warm_textures(model)
+    context = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_50)
+    drop_stencil(context)
+    return context
+
+
+@dataclass
+class _Made:
+    """A model's MjrContext in a HeadlessGL: being made or made, on the context's thread, and how many GLScenes use
+    it (the model is kept while it is counted, so its id is not reused meanwhile)."""
+
+    model: mujoco.MjModel
+    gl: HeadlessGL
+    context: Future[mujoco.MjrContext]
+    users: int = 0
+
+
+def _warm_textures(model: mujoco.MjModel) -> None:
+    """Upload and mipmap, once, a texture of each kind and size of the model's, through ctypes (gl_calls), before
+    MjrContext uploads the real ones.
+
+    Mesa's llvmpipe spends 0.2-0.5 s on the first upload of a texture of a given size in a process (the second is
+    milliseconds), and MjrContext holds the GIL all that time: a camera's start would wait that long for Python
+    on its other threads. A ctypes call lets go of the GIL, so done here that time overlaps the build (numba's load)
+    instead. The textures are zeros, deleted at once: MjrContext then makes and draws with its own as always."""
+    kinds: set[tuple[int, int, int, int, int]] = set()
+    srgb = getattr(getattr(mujoco, "mjtColorSpace", None), "mjCOLORSPACE_SRGB", None)
+    for tex in range(model.ntex):
+        channels, width, height = int(model.tex_nchannel[tex]), int(model.tex_width[tex]), int(model.tex_height[tex])
+        if channels not in (3, 4):
+            continue  # MuJoCo's classic renderer skips them too
+        if model.tex_type[tex] != mujoco.mjtTexture.mjTEXTURE_2D:
+            kinds.add((gl_calls.GL_TEXTURE_CUBE_MAP, gl_calls.GL_RGB, width, width, 3))  # six faces of width²
+            continue
+        is_srgb = srgb is not None and int(model.tex_colorspace[tex]) == int(srgb)
+        internal = {
+            (4, False): gl_calls.GL_RGBA,
+            (4, True): gl_calls.GL_SRGB8_ALPHA8,
+            (3, False): gl_calls.GL_RGB,
+            (3, True): gl_calls.GL_SRGB8,
+        }[(channels, is_srgb)]
+        kinds.add((gl_calls.GL_TEXTURE_2D, internal, width, height, channels))
+    for kind in sorted(kinds):
+        try:
+            gl_calls.mipmapped_texture(*kind)
+        except gl_calls.GLError as exc:  # only time is at stake: MjrContext uploads as always
+            log.debug("no texture warm-up: %s", exc)
+            return
 
 
 class _SharedContexts:
-    """The MjrContext of each model in a HeadlessGL, with or without the shadow map, made by the first GLScene of that
-    model that asks for it and freed with the last (counted); made and freed on the context's thread."""
+    """The MjrContext of each model in a HeadlessGL, with or without the shadow map, made on the context's thread by
+    the first GLScene of that model that asks for it, or earlier by prepare(), and freed with the last GLScene
+    (counted); freed on the context's thread."""
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
-        self._contexts: dict[tuple[int, int, bool], tuple[mujoco.MjModel, mujoco.MjrContext, int]] = {}
+        self._contexts: dict[tuple[int, int, bool], _Made] = {}  # by (gl, model, shadows)
+
+    def prepare(self, model: mujoco.MjModel, gl: HeadlessGL, shadows: bool = False) -> None:
+        """Begin making the model's MjrContext on the context's thread now, for the GLScene that takes it later (the
+        first in a context costs 0.2-0.3 s of llvmpipe's set-up, in C without the GIL: the caller goes on meanwhile).
+        One nobody takes is freed by drop_unclaimed()."""
+        key = (id(gl), id(model), shadows)
+        with self._lock:
+            if key not in self._contexts:
+                self._contexts[key] = _Made(model, gl, gl.submit(_make_context, model, shadows))
 
     def take(self, model: mujoco.MjModel, gl: HeadlessGL, shadows: bool = False) -> mujoco.MjrContext:
-        key = (id(gl), id(model), shadows)  # the model is kept while counted, so its id is not reused meanwhile
+        key = (id(gl), id(model), shadows)
         with self._lock:
-            if key in self._contexts:
-                kept, context, users = self._contexts[key]
-                self._contexts[key] = (kept, context, users + 1)
-                return context
-            context = gl.call(_make_context, model, shadows)
-            gl.call(drop_stencil, context)
-            self._contexts[key] = (model, context, 1)
-            return context
+            made = self._contexts.get(key)
+            if made is None:
+                made = self._contexts[key] = _Made(model, gl, gl.submit(_make_context, model, shadows))
+            made.users += 1
+        try:
+            return made.context.result()
+        except BaseException:
+            with self._lock:  # not made: the next GLScene tries again
+                if self._contexts.get(key) is made:
+                    del self._contexts[key]
+            raise
 
     def give_back(self, model: mujoco.MjModel, gl: HeadlessGL, shadows: bool = False) -> None:
         key = (id(gl), id(model), shadows)
         with self._lock:
-            kept, context, users = self._contexts[key]
-            if users > 1:
-                self._contexts[key] = (kept, context, users - 1)
+            made = self._contexts[key]
+            made.users -= 1
+            if made.users > 0:
                 return
             del self._contexts[key]
-        gl.call(context.free)
+        gl.call(made.context.result().free)
+
+    def drop_unclaimed(self, model: mujoco.MjModel) -> None:
+        """Free the model's MjrContexts that prepare() began and no GLScene took (a build that failed, a camera that
+        was not made)."""
+        with self._lock:
+            keys = [key for key, made in self._contexts.items() if made.model is model and made.users == 0]
+            dropped = [self._contexts.pop(key) for key in keys]
+        for made in dropped:
+            made.gl.submit(_free_made, made.context)  # after its making: the thread runs its calls in order
+
+
+def _free_made(context: Future[mujoco.MjrContext]) -> None:
+    """Free a made MjrContext, on the context's thread (a failed one: nothing to free)."""
+    if context.exception() is None:
+        context.result().free()
 
 
 _contexts = _SharedContexts()
+
+
+def prepare_context(model: mujoco.MjModel) -> None:
+    """Begin making the MjrContext the model's cameras will draw with, on the shared headless context's thread once
+    that is made (start_shared_context), so that llvmpipe's first upload overlaps the rest of the build; nothing
+    where no context is being made. drop_unclaimed_context(model) frees it if no camera takes it."""
+    when_shared_context(lambda gl: _contexts.prepare(model, gl))
+
+
+def drop_unclaimed_context(model: mujoco.MjModel) -> None:
+    """Free what prepare_context(model) made and no camera took."""
+    _contexts.drop_unclaimed(model)
 
 
 class GLScene:
@@ -209,19 +298,14 @@ class GLScene:
         llvmpipe keeps depth and stencil in one 64-bit word, and clearing the depth alone is a read-modify-write of
         every word. Cleared before mjr_render draws anything, the two clears merge into one plain fill: 0.13 ms less
         a 640x480 frame, the same pixels. Without a stencil it does nothing."""
-        from OpenGL import GL  # bound to the context's backend: the context was made through mujoco.egl/osmesa
-
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self.context)
-        GL.glClear(GL.GL_STENCIL_BUFFER_BIT)
+        gl_calls.clear(gl_calls.GL_STENCIL_BUFFER_BIT)
 
     def _draw_rgba(self, scene: mujoco.MjvScene, rgba: np.ndarray) -> np.ndarray:
-        from OpenGL import GL
-
         scene.flags[_SKYBOX] = self.sky is None
         self._start_drawing()
         mujoco.mjr_render(self.rect, scene, self.context)
-        GL.glReadPixels(0, 0, self.rect.width, self.rect.height, GL.GL_RGBA, GL.GL_UNSIGNED_BYTE, rgba)
-        return rgba
+        return gl_calls.read_rgba(0, 0, self.rect.width, self.rect.height, rgba)
 
     def close(self) -> None:
         """Free the GL objects once no other camera of the model draws with them (the shared GL context stays).

@@ -169,10 +169,7 @@ class Simulator:
         self.poses_changed()
         self.static_tf = StaticTransforms(self.bus)
         self.clock = ClockPublisher(self.bus, self.scheduler)
-        if any(car.has_camera for car in self.cars):
-            load_numba()  # before the cameras load their frame finishing (numba) as they start
-        for car in self.cars:
-            self._start_car(car)
+        self._start_cars()
         self.collisions = Crashes(self.bus, lambda: self.loop.time_ns)
         self._watch_collisions(known=False)
         self.gazebo = GazeboApi(self)  # /gazebo/link_states, /gazebo/model_states and the /gazebo/* services
@@ -188,6 +185,24 @@ class Simulator:
         sizes = [(spec.width, spec.height) for car in self.cars for spec in car.sensor_specs("camera")]
         if sizes:
             start_shared_context(*sizes[0])
+
+    def _start_cars(self) -> None:
+        """Start every car's nodes. With cameras, their MjrContext is begun first on the GL thread (llvmpipe's first
+        upload, 0.2-0.3 s without the GIL) and numba is loaded meanwhile, before the cameras load their frame
+        finishing (numba) as they start."""
+        if not any(car.has_camera for car in self.cars):
+            for car in self.cars:
+                self._start_car(car)
+            return
+        from racecar_sim.render.offscreen import drop_unclaimed_context, prepare_context
+
+        prepare_context(self.model)
+        try:
+            load_numba()
+            for car in self.cars:
+                self._start_car(car)
+        finally:
+            drop_unclaimed_context(self.model)  # a camera that failed to start
 
     def _load_compiled(self) -> None:
         """numba, and the compiled scan of a world with walls, loaded by the build: a one-time cost of the start, not

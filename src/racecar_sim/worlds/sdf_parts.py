@@ -18,7 +18,7 @@ import numpy as np
 from racecar_sim.core.errors import WorldError
 from racecar_sim.core.transforms import quat_from_rpy, quat_mul
 from racecar_sim.description.ros_packages import gazebo_model_dirs
-from racecar_sim.worlds.images import open_image
+from racecar_sim.worlds.images import rgba_pixels
 from racecar_sim.worlds.materials import gazebo_material_rgba
 from racecar_sim.worlds.mesh_surface import surface_pieces
 from racecar_sim.worlds.meshes import MeshPart, convex_pieces, load_mesh, textured_box
@@ -341,7 +341,6 @@ def albedo_map(material: ET.Element | None, ctx: SdfContext, where: str) -> np.n
         return None
     path = resolve_uri(text, ctx, f"{where} <albedo_map>")
     try:
-        with open_image(path, lambda message: ctx.error(f"{where} <albedo_map>: {message}"), "texture") as image:
-            return np.asarray(image.convert("RGBA"))
+        return rgba_pixels(path, lambda message: ctx.error(f"{where} <albedo_map>: {message}"), "texture")
     except (OSError, ValueError) as exc:
         raise ctx.error(f"{where} <albedo_map>{text.strip()}</albedo_map>: cannot read image {path}: {exc}") from None
