@@ -5,6 +5,7 @@ Per world, with the car driving a 1 m/s, 0.2 rad circle (physics steps between f
               back
   + readback  the same plus reading the pixels back (OffscreenCamera.render)
   full frame  what a 30 Hz tick costs: render, readback, flip to BGR, Gaussian noise, Image + CameraInfo, publish
+  finish      the frame's finish alone, on the thread that takes it: flip to BGR, sky, noise (camera_noise.py)
 The OpenGL renderer is printed first: "llvmpipe" is Mesa's software rasteriser (no GPU).
 """
 
@@ -73,6 +74,8 @@ def measure(world: str, frames: int) -> tuple[str, dict[str, float]]:
     }
     sim.subscribe(camera.spec.image_topic, lambda msg: None)
     rows["full frame"] = _fps(sim, frames, camera._tick)
+    drawn = camera.renderer.render()  # a GL buffer as the GL thread leaves it; each stamp draws other noise
+    rows["finish"] = _fps(sim, frames, lambda stamp: camera._finish(drawn, stamp))
     renderer = camera.gl_renderer
     sim.close()
     return renderer, rows
@@ -84,11 +87,14 @@ def main() -> None:
     args = parser.parse_args()
     results = {world: measure(world, args.frames) for world in ("empty", "tunnel")}
     print(f"OpenGL: {next(iter(results.values()))[0]}; 640x480, {args.frames} frames per figure, one run")
-    print(f"{'world':<8}{'draw fps':>10}{'+ readback fps':>16}{'full frame fps':>16}{'full frame ms':>15}")
+    print(
+        f"{'world':<8}{'draw fps':>10}{'+ readback fps':>16}{'full frame fps':>16}{'full frame ms':>15}"
+        f"{'finish ms':>11}"
+    )
     for world, (_, rows) in results.items():
         print(
             f"{world:<8}{rows['draw']:>10.0f}{rows['+ readback']:>16.0f}{rows['full frame']:>16.0f}"
-            f"{1e3 / rows['full frame']:>15.2f}"
+            f"{1e3 / rows['full frame']:>15.2f}{1e3 / rows['finish']:>11.2f}"
         )
 
 

@@ -1,5 +1,5 @@
 """The compiled frame finishing (sensors/camera_noise.py) against numpy: flip, channel order, painted sky and
-Gazebo's noise, value for value, on the word-wise path (width a multiple of 4) and the byte-wise one."""
+Gazebo's noise, value for value, on the row-wise path (contiguous buffers) and the pixel-by-pixel one."""
 
 from __future__ import annotations
 
@@ -22,14 +22,16 @@ def reference(gl_rgba, sky, fill_sky, table, first, second, stddev, mean, bgr):
     return add_noise(np.ascontiguousarray(pixels), unit.astype(np.float32), float(mean), float(stddev))
 
 
-@pytest.mark.parametrize("width", [640, 8, 6, 1])  # 6 and 1: the byte-wise path
+@pytest.mark.parametrize("width", [640, 8, 6, 1])
 @pytest.mark.parametrize("bgr", [True, False])
 @pytest.mark.parametrize("fill_sky", [True, False])
 @pytest.mark.parametrize("noisy", [True, False])
-def test_finish_frame_is_numpys_flip_sky_and_noise(width, bgr, fill_sky, noisy):
-    rng = np.random.default_rng(width * 8 + bgr * 4 + fill_sky * 2 + noisy)
+@pytest.mark.parametrize("contiguous", [True, False])  # False: the pixel-by-pixel path
+def test_finish_frame_is_numpys_flip_sky_and_noise(width, bgr, fill_sky, noisy, contiguous):
+    rng = np.random.default_rng(width * 16 + bgr * 8 + fill_sky * 4 + noisy * 2 + contiguous)
     height = 5
-    gl_rgba = rng.integers(0, 256, (height, width, 4), dtype=np.uint8)
+    drawn = rng.integers(0, 256, (height, 2 * width, 4), dtype=np.uint8)
+    gl_rgba = np.ascontiguousarray(drawn[:, :width]) if contiguous else drawn[:, ::2]
     gl_rgba[..., 3] = np.where(rng.random((height, width)) < 0.3, 0, 255)  # sky where nothing was drawn
     gl_rgba[0, 0, :3] = (250, 3, 128)  # near both clamps
     sky = np.array([178, 170, 160], np.uint8)

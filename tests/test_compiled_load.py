@@ -66,7 +66,7 @@ def test_the_main_job_compiles_nothing_inside_the_run():
     assert {name.rsplit(".", 1)[1] for name in out["built"]} >= {
         "level_scan",
         "fit_wall",
-        "finish_frame",
+        "finish_rows",
         "cull_records",
     }
     assert out["after"] == out["built"]

@@ -98,7 +98,7 @@ def set_clip(model: mujoco.MjModel, near: float, far: float) -> None:
 def add_noise(pixels: np.ndarray, unit_noise: np.ndarray, mean: float, stddev: float) -> np.ndarray:
     """Gazebo's camera noise: one N(mean, stddev) sample per pixel (colour units, 0-255) added to every channel,
     then rounded and clamped to 0-255 - the float-colour shader's result written to an 8-bit image. (Frames are
-    finished by camera_noise.finish_frame, which computes the same values in one compiled pass.)
+    finished by camera_noise.finish_frame, which computes the same values compiled.)
 
     `unit_noise`: (height * width,) float32 standard normals, one per pixel, row by row; it is overwritten.
     Returns a new (height, width, 3) uint8 array.
