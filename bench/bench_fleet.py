@@ -1,5 +1,6 @@
 """Fleets against bare MuJoCo: `python bench/bench_fleet.py [--cars 1 2 4 8] [--worlds empty tunnel] [--track-cars 30]
-[--duration 10] [--rounds 3] [--cli-cars 1 4 8] [--cli-worlds empty tunnel track] [--cli-track-cars 30] [--quick]`.
+[--duration 10] [--rounds 3] [--cli-cars 1 4 8] [--cli-worlds empty tunnel track] [--cli-track-cars 30]
+[--cli-recording both] [--quick]`.
 
 Per fleet: the pipeline - physics, every node of every car, the lidar on and the camera off, a subscriber on every
 /scan (a sensor works only while someone listens), each car driven by its own driver node - and bare MuJoCo `mj_step`
@@ -10,17 +11,17 @@ one-time costs of a first scan: loading the compiled kernels, slicing the world)
   - tunnel: N cars in a row 1.5 m apart, as `racecar-sim run --world tunnel --cars N` places them, wall-follow each;
   - track:  --track-cars (default 30) cars in a row round a generated oval track CSV (98 m of centerline, 2.4 m
             wide), as `racecar-sim run --world TRACK.csv --cars N` places them, pure-pursuit each on the centerline.
-Printed per fleet: the real-time factor, bare MuJoCo's on the same model, the median of the per-round ratios
-(pipeline / bare), and car-seconds simulated per wall second (the real-time factor times N). Then the CLI as users run
-it: `racecar-sim run --world empty --cars N --driver constant --speed 1 --no-camera --no-video --no-summary
---duration D` (--cli-cars, --cli-duration; --no-record, and with the recording on; --cli-worlds adds the tunnel,
+Printed per fleet: the real-time factor, bare MuJoCo's on the same model, the median of the per-round ratios (pipeline
+/ bare), and car-seconds simulated per wall second (the real-time factor times N). Then the CLI as users run it:
+`racecar-sim run --world empty --cars N --driver constant --speed 1 --no-camera --no-video --no-summary --duration D`
+(--cli-cars, --cli-duration; --no-record, and with the recording on: --cli-recording; --cli-worlds adds the tunnel,
 wall-follow each, and the oval track, pure-pursuit each, in the CLI's rows; on the track --cli-track-cars too), a
 fresh process timed from start to exit (its start-up and one-time costs included), against bare mj_step of the same
-N-car model replaying the same run's controls from the start (recorded from the same fleet built in-process: the
-CLI's row, its drivers); beside it the loop ratio, bare MuJoCo against the run loop alone (the sim time over the
-real-time factor the CLI prints: start-up, the build and the exit left out), the wall seconds outside the loop, and
-bare MuJoCo as a whole process too (`python -c`: import mujoco, compile the model's XML, set the replay's wheel
-commands, step: its one-time costs included, as the CLI's are) with the CLI's ratio to it.
+N-car model replaying the same run's controls from the start (recorded from the same fleet built in-process: the CLI's
+row, its drivers); beside it the loop ratio, bare MuJoCo against the run loop alone (the sim time over the real-time
+factor the CLI prints: start-up, the build and the exit left out), the wall seconds outside the loop, and bare MuJoCo
+as a whole process too (`python -c`: import mujoco, compile the model's XML, set the replay's wheel commands, step:
+its one-time costs included, as the CLI's are) with the CLI's ratio to it.
 Then the cost of `sim.reset()` for the whole stack (physics, every node's reset hook, the scheduler), averaged over
 --resets calls made after a little driving, for 1 and 4 cars in `empty`.
 
@@ -334,6 +335,12 @@ def main() -> None:
         help="worlds of the CLI runs (default empty; track: the generated oval)",
     )
     p.add_argument(
+        "--cli-recording",
+        choices=("off", "on", "both"),
+        default="both",
+        help="the CLI runs with --no-record (off), recording (on) or both (default)",
+    )
+    p.add_argument(
         "--cli-track-cars",
         type=int,
         default=30,
@@ -382,7 +389,7 @@ def main() -> None:
             for world in args.cli_worlds:
                 where = str(oval_track(Path(folder) / "cli-oval.csv")) if world == "track" else world
                 counts = args.cli_cars + ([args.cli_track_cars] if world == "track" and args.cli_track_cars else [])
-                for record in (False, True):
+                for record in [r == "on" for r in ("off", "on") if args.cli_recording in (r, "both")]:
                     for count in counts:
                         r = measure_cli(count, args.cli_duration, args.rounds, record, Path(folder), where)
                         print(
