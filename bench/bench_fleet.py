@@ -21,7 +21,8 @@ N-car model replaying the same run's controls from the start (recorded from the 
 row, its drivers); beside it the loop ratio, bare MuJoCo against the run loop alone (the sim time over the real-time
 factor the CLI prints: start-up, the build and the exit left out), the wall seconds outside the loop, and bare MuJoCo
 as a whole process too (`python -c`: import mujoco, compile the model's XML, set the replay's wheel commands, step:
-its one-time costs included, as the CLI's are) with the CLI's ratio to it.
+its one-time costs included, as the CLI's are) with the CLI's ratio to it, in wall time and in CPU time (the
+processes' own CPU seconds: steadier on a shared machine).
 Then the cost of `sim.reset()` for the whole stack (physics, every node's reset hook, the scheduler), averaged over
 --resets calls made after a little driving, for 1 and 4 cars in `empty`.
 
@@ -35,6 +36,7 @@ from __future__ import annotations
 import argparse
 import math
 import re
+import resource
 import shutil
 import statistics
 import subprocess
@@ -183,6 +185,13 @@ def bare_process_files(sim: Simulator, controls: list[tuple[int, np.ndarray]], f
     return xml, replay
 
 
+def children_cpu() -> float:
+    """CPU seconds (user and system) of this process's finished children: steadier than wall time on a shared
+    machine, where other processes take turns on the cores."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
 def bare_process_seconds(xml: Path, replay: Path) -> float:
     """Wall seconds of BARE_PROCESS from start to exit: the interpreter's start, importing mujoco, compiling the
     model and stepping it under the replay's controls."""
@@ -208,11 +217,14 @@ def measure_cli(
     model = sim.model
     xml, replay = bare_process_files(sim, controls, folder)
     sim.close()
-    cli, bare, ratio, loop, outside, process, process_ratio = [], [], [], [], [], [], []
+    cli, bare, ratio, loop, outside, process, process_ratio, cpu_ratio = [], [], [], [], [], [], [], []
     for _ in range(rounds):
+        cpu = children_cpu()
         wall, loop_wall = cli_seconds(count, duration, record, folder, world)
+        cli_cpu, cpu = children_cpu() - cpu, children_cpu()
         bare_wall = bare_seconds(model, controls, 0)
         process_wall = bare_process_seconds(xml, replay)
+        cpu_ratio.append((children_cpu() - cpu) / cli_cpu)
         cli.append(duration / wall)
         bare.append(duration / bare_wall)
         ratio.append(bare_wall / wall)
@@ -228,6 +240,7 @@ def measure_cli(
         "outside": statistics.median(outside),
         "process": statistics.median(process),
         "process_ratio": statistics.median(process_ratio),
+        "cpu_ratio": statistics.median(cpu_ratio),
     }
 
 
@@ -384,7 +397,7 @@ def main() -> None:
             )
             print(
                 f"{'world':<8}{'recording':>10}{'cars':>5}{'real-time factor':>18}{'bare MuJoCo':>13}{'ratio':>7}"
-                f"{'loop ratio':>12}{'outside loop':>14}{'bare process':>14}{'process ratio':>15}"
+                f"{'loop ratio':>12}{'outside loop':>14}{'bare process':>14}{'process ratio':>15}{'CPU ratio':>11}"
             )
             for world in args.cli_worlds:
                 where = str(oval_track(Path(folder) / "cli-oval.csv")) if world == "track" else world
@@ -395,7 +408,7 @@ def main() -> None:
                         print(
                             f"{world:<8}{'on' if record else 'off':>10}{count:>5}{r['rtf']:>17.1f}x"
                             f"{r['bare']:>12.1f}x{r['ratio']:>7.2f}{r['loop']:>12.2f}{r['outside']:>12.2f} s"
-                            f"{r['process']:>12.2f} s{r['process_ratio']:>15.2f}",
+                            f"{r['process']:>12.2f} s{r['process_ratio']:>15.2f}{r['cpu_ratio']:>11.2f}",
                             flush=True,
                         )
     print(f"sim.reset() in empty, lidar on, camera off, mean of {args.resets} calls")
