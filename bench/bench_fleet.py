@@ -162,7 +162,8 @@ import sys
 import mujoco
 import numpy as np
 
-model = mujoco.MjModel.from_xml_path(sys.argv[1])
+mujoco.MjModel.from_xml_path(sys.argv[1])
+model = mujoco.MjModel.from_binary_path(sys.argv[3])
 data = mujoco.MjData(model)
 replay = np.load(sys.argv[2])
 mujoco.mj_forward(model, data)
@@ -171,18 +172,22 @@ for nstep, ctrl in zip(replay["steps"].tolist(), replay["ctrl"]):
     mujoco.mj_step(model, data, nstep=nstep)
 """
 """Bare MuJoCo as a whole process, as a user without racecar-sim runs it: import mujoco, compile the model's XML
-(argv[1]), set the wheel commands of the replay (argv[2], .npz: steps and ctrl per chunk) and step."""
+(argv[1]), set the wheel commands of the replay (argv[2], .npz: steps and ctrl per chunk) and step. The XML's
+numbers are MuJoCo's printed ones, rounded, and in a fleet that crashes (8 cars in the tunnel) the rounded model runs
+another, slower course; so the process compiles the XML for its cost and steps the very model compiled in-process
+(argv[3], mj_saveModel's), whose course is the replay's."""
 
 
-def bare_process_files(sim: Simulator, controls: list[tuple[int, np.ndarray]], folder: Path) -> tuple[Path, Path]:
-    """The XML of `sim`'s model (MjSpec.to_xml: the numbers as MuJoCo prints them, so the trajectory is the replay's
-    to that precision, its cost the same) and the replay's controls, for BARE_PROCESS."""
-    xml, replay = folder / "bare-model.xml", folder / "bare-replay.npz"
+def bare_process_files(sim: Simulator, controls: list[tuple[int, np.ndarray]], folder: Path) -> tuple[Path, Path, Path]:
+    """The XML of `sim`'s model (MjSpec.to_xml), the replay's controls and the compiled model itself (.mjb), for
+    BARE_PROCESS."""
+    xml, replay, binary = folder / "bare-model.xml", folder / "bare-replay.npz", folder / "bare-model.mjb"
     xml.write_text(sim.spec.to_xml())
     steps = np.array([n for n, _ in controls], np.int64)
     ctrl = np.array([c for _, c in controls], np.float64).reshape(len(controls), -1)
     np.savez(replay, steps=steps, ctrl=ctrl)
-    return xml, replay
+    mujoco.mj_saveModel(sim.model, str(binary), None)
+    return xml, replay, binary
 
 
 def children_cpu() -> float:
@@ -192,12 +197,15 @@ def children_cpu() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-def bare_process_seconds(xml: Path, replay: Path) -> float:
+def bare_process_seconds(xml: Path, replay: Path, binary: Path) -> float:
     """Wall seconds of BARE_PROCESS from start to exit: the interpreter's start, importing mujoco, compiling the
     model and stepping it under the replay's controls."""
     start = time.perf_counter()
     result = subprocess.run(
-        [sys.executable, "-c", BARE_PROCESS, str(xml), str(replay)], capture_output=True, text=True, check=False
+        [sys.executable, "-c", BARE_PROCESS, str(xml), str(replay), str(binary)],
+        capture_output=True,
+        text=True,
+        check=False,
     )
     wall = time.perf_counter() - start
     if result.returncode != 0:
@@ -215,7 +223,7 @@ def measure_cli(
     controls = recorded_controls(lambda: cli_row(count, world), duration)
     sim = cli_row(count, world)
     model = sim.model
-    xml, replay = bare_process_files(sim, controls, folder)
+    xml, replay, binary = bare_process_files(sim, controls, folder)
     sim.close()
     cli, bare, ratio, loop, outside, process, process_ratio, cpu_ratio = [], [], [], [], [], [], [], []
     for _ in range(rounds):
@@ -223,7 +231,7 @@ def measure_cli(
         wall, loop_wall = cli_seconds(count, duration, record, folder, world)
         cli_cpu, cpu = children_cpu() - cpu, children_cpu()
         bare_wall = bare_seconds(model, controls, 0)
-        process_wall = bare_process_seconds(xml, replay)
+        process_wall = bare_process_seconds(xml, replay, binary)
         cpu_ratio.append((children_cpu() - cpu) / cli_cpu)
         cli.append(duration / wall)
         bare.append(duration / bare_wall)
