@@ -1,5 +1,6 @@
 """Fleets against bare MuJoCo: `python bench/bench_fleet.py [--cars 1 2 4 8] [--worlds empty tunnel] [--track-cars 30]
-[--duration 10] [--rounds 3] [--cli-cars 1 4 8] [--cli-worlds empty tunnel track] [--quick]`.
+[--duration 10] [--rounds 3] [--cli-cars 1 4 8] [--cli-worlds empty tunnel track] [--cli-track-cars 30]
+[--cli-recording both] [--quick]`.
 
 Per fleet: the pipeline - physics, every node of every car, the lidar on and the camera off, a subscriber on every
 /scan (a sensor works only while someone listens), each car driven by its own driver node - and bare MuJoCo `mj_step`
@@ -10,15 +11,18 @@ one-time costs of a first scan: loading the compiled kernels, slicing the world)
   - tunnel: N cars in a row 1.5 m apart, as `racecar-sim run --world tunnel --cars N` places them, wall-follow each;
   - track:  --track-cars (default 30) cars in a row round a generated oval track CSV (98 m of centerline, 2.4 m
             wide), as `racecar-sim run --world TRACK.csv --cars N` places them, pure-pursuit each on the centerline.
-Printed per fleet: the real-time factor, bare MuJoCo's on the same model, the median of the per-round ratios
-(pipeline / bare), and car-seconds simulated per wall second (the real-time factor times N). Then the CLI as users run
-it: `racecar-sim run --world empty --cars N --driver constant --speed 1 --no-camera --no-video --no-summary
---duration D` (--cli-cars, --cli-duration; --no-record, and with the recording on; --cli-worlds adds the tunnel,
-wall-follow each, and the oval track, pure-pursuit each, in the CLI's rows), a fresh process timed from start
-to exit (its start-up and one-time costs included), against bare mj_step of the same N-car model replaying the same
-run's controls from the start (recorded from the same fleet built in-process: the CLI's row, its drivers);
-beside it the loop ratio, bare MuJoCo against the run loop alone (the sim time over the real-time factor the CLI
-prints: start-up, the build and the exit left out), and the wall seconds outside the loop.
+Printed per fleet: the real-time factor, bare MuJoCo's on the same model, the median of the per-round ratios (pipeline
+/ bare), and car-seconds simulated per wall second (the real-time factor times N). Then the CLI as users run it:
+`racecar-sim run --world empty --cars N --driver constant --speed 1 --no-camera --no-video --no-summary --duration D`
+(--cli-cars, --cli-duration; --no-record, and with the recording on: --cli-recording; --cli-worlds adds the tunnel,
+wall-follow each, and the oval track, pure-pursuit each, in the CLI's rows; on the track --cli-track-cars too), a
+fresh process timed from start to exit (its start-up and one-time costs included), against bare mj_step of the same
+N-car model replaying the same run's controls from the start (recorded from the same fleet built in-process: the CLI's
+row, its drivers); beside it the loop ratio, bare MuJoCo against the run loop alone (the sim time over the real-time
+factor the CLI prints: start-up, the build and the exit left out), the wall seconds outside the loop, and bare MuJoCo
+as a whole process too (`python -c`: import mujoco, compile the model's XML, set the replay's wheel commands, step:
+its one-time costs included, as the CLI's are) with the CLI's ratio to it, in wall time and in CPU time (the
+processes' own CPU seconds: steadier on a shared machine).
 Then the cost of `sim.reset()` for the whole stack (physics, every node's reset hook, the scheduler), averaged over
 --resets calls made after a little driving, for 1 and 4 cars in `empty`.
 
@@ -32,6 +36,7 @@ from __future__ import annotations
 import argparse
 import math
 import re
+import resource
 import shutil
 import statistics
 import subprocess
@@ -152,31 +157,98 @@ def cli_seconds(count: int, duration: float, record: bool, folder: Path, world: 
     return wall, duration / float(printed.group(1))
 
 
+BARE_PROCESS = """
+import sys
+import mujoco
+import numpy as np
+
+mujoco.MjModel.from_xml_path(sys.argv[1])
+model = mujoco.MjModel.from_binary_path(sys.argv[3])
+data = mujoco.MjData(model)
+replay = np.load(sys.argv[2])
+mujoco.mj_forward(model, data)
+for nstep, ctrl in zip(replay["steps"].tolist(), replay["ctrl"]):
+    data.ctrl[:] = ctrl
+    mujoco.mj_step(model, data, nstep=nstep)
+"""
+"""Bare MuJoCo as a whole process, as a user without racecar-sim runs it: import mujoco, compile the model's XML
+(argv[1]), set the wheel commands of the replay (argv[2], .npz: steps and ctrl per chunk) and step. The XML's
+numbers are MuJoCo's printed ones, rounded, and in a fleet that crashes (8 cars in the tunnel) the rounded model runs
+another, slower course; so the process compiles the XML for its cost and steps the very model compiled in-process
+(argv[3], mj_saveModel's), whose course is the replay's."""
+
+
+def bare_process_files(sim: Simulator, controls: list[tuple[int, np.ndarray]], folder: Path) -> tuple[Path, Path, Path]:
+    """The XML of `sim`'s model (MjSpec.to_xml), the replay's controls and the compiled model itself (.mjb), for
+    BARE_PROCESS."""
+    xml, replay, binary = folder / "bare-model.xml", folder / "bare-replay.npz", folder / "bare-model.mjb"
+    xml.write_text(sim.spec.to_xml())
+    steps = np.array([n for n, _ in controls], np.int64)
+    ctrl = np.array([c for _, c in controls], np.float64).reshape(len(controls), -1)
+    np.savez(replay, steps=steps, ctrl=ctrl)
+    mujoco.mj_saveModel(sim.model, str(binary), None)
+    return xml, replay, binary
+
+
+def children_cpu() -> float:
+    """CPU seconds (user and system) of this process's finished children: steadier than wall time on a shared
+    machine, where other processes take turns on the cores."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def bare_process_seconds(xml: Path, replay: Path, binary: Path) -> float:
+    """Wall seconds of BARE_PROCESS from start to exit: the interpreter's start, importing mujoco, compiling the
+    model and stepping it under the replay's controls."""
+    start = time.perf_counter()
+    result = subprocess.run(
+        [sys.executable, "-c", BARE_PROCESS, str(xml), str(replay), str(binary)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    wall = time.perf_counter() - start
+    if result.returncode != 0:
+        raise RuntimeError(f"bare MuJoCo's process failed: {result.stderr.strip()[-2000:]}")
+    return wall
+
+
 def measure_cli(
     count: int, duration: float, rounds: int, record: bool, folder: Path, world: str = "empty"
 ) -> dict[str, float]:
-    """The CLI's real-time factor (start-up included), bare MuJoCo's on its model, the median per-round ratio, that
-    of the run loop alone (start-up, the one-time costs before the loop and the exit left out) and the seconds
-    outside the loop."""
+    """The CLI's real-time factor (start-up included), bare MuJoCo's on its model in process, the median per-round
+    ratio, that of the run loop alone (start-up, the one-time costs before the loop and the exit left out), the
+    seconds outside the loop, and bare MuJoCo as a whole process (its start, import and compile included) with the
+    CLI's ratio to that."""
     controls = recorded_controls(lambda: cli_row(count, world), duration)
     sim = cli_row(count, world)
     model = sim.model
+    xml, replay, binary = bare_process_files(sim, controls, folder)
     sim.close()
-    cli, bare, ratio, loop, outside = [], [], [], [], []
+    cli, bare, ratio, loop, outside, process, process_ratio, cpu_ratio = [], [], [], [], [], [], [], []
     for _ in range(rounds):
+        cpu = children_cpu()
         wall, loop_wall = cli_seconds(count, duration, record, folder, world)
+        cli_cpu, cpu = children_cpu() - cpu, children_cpu()
         bare_wall = bare_seconds(model, controls, 0)
+        process_wall = bare_process_seconds(xml, replay, binary)
+        cpu_ratio.append((children_cpu() - cpu) / cli_cpu)
         cli.append(duration / wall)
         bare.append(duration / bare_wall)
         ratio.append(bare_wall / wall)
         loop.append(bare_wall / loop_wall)
         outside.append(wall - loop_wall)
+        process.append(process_wall)
+        process_ratio.append(process_wall / wall)
     return {
         "rtf": statistics.median(cli),
         "bare": statistics.median(bare),
         "ratio": statistics.median(ratio),
         "loop": statistics.median(loop),
         "outside": statistics.median(outside),
+        "process": statistics.median(process),
+        "process_ratio": statistics.median(process_ratio),
+        "cpu_ratio": statistics.median(cpu_ratio),
     }
 
 
@@ -283,12 +355,24 @@ def main() -> None:
         choices=("empty", "tunnel", "track"),
         help="worlds of the CLI runs (default empty; track: the generated oval)",
     )
+    p.add_argument(
+        "--cli-recording",
+        choices=("off", "on", "both"),
+        default="both",
+        help="the CLI runs with --no-record (off), recording (on) or both (default)",
+    )
+    p.add_argument(
+        "--cli-track-cars",
+        type=int,
+        default=30,
+        help="a fleet size run by the CLI on the track besides --cli-cars (default 30; 0: none)",
+    )
     p.add_argument("--quick", action="store_true", help="1 and 2 cars, 4 on the track, 1 s, 1 round: a check it runs")
     args = p.parse_args()
     print(machine_line(), flush=True)  # absolute figures belong to a machine
     if args.quick:
         args.cars, args.track_cars, args.duration, args.rounds, args.resets = [1, 2], 4, 1.0, 1, 20
-        args.cli_cars, args.cli_duration = [2], 1.0
+        args.cli_cars, args.cli_duration, args.cli_track_cars = [2], 1.0, 0
     print(
         f"racecar_sim from {Path(racecar_sim.__file__).parent}; lidar on, camera off, every /scan listened to; "
         f"{args.duration:g} sim s, median of {args.rounds} interleaved rounds against bare mj_step of the same model"
@@ -321,16 +405,18 @@ def main() -> None:
             )
             print(
                 f"{'world':<8}{'recording':>10}{'cars':>5}{'real-time factor':>18}{'bare MuJoCo':>13}{'ratio':>7}"
-                f"{'loop ratio':>12}{'outside loop':>14}"
+                f"{'loop ratio':>12}{'outside loop':>14}{'bare process':>14}{'process ratio':>15}{'CPU ratio':>11}"
             )
             for world in args.cli_worlds:
                 where = str(oval_track(Path(folder) / "cli-oval.csv")) if world == "track" else world
-                for record in (False, True):
-                    for count in args.cli_cars:
+                counts = args.cli_cars + ([args.cli_track_cars] if world == "track" and args.cli_track_cars else [])
+                for record in [r == "on" for r in ("off", "on") if args.cli_recording in (r, "both")]:
+                    for count in counts:
                         r = measure_cli(count, args.cli_duration, args.rounds, record, Path(folder), where)
                         print(
                             f"{world:<8}{'on' if record else 'off':>10}{count:>5}{r['rtf']:>17.1f}x"
-                            f"{r['bare']:>12.1f}x{r['ratio']:>7.2f}{r['loop']:>12.2f}{r['outside']:>12.2f} s",
+                            f"{r['bare']:>12.1f}x{r['ratio']:>7.2f}{r['loop']:>12.2f}{r['outside']:>12.2f} s"
+                            f"{r['process']:>12.2f} s{r['process_ratio']:>15.2f}{r['cpu_ratio']:>11.2f}",
                             flush=True,
                         )
     print(f"sim.reset() in empty, lidar on, camera off, mean of {args.resets} calls")

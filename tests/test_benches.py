@@ -44,7 +44,8 @@ def test_speed_benches_run_and_print_their_tables():
         "world    cars  real-time factor  bare MuJoCo  ratio  car-s per wall s",
         "track       4",
         "racecar-sim run --world empty --cars N --driver constant --speed 1",  # the fleet as users run it
-        "world    recording cars  real-time factor  bare MuJoCo  ratio  loop ratio  outside loop",
+        "world    recording cars  real-time factor  bare MuJoCo  ratio  loop ratio  outside loop  bare process  "
+        "process ratio",  # bare MuJoCo as a whole process too: its start, import and compile included
         "empty          off    2",  # the CLI's row, recording off
         "empty           on    2",  # and on
     ):

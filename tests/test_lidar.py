@@ -490,6 +490,44 @@ def test_one_call_scan_is_the_step_by_step_scan_bit_for_bit(world):
     assert one_call >= 30  # the level scans at least took the one-call path
 
 
+def test_the_one_call_scan_follows_a_noise_switch_and_a_car_spawned_at_run_time():
+    """The one compiled call's arguments are kept from scan to scan: switching the noise off, and a car spawned at run
+    time (a recompiled model: every lidar rebound), show in the very next scan, as in the step-by-step path."""
+    from racecar_sim import Car, Spawn
+
+    sim = Simulator(world="tunnel", cars=[Car("car1", spawn=Spawn(-31.0, -1.0, 0.05, 0.0), camera=False)])
+    lidar = sim.car.lidar
+    sim.run_until(0.5)
+
+    def step_by_step(stamp: int) -> np.ndarray:
+        walls_only = lidar.caster.level_walls
+        lidar.caster.level_walls = lambda: None
+        try:
+            return lidar.scan(stamp)
+        finally:
+            lidar.caster.level_walls = walls_only
+
+    noisy = lidar.scan(25_000_000)
+    lidar.noise = False
+    before = lidar.one_call_scans
+    clean = lidar.scan(25_000_000)
+    assert lidar.one_call_scans == before + 1
+    np.testing.assert_array_equal(clean, step_by_step(25_000_000))
+    hit = np.isfinite(clean)
+    assert np.mean(clean[hit] != noisy[hit]) > 0.9  # the switch took: no noise now
+    ahead = Car("car2", spawn=Spawn(-29.5, -1.0, 0.05, 0.0), camera=False)
+    ahead.load()
+    sim.spawn_car(ahead)
+    before = lidar.one_call_scans
+    seen = lidar.scan(50_000_000)
+    assert lidar.one_call_scans == before + 1
+    expected = step_by_step(50_000_000)
+    assert np.array_equal(np.isinf(seen), np.isinf(expected))
+    finite = np.isfinite(expected)
+    np.testing.assert_allclose(seen[finite], expected[finite], rtol=0, atol=1e-5)
+    assert np.min(seen[finite]) < 1.5  # the car spawned 1.5 m ahead is in the scan
+
+
 @pytest.mark.parametrize("world", ["walker", "tunnel"])
 def test_a_fleet_scan_casts_the_other_cars_in_the_one_call_path_as_mujoco_does(world):
     """With other cars in the world each lidar's scan still takes the one compiled call (laser_kernel.level_scan:

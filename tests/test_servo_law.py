@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from racecar_sim.control.servo_law import ServoLaw
+from racecar_sim.control.servo_law import FLOATS, ServoLaw
 from racecar_sim.envs.batch_command import BatchCommands
 from racecar_sim.msgs import AckermannDriveStamped
 from racecar_sim.runtime.simulator import Simulator
@@ -64,3 +64,18 @@ def test_the_node_publishes_the_laws_outputs_and_the_batch_sets_them(sim):
                 assert bits(ctrl[k, adr]) == bits(min(max(value, lo), hi))
     for subscriber in subscribers:
         subscriber.unsubscribe()
+
+
+def test_a_repeated_command_gives_what_the_law_gives_zero_signs_included(sim):
+    """ServoLaw.command keeps its last result: commands in a row, repeats, 0.0 and -0.0 among them, give each time
+    exactly what the law itself works out for that command (copysign in the law tells -0.0 apart), in a list of the
+    caller's own."""
+    law: ServoLaw = sim.car.servo.law
+    commands = [(1.0, 0.2), (1.0, 0.2), (1.0, -0.0), (1.0, 0.0), (-0.0, 0.0), (0.0, 0.0), (2.0, 9.0), (2.0, 9.0)]
+    for speed, steer in commands:
+        values, clamped = law.command(speed, steer)
+        expected, expected_clamped = law._law(speed, steer, FLOATS)
+        assert bits(values) == bits(expected), (speed, steer)
+        assert clamped == expected_clamped
+        values.append(0.0)  # the caller's list is its own
+        assert bits(law.command(speed, steer)[0]) == bits(expected)

@@ -12,7 +12,7 @@ import logging
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from functools import partial
+from functools import lru_cache, partial
 from pathlib import Path
 from typing import Any
 
@@ -117,10 +117,16 @@ class MuxInput:
     priority: int
 
 
+@lru_cache(maxsize=32)
+def _parsed(text: str) -> Any:
+    """A mux file's YAML, parsed once per text: every car of a fleet reads the same files (read only here)."""
+    return yaml_text.safe_load(text)
+
+
 def load_mux_inputs(path: Path) -> tuple[list[MuxInput], str]:
     """Read a yocs-style mux YAML: the subscribers and the output topic name."""
     try:
-        data = yaml_text.safe_load(path.read_text())
+        data = _parsed(path.read_text())
         subscribers = data["subscribers"]
         output = data.get("publisher", "output")
     except (OSError, yaml.YAMLError, KeyError, TypeError, AttributeError) as exc:
@@ -221,7 +227,7 @@ class CommandChain(NodeBase):
                 data, folder = config, Path(".")
                 config = config.get("source", "the mux wiring")
             else:
-                data, folder = yaml_text.safe_load(config.read_text()), config.parent
+                data, folder = _parsed(config.read_text()), config.parent
             self.output_topic: str = names.topic(data["output"])
             default = data.get("default_command")
             muxes, relays = data["muxes"], data["relays"]

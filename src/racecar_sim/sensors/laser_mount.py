@@ -9,11 +9,15 @@ agree bit for bit.
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Sequence
 from typing import overload
 
 import mujoco
 import numpy as np
+
+# each model's bodies posed at qpos0 (mj_kinematics of a fresh MjData): what every mount of a fleet reads, made once
+_AT_QPOS0: weakref.WeakKeyDictionary[mujoco.MjModel, mujoco.MjData] = weakref.WeakKeyDictionary()
 
 
 class LaserMount:
@@ -36,8 +40,7 @@ class LaserMount:
         joint = int(model.body_jntadr[body])
         if model.jnt_type[joint] != mujoco.mjtJoint.mjJNT_FREE:
             return None
-        data = mujoco.MjData(model)
-        mujoco.mj_kinematics(model, data)
+        data = _posed_at_qpos0(model)
         body_rot = data.xmat[body].reshape(3, 3)
         site_rot = data.site_xmat[site].reshape(3, 3)
         local_origin = body_rot.T @ (data.site_xpos[site] + site_rot @ offset - data.xpos[body])
@@ -68,6 +71,16 @@ class LaserMount:
             1,
         )
         return origin, axes
+
+
+def _posed_at_qpos0(model: mujoco.MjModel) -> mujoco.MjData:
+    """An MjData of `model` posed by mj_kinematics at qpos0, made once per model (read only: a fleet's N lasers
+    share it instead of making N MjData of the N-car model)."""
+    data = _AT_QPOS0.get(model)
+    if data is None:
+        data = _AT_QPOS0[model] = mujoco.MjData(model)
+        mujoco.mj_kinematics(model, data)
+    return data
 
 
 @overload

@@ -9,6 +9,8 @@ schedule is kept, and a scan's noise depends only on (seed, stamp): skipping sca
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 import mujoco
 import numpy as np
@@ -26,9 +28,23 @@ from racecar_sim.sensors.raycast import Fan, RayCaster
 from racecar_sim.sensors.raycast.scene import Solids
 from racecar_sim.sensors.shared_pose import SharedPose
 
+if TYPE_CHECKING:
+    from racecar_sim.sensors.raycast.grid import FlatWalls
+
 NOISE_STREAM = "scan"
 ORIGINAL_TOPIC = "/scan"  # the laser on it keeps the original noise stream, `scan` (runs stay bit-identical)
+_LEVEL_SCAN: Callable[..., bool] | None = None  # laser_kernel.level_scan, imported at the first scan (numba)
+_FIRST, _SECOND, _OUT = 21, 22, 27  # the scan's own arguments of level_scan (LidarPublisher._one_call)
 _NO_SOLIDS = Solids(np.zeros(0, np.intp), np.zeros(0, np.intp), np.zeros((0, 3)), np.zeros(0))
+
+
+def _level_scan() -> Callable[..., bool]:
+    """laser_kernel.level_scan, imported once (with numba) by the first scan that takes it."""
+    global _LEVEL_SCAN
+    from racecar_sim.sensors.laser_kernel import level_scan
+
+    _LEVEL_SCAN = level_scan
+    return level_scan
 
 
 def named_laser_spec(sensor: Sensor | LaserSpec, names: CarNames = CarNames()) -> LaserSpec:
@@ -79,6 +95,8 @@ class LidarPublisher(NodeBase):
         self.caster = RayCaster(
             model, self._pose, self.fan, model.body(self._root).id, COLLISION_GROUP, pose_bodies=self._pose_bodies
         )
+        self._args_key: tuple[object, ...] | None = None  # _one_call's
+        self._args: list[Any] = []
         self.scans_cast = 0
         self.one_call_scans = 0  # scans answered by the one compiled call (laser_kernel.level_scan)
         self.beams_3d = 0  # beams cast in 3-D by MuJoCo, over every scan
@@ -146,17 +164,36 @@ class LidarPublisher(NodeBase):
         mount = self.mount
         # the common case in one compiled call (laser_kernel.level_scan), else the steps below
         if mount is not None and self.mode == "auto" and (walls := self.caster.level_walls()) is not None:
-            from racecar_sim.sensors.laser_kernel import level_scan
-            from racecar_sim.sensors.raycast.fan import MAX_TILT_COS
-
-            fan = self.fan
-            first, second = self.noise_table.offsets(self.seed, stamp_ns)
-            out = np.empty(fan.count, np.float32)
             solids = self.caster.solids or _NO_SOLIDS
             if len(solids):  # the other cars where they are now
                 self._pose_bodies()
-            pose = self._pose
-            if level_scan(
+            args = self._one_call(walls, solids, mount)
+            args[_FIRST], args[_SECOND] = self.noise_table.offsets(self.seed, stamp_ns)
+            out = args[_OUT] = np.empty(self.fan.count, np.float32)
+            if (_LEVEL_SCAN or _level_scan())(*args):
+                self.scans_cast += 1
+                self.one_call_scans += 1
+                self.caster.last_3d_beams = 0
+                return out
+        ranges = self.true_ranges()
+        if self.caster.compiled:  # numba is loaded for this world's walls: the rule in one compiled pass
+            return self._published(ranges, stamp_ns)
+        hit = np.isfinite(ranges)
+        if self.noise:
+            ranges += self.scan_noise(self.noise_table.sample(self.seed, stamp_ns))
+        ranges = np.where(hit, np.clip(ranges, spec.range_min, spec.range_max), np.inf)
+        return ranges.astype(np.float32)
+
+    def _one_call(self, walls: FlatWalls, solids: Solids, mount: LaserMount) -> list[Any]:
+        """level_scan's arguments but the scan's own (the noise windows, `out`: set by the caller), made again only
+        when one of the objects they come from changed (a rebind, the noise switched): a scan then reads no
+        attribute of them, and no MjData array view is made per scan."""
+        key = (id(walls), id(solids), id(mount), id(self.data), id(self._pose), id(self.fan), id(self.spec), self.noise)
+        if key != self._args_key:  # the objects are held by the arguments: their ids are not reused meanwhile
+            from racecar_sim.sensors.raycast.fan import MAX_TILT_COS
+
+            fan, spec, pose = self.fan, self.spec, self._pose
+            self._args = [
                 self.data.qpos,
                 mount.qpos_adr,
                 mount.local_origin,
@@ -178,32 +215,22 @@ class LidarPublisher(NodeBase):
                 fan.range_max,
                 fan.directions,
                 self.noise_table.values,
-                first,
-                second,
+                0,  # first
+                0,  # second
                 spec.noise_stddev,
                 spec.noise_mean,
                 self.noise,
                 self._ranges,
-                out,
+                None,  # out
                 pose.geom_xpos,
                 pose.geom_xmat,
                 solids.ids,
                 solids.types,
                 solids.sizes,
                 solids.rbound,
-            ):
-                self.scans_cast += 1
-                self.one_call_scans += 1
-                self.caster.last_3d_beams = 0
-                return out
-        ranges = self.true_ranges()
-        if self.caster.compiled:  # numba is loaded for this world's walls: the rule in one compiled pass
-            return self._published(ranges, stamp_ns)
-        hit = np.isfinite(ranges)
-        if self.noise:
-            ranges += self.scan_noise(self.noise_table.sample(self.seed, stamp_ns))
-        ranges = np.where(hit, np.clip(ranges, spec.range_min, spec.range_max), np.inf)
-        return ranges.astype(np.float32)
+            ]
+            self._args_key = key
+        return self._args
 
     def warm(self) -> None:
         """Load now what a scan loads on first use (numba's cached kernels, a map's flat walls): one scan cast at the

@@ -31,9 +31,9 @@ from racecar_sim.sensors.raycast.scene import (
     Solids,
     boxes_footprints,
     geom_footprint,
-    is_static,
     seen_geoms,
     static_footprints,
+    static_geoms,
     subtree_bodies,
 )
 
@@ -72,7 +72,7 @@ class RayCaster:
         fan, group, cell_size = self.fan, self.group, self.cell_size
         geoms = seen_geoms(model, group)
         own = np.isin(model.geom_bodyid[geoms], subtree_bodies(model, own_body))
-        static = np.array([is_static(model, g) for g in geoms], bool)
+        static = static_geoms(model, geoms)
         walls = WallBoxes.of(model)  # a map's walls, held out of the model's geoms (physics.near_walls)
         self.static, self.grid = _sliced(model, geoms[static & ~own], walls, fan, cell_size)
         moving = geoms[~static & ~own]

@@ -109,6 +109,8 @@ def seen_geoms(model: mujoco.MjModel, group: int) -> np.ndarray:
 
 def subtree_bodies(model: mujoco.MjModel, root: int) -> np.ndarray:
     """Ids of `root` and every body below it."""
+    if root > 0 and model.body_parentid[root] == 0:  # a top-level body (a car): the bodies whose root it is
+        return np.flatnonzero(model.body_rootid == root)
     inside = np.zeros(model.nbody, bool)
     inside[root] = True
     for body in range(root + 1, model.nbody):  # MuJoCo numbers parents before their children
@@ -120,6 +122,13 @@ def is_static(model: mujoco.MjModel, geom: int) -> bool:
     """Whether the geom is welded to the world (and not a mocap body, which can be moved)."""
     body = model.geom_bodyid[geom]
     return bool(model.body_weldid[body] == 0 and model.body_mocapid[body] < 0)
+
+
+def static_geoms(model: mujoco.MjModel, geoms: np.ndarray) -> np.ndarray:
+    """is_static for each of `geoms` (bool array), in a few array operations."""
+    bodies = model.geom_bodyid[geoms]
+    static: np.ndarray = (model.body_weldid[bodies] == 0) & (model.body_mocapid[bodies] < 0)
+    return static
 
 
 def _vertical_axis(rotation: np.ndarray) -> int | None:
