@@ -78,8 +78,6 @@ def main(argv: list[str] | None = None) -> int:
     try:
         code = _main(argv)
         sys.stdout.flush()  # a pipe closed early breaks here, not in the interpreter's exit
-        if argv is None:  # the command itself ends: the interpreter's exit need not walk its objects for cycles
-            gc.freeze()  # (the collections of its teardown took 0.3-0.8 s after a fleet's run; refcounts still free)
         return code
     except BrokenPipeError:
         devnull = os.open(os.devnull, os.O_WRONLY)  # the rest of stdout goes nowhere: no second error at exit
