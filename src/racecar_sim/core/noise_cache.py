@@ -48,17 +48,18 @@ def table(name: str, count: int, dtype: np.dtype, length: int, draw: Callable[[]
     except (OSError, ValueError):
         pass
     values = draw()
-    _keep(path, header, values)
+    keep_entry(path, header, np.ascontiguousarray(values).tobytes())
     return values
 
 
-def _keep(path: Path, header: bytes, values: np.ndarray) -> None:
+def keep_entry(path: Path, *parts: bytes) -> None:
+    """Write a cache entry of `parts` at `path`, whole or not at all; a cache that cannot be written is not kept."""
     scratch = path.with_suffix(f".{os.getpid()}.tmp")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         with scratch.open("wb") as file:
-            file.write(header)
-            file.write(np.ascontiguousarray(values).tobytes())
+            for part in parts:
+                file.write(part)
         scratch.replace(path)  # atomic: processes starting together see the whole entry or none
     except OSError:
         scratch.unlink(missing_ok=True)

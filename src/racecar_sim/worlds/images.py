@@ -26,6 +26,7 @@ import numpy as np
 
 from racecar_sim.core.errors import WorldError
 from racecar_sim.core.noise_cache import cache_dir as _noise_dir
+from racecar_sim.core.noise_cache import keep_entry
 
 if TYPE_CHECKING:  # PIL (~10 ms) is imported by the first world that has an image, not by every run
     from PIL import Image
@@ -98,7 +99,8 @@ def rgba_pixels(file: Path, fail: Callable[[str], WorldError], kind: str = "imag
     with open_image(file, fail, kind) as image:
         pixels = np.asarray(image.convert("RGBA"))
     if path is not None and header is not None:
-        _keep_pixels(path, header, pixels)
+        shape = json.dumps(list(pixels.shape[:2])).encode() + b"\n"
+        keep_entry(path, header, shape, np.ascontiguousarray(pixels).tobytes())
     return pixels
 
 
@@ -133,16 +135,3 @@ def _kept_pixels(path: Path, header: bytes) -> np.ndarray | None:
     if pixels.size != height * width * 4:  # a cut entry (a full disk): decoded again
         return None
     return pixels.reshape(height, width, 4)
-
-
-def _keep_pixels(path: Path, header: bytes, pixels: np.ndarray) -> None:
-    scratch = path.with_suffix(f".{os.getpid()}.tmp")
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with scratch.open("wb") as stream:
-            stream.write(header)
-            stream.write(json.dumps(list(pixels.shape[:2])).encode() + b"\n")
-            stream.write(np.ascontiguousarray(pixels).tobytes())
-        scratch.replace(path)  # atomic: processes starting together see the whole entry or none
-    except OSError:
-        scratch.unlink(missing_ok=True)
