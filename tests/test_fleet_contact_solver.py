@@ -2,7 +2,8 @@
 
 The state is the tunnel's 8-car wall-follow run (`racecar-sim run --world tunnel --cars 8`, seed 0) at 53.2025 s:
 car4 reversing, its rear wheels against car5's front wheels. With MuJoCo's automatic (here sparse) Jacobian, its
-Newton solver stalled there at the iteration cap, far from the optimum: 3e4 N on two wheel contacts threw car4 3 m into the air within 0.2 s, and the run diverged at 54.57 s."""
+Newton solver stalled there at the iteration cap, far from the optimum: 3e4 N on two wheel contacts threw car4 3 m
+into the air within 0.2 s, and the run diverged at 54.57 s."""
 
 from __future__ import annotations
 
