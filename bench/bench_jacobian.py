@@ -1,8 +1,10 @@
-"""One physics step of a tunnel fleet with MuJoCo's dense constraint Jacobian (the builder's) against its sparse one:
-`python bench/bench_jacobian.py [--cars 8 16 24 39] [--rounds 5]`.
+"""One physics step of a fleet with each constraint Jacobian and solver (physics/contact_solver.py chooses):
+`python bench/bench_jacobian.py [--cars 8 16 32 64 128 256] [--rounds 3]`.
 
-Each fleet stands in its starting row for 0.5 s (wheels still), then 400 steps are timed from the same state with
-each Jacobian in turn, interleaved; the best round of each is printed, and their ratio (dense / sparse).
+Each fleet stands in `empty`, 16 cars a row (1.5 m apart, rows 1 m apart), for 0.25 s with its wheels still; then 100
+steps are timed from the same state with the dense Jacobian and Newton, the sparse Jacobian and Newton (MuJoCo's own
+choice from 60 dofs on) and the sparse Jacobian and CG, in turn, interleaved; the best round of each is printed, and
+the ratios to sparse Newton. `chosen` names what the fleet steps with.
 """
 
 from __future__ import annotations
@@ -15,45 +17,52 @@ import numpy as np
 
 from machine_info import machine_line
 from racecar_sim.runtime import Car, Simulator
-from racecar_sim.worlds import load_world
-from racecar_sim.worlds.row import starting_row
+from racecar_sim.worlds import Spawn
 
-STEPS = 400
+STEPS = 100
+ROW = 16  # cars a row
 FULL = mujoco.mjtState.mjSTATE_FULLPHYSICS
+JAC, SOLVER = mujoco.mjtJacobian, mujoco.mjtSolver
+WAYS = {
+    "dense Newton": (JAC.mjJAC_DENSE, SOLVER.mjSOL_NEWTON),
+    "sparse Newton": (JAC.mjJAC_SPARSE, SOLVER.mjSOL_NEWTON),
+    "sparse CG": (JAC.mjJAC_SPARSE, SOLVER.mjSOL_CG),
+}
 
 
-def step_times(cars: int, rounds: int) -> tuple[int, float, float]:
-    """nv, and the best ms per step with the dense and with the sparse Jacobian."""
-    world = load_world("tunnel", None, [], None)
-    fleet = [Car(f"car{k + 1}", spawn=spawn, camera=False) for k, spawn in enumerate(starting_row(world, cars))]
-    with Simulator(world=world, cars=fleet) as sim:
+def step_times(cars: int, rounds: int) -> tuple[int, str, dict[str, float]]:
+    """nv, the way the fleet steps, and the best ms per step of each way."""
+    fleet = [
+        Car(f"car{k + 1}", spawn=Spawn(1.5 * (k % ROW), 1.0 * (k // ROW), 0.05, 0.0), camera=False) for k in range(cars)
+    ]
+    with Simulator(world="empty", cars=fleet) as sim:
         model, data = sim.model, sim.data
-        mujoco.mj_step(model, data, nstep=200)
+        chosen = next(name for name, way in WAYS.items() if way == (model.opt.jacobian, model.opt.solver))
+        mujoco.mj_step(model, data, nstep=100)
         state = np.empty(mujoco.mj_stateSize(model, FULL))
         mujoco.mj_getState(model, data, state, FULL)
-        best = {
-            jacobian: float("inf") for jacobian in (mujoco.mjtJacobian.mjJAC_DENSE, mujoco.mjtJacobian.mjJAC_SPARSE)
-        }
+        best = dict.fromkeys(WAYS, float("inf"))
         for _ in range(rounds):
-            for jacobian in best:
-                model.opt.jacobian = jacobian
+            for name, (jacobian, solver) in WAYS.items():
+                model.opt.jacobian, model.opt.solver = jacobian, solver
                 mujoco.mj_setState(model, data, state, FULL)
                 start = time.perf_counter()
                 mujoco.mj_step(model, data, nstep=STEPS)
-                best[jacobian] = min(best[jacobian], (time.perf_counter() - start) / STEPS * 1e3)
-        return model.nv, best[mujoco.mjtJacobian.mjJAC_DENSE], best[mujoco.mjtJacobian.mjJAC_SPARSE]
+                best[name] = min(best[name], (time.perf_counter() - start) / STEPS * 1e3)
+        return model.nv, chosen, best
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--cars", type=int, nargs="+", default=[8, 16, 24, 39])
-    parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--cars", type=int, nargs="+", default=[8, 16, 32, 64, 128, 256])
+    parser.add_argument("--rounds", type=int, default=3)
     args = parser.parse_args()
     print(machine_line(), flush=True)  # absolute figures belong to a machine
-    print(f"{'cars':>4}  {'nv':>4}  {'dense ms':>8}  {'sparse ms':>9}  dense/sparse")
+    print(f"{'cars':>4}  {'nv':>4}  " + "  ".join(f"{name + ' ms':>16}" for name in WAYS) + "  chosen / sparse Newton")
     for cars in args.cars:
-        nv, dense, sparse = step_times(cars, args.rounds)
-        print(f"{cars:>4}  {nv:>4}  {dense:>8.3f}  {sparse:>9.3f}  {dense / sparse:.2f}", flush=True)
+        nv, chosen, best = step_times(cars, args.rounds)
+        times = "  ".join(f"{best[name]:>16.3f}" for name in WAYS)
+        print(f"{cars:>4}  {nv:>4}  {times}  {chosen}: {best[chosen] / best['sparse Newton']:.2f}", flush=True)
 
 
 if __name__ == "__main__":

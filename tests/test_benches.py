@@ -161,10 +161,10 @@ def test_dynamics_bench_runs_and_draws_its_pictures(tmp_path):
 
 
 def test_jacobian_bench_prints_a_row_per_fleet():
-    """bench/bench_jacobian.py: the CPU, then each fleet's dofs and its step with either Jacobian."""
+    """bench/bench_jacobian.py: the CPU, then each fleet's dofs, its step each way and the way it steps."""
     bench = Path(__file__).resolve().parents[1] / "bench" / "bench_jacobian.py"
     result = subprocess.run(
-        [sys.executable, str(bench), "--cars", "2", "5", "--rounds", "1"],
+        [sys.executable, str(bench), "--cars", "2", "17", "--rounds", "1"],
         capture_output=True,
         text=True,
         timeout=600,
@@ -174,8 +174,9 @@ def test_jacobian_bench_prints_a_row_per_fleet():
     lines = result.stdout.splitlines()
     assert lines[0].startswith("CPU "), lines[0]
     rows = [line.split() for line in lines[2:]]
-    assert [row[:2] for row in rows] == [["2", "24"], ["5", "60"]], result.stdout  # 12 dofs a car
-    assert all(float(value) > 0 for row in rows for value in row[2:]), result.stdout
+    assert [row[:2] for row in rows] == [["2", "24"], ["17", "204"]], result.stdout  # 12 dofs a car
+    assert all(float(value) > 0 for row in rows for value in row[2:5]), result.stdout
+    assert [" ".join(row[5:7]) for row in rows] == ["dense Newton:", "sparse CG:"], result.stdout
 
 
 def test_the_rtf_bench_names_the_cpu_it_ran_on():

@@ -82,12 +82,6 @@ def _options(spec: mujoco.MjSpec, world: World, preset: PhysicsPreset) -> None:
     opt.solver = SOLVERS[preset.solver]
     opt.iterations = world.physics.iterations or preset.iterations
     opt.cone = CONES[preset.cone]
-    # MuJoCo's "auto" takes the sparse Jacobian from 60 dofs on (a fleet of 5+ cars). There, its Newton solver with
-    # pyramidal cones (4.0.0) can stall far from the optimum on an island of two cars touching wheel to wheel: it
-    # stops at its iteration cap with ~10x the optimum's cost and contact forces of 3e4 N, which launch the cars
-    # (`--world tunnel --cars 8`, 53.2 s). With the dense Jacobian it converges in 2 iterations to the optimum that
-    # CG and PGS also find. Up to 4 cars "auto" is dense already, so their runs are unchanged bit for bit.
-    opt.jacobian = mujoco.mjtJacobian.mjJAC_DENSE
     # A diverging state is an error the run reports and stops on (runtime), not one MuJoCo silently resets.
     opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
     # With sleeping enabled MuJoCo places static geoms once (mj_makeData, mj_resetData) instead of on every step:
