@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import mujoco
 
-DENSE_MAX_DOFS = 192  # 16 cars of 12 dofs: dense, a step costs 1.25x the sparse Newton's; it would 3.5x at 64 cars, 31x at 256
+DENSE_MAX_DOFS = 192  # 16 cars of 12 dofs: a dense step costs 1.25x the sparse Newton's (3.5x at 64 cars, 31x at 256)
 
 
 def choose_contact_solver(model: mujoco.MjModel) -> None:
