@@ -160,6 +160,25 @@ def test_dynamics_bench_runs_and_draws_its_pictures(tmp_path):
     assert (tmp_path / "dynamics_understeer.png").stat().st_size > 10_000
 
 
+def test_jacobian_bench_prints_a_row_per_fleet():
+    """bench/bench_jacobian.py: the CPU, then each fleet's dofs, its step each way and the way it steps."""
+    bench = Path(__file__).resolve().parents[1] / "bench" / "bench_jacobian.py"
+    result = subprocess.run(
+        [sys.executable, str(bench), "--cars", "2", "17", "--rounds", "1"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    lines = result.stdout.splitlines()
+    assert lines[0].startswith("CPU "), lines[0]
+    rows = [line.split() for line in lines[2:]]
+    assert [row[:2] for row in rows] == [["2", "24"], ["17", "204"]], result.stdout  # 12 dofs a car
+    assert all(float(value) > 0 for row in rows for value in row[2:5]), result.stdout
+    assert [" ".join(row[5:7]) for row in rows] == ["dense Newton:", "sparse CG:"], result.stdout
+
+
 def test_the_rtf_bench_names_the_cpu_it_ran_on():
     """`racecar-sim bench` prints the CPU model above its figures: the one the kernel reports (lscpu's Model name,
     where lscpu is installed)."""

@@ -20,6 +20,7 @@ import numpy as np
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.time import NS_PER_S, to_ns
 from racecar_sim.physics.builder import fit_near_walls, friction_min_rule, world_spec
+from racecar_sim.physics.contact_solver import choose_contact_solver
 from racecar_sim.physics.near_walls import NearWalls
 from racecar_sim.physics.near_walls import drop as drop_held_walls
 from racecar_sim.physics.presets import PhysicsPreset
@@ -74,6 +75,7 @@ class Scene:
                 model = self.spec.compile()
         except ValueError as exc:
             raise mujoco_rejected(exc, self.world, blame) from None
+        choose_contact_solver(model)
         step = model.opt.timestep
         if abs(to_ns(step) / NS_PER_S - step) > 1e-15:
             raise ConfigError(f"physics step {step} s is not a whole number of nanoseconds")
@@ -92,6 +94,7 @@ class Scene:
                 model, data = self.spec.recompile(model, data)
         except ValueError as exc:
             raise ConfigError(f"MuJoCo rejected the changed model: {' '.join(str(exc).split())}") from None
+        choose_contact_solver(model)  # the spec's options came back with the model: a car more may cross the bound
         mujoco.mj_forward(model, data)
         return model, data
 
