@@ -92,8 +92,7 @@ class ControllerStatePublisher:
                     continue
                 msg = self._message(c, now_ns, time_step)
                 if self._layout is False:  # the first message: its shape is every message's (frame id "")
-                    made = CdrLayout.of(msg)
-                    self._layout = None if made is None else made[0]
+                    self._layout = CdrLayout.read(msg)
                 bus.publish(c.topic, msg)
 
     def message(self, c: _Controller, now_ns: int) -> JointControllerState:

@@ -135,6 +135,12 @@ class CdrLayout:
         return b"".join(part for data, start, end in self._segments for part in (data, numbers[start:end].tobytes()))
 
     @classmethod
+    def read(cls, msg: Any) -> CdrLayout | None:
+        """of(msg)'s layout alone: what a publisher reads off its first message for the ones after it."""
+        made = cls.of(msg)
+        return None if made is None else made[0]
+
+    @classmethod
     def of(cls, msg: Any) -> tuple[CdrLayout, list[Any]] | None:
         """The layout of `msg`'s shape and `msg`'s numbers; None where a field is not one a layout holds (a byte
         array) or the packed sample would differ from ``serialize(msg)``."""

@@ -29,8 +29,7 @@ class ClockPublisher(NodeBase):
             return
         msg = Clock(Time.from_ns(now_ns))
         if self._layout is None:
-            made = CdrLayout.of(msg)
-            self._layout = None if made is None else made[0]
+            self._layout = CdrLayout.read(msg)
         self.bus.publish(CLOCK, msg)
 
     def _unheard(self, _now_ns: int) -> bool:

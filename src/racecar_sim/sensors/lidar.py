@@ -95,7 +95,8 @@ class LidarPublisher(NodeBase):
         self.caster = RayCaster(
             model, self._pose, self.fan, model.body(self._root).id, COLLISION_GROUP, pose_bodies=self._pose_bodies
         )
-        self._args_key: tuple[object, ...] | None = None  # _one_call's
+        self._args_key: tuple[object, ...] | None = None  # _one_call's: the ids of the objects its arguments come from
+        self._args_owners: tuple[object, ...] = ()  # and those objects, held so that their ids are not reused
         self._args: list[Any] = []
         self.scans_cast = 0
         self.one_call_scans = 0  # scans answered by the one compiled call (laser_kernel.level_scan)
@@ -189,7 +190,7 @@ class LidarPublisher(NodeBase):
         when one of the objects they come from changed (a rebind, the noise switched): a scan then reads no
         attribute of them, and no MjData array view is made per scan."""
         key = (id(walls), id(solids), id(mount), id(self.data), id(self._pose), id(self.fan), id(self.spec), self.noise)
-        if key != self._args_key:  # the objects are held by the arguments: their ids are not reused meanwhile
+        if key != self._args_key:
             from racecar_sim.sensors.raycast.fan import MAX_TILT_COS
 
             fan, spec, pose = self.fan, self.spec, self._pose
@@ -230,6 +231,7 @@ class LidarPublisher(NodeBase):
                 solids.rbound,
             ]
             self._args_key = key
+            self._args_owners = (walls, solids, mount, self.data, self._pose, self.fan, self.spec)
         return self._args
 
     def warm(self) -> None:

@@ -89,6 +89,5 @@ class OdometryPublisher(NodeBase):
             ]
         )
         if cdr:  # its frames are every message's
-            made = CdrLayout.of(tf)
-            self._tf_layout = None if made is None else made[0]
+            self._tf_layout = CdrLayout.read(tf)
         bus.publish(TF, tf)

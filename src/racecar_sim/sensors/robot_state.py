@@ -164,8 +164,8 @@ class RobotStatePublisher(NodeBase):
             ]
         )
         if cdr:  # the layout of this message's frames, for the next ones
-            made = CdrLayout.of(tf)
-            self._layout = None if made is None else (tuple(frame[:2] for frame in frames), made[0])
+            layout = CdrLayout.read(tf)
+            self._layout = None if layout is None else (tuple(frame[:2] for frame in frames), layout)
         bus.publish(TF, tf)
 
 
