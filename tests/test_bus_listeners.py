@@ -91,3 +91,26 @@ def test_publish_cdr_counts_tallies_feeds_and_refuses_what_publish_would() -> No
     bus.latch("/latched")
     with pytest.raises(ValueError, match="latched"):
         bus.publish_cdr("/latched", Float64, b"")
+
+
+def test_publish_cdr_many_is_publish_cdr_of_each_in_turn() -> None:
+    """Each tap gets the messages a publish_cdr() of each would give it, in their order: a tap that takes batches in
+    one call, one with `wants` only those it wants; every topic is counted."""
+    bus = Bus()
+    singles: list[tuple[str, type, bytes]] = []
+    batches: list[tuple[type, list[tuple[str, bytes]]]] = []
+    wanted: list[tuple[str, type, bytes]] = []
+    bus.tap(lambda topic, msg: None, cdr=lambda *item: singles.append(item))
+    bus.tap(lambda topic, msg: None, cdr=lambda *item: None, cdr_batch=lambda *batch: batches.append(batch))
+    bus.tap(lambda topic, msg: None, wants=lambda topic: topic != "/b", cdr=lambda *item: wanted.append(item))
+    messages = [("/a", b"1"), ("/b", b"2"), ("/a", b"3")]
+    bus.publish_cdr_many(Float64, messages)
+    assert singles == [("/a", Float64, b"1"), ("/b", Float64, b"2"), ("/a", Float64, b"3")]
+    assert batches == [(Float64, messages)]
+    assert wanted == [("/a", Float64, b"1"), ("/a", Float64, b"3")]
+    assert bus.count("/a") == 2 and bus.count("/b") == 1 and bus.topics()["/b"] is Float64
+    with pytest.raises(TypeError, match="carries Float64"):
+        bus.publish_cdr_many(AckermannDriveStamped, [("/a", b"")])
+    bus.latch("/latched")
+    with pytest.raises(ValueError, match="latched"):
+        bus.publish_cdr_many(Float64, [("/latched", b"")])

@@ -26,14 +26,19 @@ DIRECT = {"/gazebo/link_states", "/gazebo/model_states", "/clock", "/tf",
 def _run(out: Path, monkeypatch: pytest.MonkeyPatch, objects: bool) -> tuple[bytes, set[str]]:
     """run.mcap of RUN, and the topics handed over as bytes; `objects`: every message made as an object."""
     direct: set[str] = set()
-    publish_cdr = Bus.publish_cdr
+    publish_cdr, publish_cdr_many = Bus.publish_cdr, Bus.publish_cdr_many
 
     def counted(self: Bus, topic: str, msgtype: type, data: bytes) -> None:
         direct.add(topic)
         publish_cdr(self, topic, msgtype, data)
 
+    def counted_many(self: Bus, msgtype: type, messages: list[tuple[str, bytes]]) -> None:
+        direct.update(topic for topic, _ in messages)
+        publish_cdr_many(self, msgtype, messages)
+
     with monkeypatch.context() as patch:
         patch.setattr(Bus, "publish_cdr", counted)
+        patch.setattr(Bus, "publish_cdr_many", counted_many)
         if objects:
             patch.setattr(Bus, "cdr_only", lambda self, topic: False)
         assert main([*RUN, "--out", str(out)]) == 0

@@ -15,6 +15,9 @@ Callback = Callable[[Any], None]
 Tap = Callable[[str, Any], None]
 CdrTap = Callable[[str, type, bytes], None]
 """``cdr_tap(topic, message class, CDR bytes)``: a tap that takes a message as its serialized bytes (a recorder)."""
+CdrBatchTap = Callable[[type, list[tuple[str, bytes]]], None]
+"""``cdr_batch(message class, [(topic, CDR bytes), ...])``: such a tap taking several messages of one class, published
+at one moment, in one call (in their order)."""
 
 
 @dataclass
@@ -57,6 +60,7 @@ class _Tap:
     callback: Tap
     wants: Callable[[str], bool] | None
     cdr: CdrTap | None = None  # how it takes a message's CDR bytes instead of the message (None: it does not)
+    cdr_batch: CdrBatchTap | None = None  # how it takes several at once (None: one cdr() call each)
 
 
 def type_name(msg_or_cls: object) -> str:
@@ -192,7 +196,11 @@ class Bus:
         return sub
 
     def tap(
-        self, callback: Tap, wants: Callable[[str], bool] | None = None, cdr: CdrTap | None = None
+        self,
+        callback: Tap,
+        wants: Callable[[str], bool] | None = None,
+        cdr: CdrTap | None = None,
+        cdr_batch: CdrBatchTap | None = None,
     ) -> Callable[[], None]:
         """Call `callback(topic, msg)` for every message on every topic (recorders, bridges); returns a remover.
 
@@ -200,9 +208,10 @@ class Bus:
         subscribes); has_listeners() asks it, so a sensor nobody reads skips its work. Without it, every topic.
         `cdr(topic, message class, data)`: the tap also takes a message as its CDR bytes (a recorder). A publisher
         whose only takers are such taps (cdr_only()) hands them the bytes with publish_cdr(), made straight from
-        its numbers, and no message object is made.
+        its numbers, and no message object is made. `cdr_batch(message class, [(topic, data), ...])`, beside `cdr`:
+        how it takes the messages of a publish_cdr_many() in one call.
         """
-        entry = _Tap(callback, wants, cdr)
+        entry = _Tap(callback, wants, cdr, cdr_batch if cdr is not None else None)
         self._taps.append(callback)
         self._tap_entries.append(entry)
         self._retap()
@@ -279,6 +288,32 @@ class Bus:
             self.tally(feed, feed_type)
         for e in self._cdr_entries:
             if e.wants is None or e.wants(topic):
+                e.cdr(topic, msgtype, data)  # type: ignore[misc]  # a _cdr_entries entry has one
+
+    def publish_cdr_many(self, msgtype: type, messages: list[tuple[str, bytes]]) -> None:
+        """publish_cdr() of every (topic, data) of `messages`, in order, messages of class `msgtype` published at one
+        moment (a car's controller states): cdr_only() holds for each topic. A tap that takes batches gets them in
+        one call; each tap gets them in their order (taps are served one after the other, not message by message)."""
+        topics = self._topics
+        for topic, _ in messages:
+            t = topics.get(topic) or self._topic(topic)
+            if t.latched:
+                raise ValueError(f"topic {topic} is latched: publish its messages")
+            if msgtype is not t.msgtype:
+                if t.msgtype is not None:
+                    raise TypeError(f"topic {topic} carries {t.msgtype.__name__}, got {msgtype.__name__}")
+                t.msgtype = msgtype
+            t.count += 1
+            for feed, feed_type in t.feeds:
+                self.tally(feed, feed_type)
+        for e in self._cdr_entries:
+            wants = e.wants
+            taken = messages if wants is None else [m for m in messages if wants(m[0])]
+            if e.cdr_batch is not None:
+                if taken:
+                    e.cdr_batch(msgtype, taken)
+                continue
+            for topic, data in taken:
                 e.cdr(topic, msgtype, data)  # type: ignore[misc]  # a _cdr_entries entry has one
 
     def listened(self) -> dict[str, type | None]:

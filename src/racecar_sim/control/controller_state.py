@@ -64,7 +64,7 @@ class ControllerStatePublisher:
             for c in config.controllers
         ]
         # the MjData whose arrays these views are, and the views (MjData makes a new view object at every access)
-        self._views: tuple[object, np.ndarray, np.ndarray, np.ndarray] = (None, *(np.zeros(0),) * 3)
+        self._views: tuple[object, np.ndarray, np.ndarray, np.ndarray, np.ndarray] = (None, *(np.zeros(0),) * 4)
         self._layout: CdrLayout | None | Literal[False] = False  # read off the first message (None: none holds it)
         scheduler.every(STATE_RATE, self.publish, "controller_state", unheard=self._unheard)
 
@@ -80,20 +80,24 @@ class ControllerStatePublisher:
         bus = self.bus
         listened = bus.has_listeners  # asked first: the cheaper question, and mostly no
         time_step = None
+        direct: list[tuple[str, bytes]] = []  # the bytes of those only a recorder takes, handed over together
         for c in self.controllers:
             if listened(c.topic) and self.running(c.config.name):
                 if time_step is None:
                     time_step = float(self.state.model.opt.timestep)
-                if self._layout and bus.cdr_only(c.topic):  # only a recorder takes it: its bytes
                     sec, nanosec = divmod(now_ns, NS_PER_S)
-                    bus.publish_cdr(
-                        c.topic, JointControllerState, self._layout.pack((sec, nanosec, *self._numbers(c, time_step)))
-                    )
+                if self._layout and bus.cdr_only(c.topic):  # only a recorder takes it: its bytes
+                    direct.append((c.topic, self._layout.pack((sec, nanosec, *self._numbers(c, time_step)))))
                     continue
+                if direct:  # those before it first: the messages keep their order
+                    bus.publish_cdr_many(JointControllerState, direct)
+                    direct = []
                 msg = self._message(c, now_ns, time_step)
                 if self._layout is False:  # the first message: its shape is every message's (frame id "")
                     self._layout = CdrLayout.read(msg)
                 bus.publish(c.topic, msg)
+        if direct:
+            bus.publish_cdr_many(JointControllerState, direct)
 
     def message(self, c: _Controller, now_ns: int) -> JointControllerState:
         """The state message of one controller now."""
@@ -122,10 +126,10 @@ class ControllerStatePublisher:
         the gains p, i, d, the integral clamp, antiwindup."""
         g, state = c.config.gains, self.state
         qpos, dof, ctrl, act = self._addresses(c) if c.model is not state.model else c.addresses
-        data, qpos_, qvel, ctrl_ = self._views
+        data, qpos_, qvel, ctrl_, act_ = self._views
         if data is not state.data:
             data = state.data
-            self._views = data, qpos_, qvel, ctrl_ = data, data.qpos, data.qvel, data.ctrl
+            self._views = data, qpos_, qvel, ctrl_, act_ = data, data.qpos, data.qvel, data.ctrl, data.act
         q, w, set_point = qpos_.item(qpos), qvel.item(dof), ctrl_.item(ctrl)
         i_term = 0.0
         velocity = c.config.type == VELOCITY
@@ -133,7 +137,7 @@ class ControllerStatePublisher:
             if act < 0:  # the gain was 0 when the addresses were looked up
                 c.model = None
                 qpos, dof, ctrl, act = self._addresses(c)
-            integral = data.act.item(act)
+            integral = act_.item(act)
             i_term = g.i * (integral - q) if velocity else g.i * integral
             if velocity and g.i_clamp:
                 i_term = min(max(i_term, -g.i_clamp), g.i_clamp)

@@ -82,7 +82,7 @@ class RunRecording:
             self.close()
             raise
         self._msgtypes: dict[type, str] = {}  # message class -> pkg/msg/Name, for what comes as CDR bytes
-        self._untap = bus.tap(self._record, cdr=self._record_cdr)
+        self._untap = bus.tap(self._record, cdr=self._record_cdr, cdr_batch=self._record_cdr_batch)
 
     def _record(self, topic: str, msg: object) -> None:
         if self.process is not None:
@@ -117,6 +117,20 @@ class RunRecording:
             self.process.message(topic, msgtype, data, self.clock())
             return
         self._batch.append((topic, msgtype, data, self.clock()))
+        if len(self._batch) >= THREAD_BATCH:
+            self._submit()
+
+    def _record_cdr_batch(self, cls: type, messages: list[tuple[str, bytes]]) -> None:
+        """Messages of one class published at one moment, as (topic, CDR bytes) (Bus.publish_cdr_many): one look-up of
+        their type and of the time, one hand-over call."""
+        msgtype = self._msgtypes.get(cls)
+        if msgtype is None:
+            msgtype = self._msgtypes[cls] = msgtype_of(cls)
+        now = self.clock()
+        if self.process is not None:
+            self.process.messages(msgtype, messages, now)
+            return
+        self._batch.extend([(topic, msgtype, data, now) for topic, data in messages])
         if len(self._batch) >= THREAD_BATCH:
             self._submit()
 

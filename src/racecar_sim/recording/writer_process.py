@@ -138,6 +138,13 @@ class WriterProcess:
         if len(self._ops) >= BATCH:
             self.flush()
 
+    def messages(self, msgtype: str, messages: list[tuple[str, bytes]], log_time_ns: int) -> None:
+        """message() of each (topic, CDR bytes) of `messages`, in order, all of type `msgtype` at `log_time_ns`."""
+        ops = self._ops
+        ops.extend([(MESSAGE, topic, msgtype, data, log_time_ns) for topic, data in messages])
+        if len(ops) >= BATCH:
+            self.flush()
+
     def image(self, msg: Image) -> tuple[Any, ...] | None:
         """`msg` as an op's image: its pixels, or _SAME when it is the last image handed over (the child keeps it)."""
         if msg is self._last_image:
