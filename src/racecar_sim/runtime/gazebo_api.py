@@ -259,6 +259,13 @@ class GazeboApi(NodeBase):
         self._moving_bodies = np.array([link.body for _, link in moving], np.intp)
         self._moving_roots = model.body_rootid[self._moving_bodies]
         self._free_qpos = np.array([link.qpos for _, link in self._free_links], np.intp)[:, None] + _FREE_POSE_ROS
+        # each car's row in link_arrays(): its base link (a free joint's body), whose state is the car model's
+        free_rows = {link.body: row for row, (_, link) in enumerate(self._free_links)}
+        self._base_rows = {
+            m.name: free_rows[m.car.state.body_id]
+            for m in self.models.values()
+            if m.car is not None and m.car.state.body_id in free_rows
+        }
         # the CDR layouts of the state messages (bytes for a recorder alone), with the names they were read off and
         # a message's numbers (the static links' and models' never change): made at the first such message
         self._link_shape: tuple[list[str], CdrLayout, np.ndarray] | None = None
@@ -319,20 +326,23 @@ class GazeboApi(NodeBase):
 
     def _tick(self, now_ns: int) -> None:
         bus = self.bus
+        arrays = None  # link_arrays() of now, when the link states' bytes were made of them (the cars' rows: models)
         if bus.has_listeners(LINK_STATES):
             if bus.cdr_only(LINK_STATES):  # only a recorder takes it: its bytes, made from the numbers
-                bus.publish_cdr(LINK_STATES, LinkStates, self._link_states_cdr())
+                if self._link_shape is not None and self._link_shape[0] is self._link_names:
+                    arrays = self.link_arrays()
+                bus.publish_cdr(LINK_STATES, LinkStates, self._link_states_cdr(arrays))
             else:
                 bus.publish(LINK_STATES, self.link_states())
         if bus.has_listeners(MODEL_STATES):
             if bus.cdr_only(MODEL_STATES):
-                bus.publish_cdr(MODEL_STATES, ModelStates, self._model_states_cdr())
+                bus.publish_cdr(MODEL_STATES, ModelStates, self._model_states_cdr(arrays))
             else:
                 bus.publish(MODEL_STATES, self.model_states())
 
-    def _link_states_cdr(self) -> bytes:
+    def _link_states_cdr(self, arrays: tuple[np.ndarray, np.ndarray] | None = None) -> bytes:
         """link_states() serialized, packed from its numbers: the static links' read off a first message made the
-        object way (again when the links change), the moving links' from link_arrays()."""
+        object way (again when the links change), the moving links' from link_arrays() (`arrays`: those of now)."""
         shape = self._link_shape
         if shape is None or shape[0] is not self._link_names:
             msg = self.link_states()
@@ -345,7 +355,9 @@ class GazeboApi(NodeBase):
         numbers = template.copy()  # every link's pose (7 numbers), then every link's twist (6)
         count = len(self._link_names)
         rows = self._moving_rows
-        numbers[: 7 * count].reshape(count, 7)[rows], numbers[7 * count :].reshape(count, 6)[rows] = self.link_arrays()
+        numbers[: 7 * count].reshape(count, 7)[rows], numbers[7 * count :].reshape(count, 6)[rows] = (
+            self.link_arrays() if arrays is None else arrays
+        )
         return layout.pack_doubles(numbers)
 
     def link_arrays(self) -> tuple[np.ndarray, np.ndarray]:
@@ -370,9 +382,10 @@ class GazeboApi(NodeBase):
         twists[:, :3] = cvel[:, 3:] - (offset[:, _NEXT] * angular[:, _AFTER] - offset[:, _AFTER] * angular[:, _NEXT])
         return poses, twists
 
-    def _model_states_cdr(self) -> bytes:
-        """model_states() serialized, packed from its numbers (as _link_states_cdr): the cars' from base_odometry(),
-        the other moving models' from _model_state(), the static ones' read off a first message."""
+    def _model_states_cdr(self, arrays: tuple[np.ndarray, np.ndarray] | None = None) -> bytes:
+        """model_states() serialized, packed from its numbers (as _link_states_cdr): the cars' from base_odometry(), or
+        from their base links' rows of `arrays` (link_arrays() of now: the same numbers, bit for bit), the other
+        moving models' from _model_state(), the static ones' read off a first message."""
         models = tuple(self.models)
         shape = self._model_shape
         if shape is None or shape[0] != models:
@@ -385,10 +398,17 @@ class GazeboApi(NodeBase):
         _, layout, template = shape
         numbers = template.copy()
         twist_at = 7 * len(models)
+        poses, twists = ([], []) if arrays is None else (arrays[0].tolist(), arrays[1].tolist())
+        base_rows = self._base_rows if arrays is not None else {}
         for i, m in enumerate(self.models.values()):
             if m.name in self._static_models:
                 continue
             if m.car is not None:
+                row = base_rows.get(m.name)
+                if row is not None:  # its base link's row: x y z qx qy qz qw, vx vy vz wx wy wz
+                    numbers[7 * i : 7 * i + 7] = poses[row]
+                    numbers[twist_at + 6 * i : twist_at + 6 * i + 6] = twists[row]
+                    continue
                 x, y, z, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = m.car.state.base_odometry()
                 numbers[7 * i : 7 * i + 7] = x, y, z, qx, qy, qz, qw
                 numbers[twist_at + 6 * i : twist_at + 6 * i + 6] = vx, vy, vz, wx, wy, wz
