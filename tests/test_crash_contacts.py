@@ -40,11 +40,38 @@ def test_the_few_contacts_path_finds_what_the_numpy_path_finds(monkeypatch: pyte
             break
         sim.run_for(0.02)
         monkeypatch.setattr(crash_contacts, "_FEW", -1)  # every contact list through numpy
+        contacts._quiet = None  # looked at afresh, not as the same contacts as the last look
         by_numpy = contacts.touching(sim.data)
         monkeypatch.setattr(crash_contacts, "_FEW", 10**9)  # every one element by element
+        contacts._quiet = None
         assert contacts.touching(sim.data) == by_numpy
         seen |= {(a, b) for a, b, _ in by_numpy}
     monkeypatch.undo()
     assert any(b >= 0 for _, b in seen), "no car-car crash to compare"
     assert any(b < 0 for _, b in seen), "no wall crash to compare"
     assert sim.collisions.count > 0
+
+
+@pytest.mark.parametrize("few", [10**9, -1])
+def test_the_same_contacts_again_are_looked_at_again_where_a_wheel_tilts(
+    monkeypatch: pytest.MonkeyPatch, few: int
+) -> None:
+    """The contacts of the last look that found no crash are no crash again only while the wheels' normals stay within
+    45 degrees of vertical: a wheel whose contact normal tips to horizontal (as against a wall) is a crash."""
+    monkeypatch.setattr(crash_contacts, "_FEW", few)
+    sim = Simulator(world="empty", cars=[Car("a", camera=False)], sensor_noise=False)
+    sim.run_for(0.3)  # settled on its four wheels
+    contacts = sim.collisions._contacts
+    assert contacts is not None
+    data = sim.data
+    assert data.ncon >= 4 and contacts.touching(data) == set()
+    assert contacts.touching(data) == set()  # the same contacts, as remembered
+    wheel = next(i for i in range(data.ncon) if contacts._wheel_list[int(data.contact.geom[i, 0])]
+                 or contacts._wheel_list[int(data.contact.geom[i, 1])])  # fmt: skip
+    ga, gb = (int(g) for g in data.contact.geom[wheel])
+    floor = gb if contacts._owner_list[gb] < 0 else ga
+    data.contact.frame[wheel, 2] = 0.0  # its normal horizontal: driving into what it touches
+    assert contacts.touching(data) == {(0, -1, floor)}
+    data.contact.frame[wheel, 2] = 1.0
+    assert contacts.touching(data) == set()
+    sim.close()

@@ -35,6 +35,9 @@ class CrashContacts:
         # the same tables as Python lists, for the few contacts of most calls: numpy costs more on a handful
         self._owner_list: list[int] = self.car_of_geom.tolist()
         self._wheel_list: list[bool] = self._wheel_geom.tolist()
+        # the last contacts that were no crash (their geom pairs' bytes), and which of them are a wheel on a surface:
+        # the same pairs again are no crash as long as those wheels' normals stay within 45 degrees of vertical
+        self._quiet: tuple[bytes, npt.NDArray[np.intp]] | None = None
 
     def touching(self, data: mujoco.MjData) -> set[tuple[int, int, int]]:
         """(car, other car or -1, geom of the other side) for every crash contact now; a car-car contact once, with
@@ -43,9 +46,24 @@ class CrashContacts:
         if n == 0:
             return set()
         contact = data.contact
-        if n <= _FEW:
-            return self._touching_few(contact, n)
-        geoms = contact.geom[:n]
+        pairs = contact.geom[:n]
+        key = pairs.tobytes()
+        quiet = self._quiet
+        if quiet is not None and quiet[0] == key:  # most looks: the wheels on the floor as at the last one
+            rows = quiet[1]
+            if not len(rows) or (np.abs(contact.frame[rows, 2]) > SUPPORT_NORMAL_Z).all():
+                return set()
+        resting: list[int] = []  # the wheels on a surface among them (their normals decide)
+        found = self._touching_few(contact, n, resting) if n <= _FEW else self._touching_many(contact, pairs, resting)
+        self._quiet = None if found else (key, np.array(resting, np.intp))
+        return found
+
+    def _touching_many(
+        self, contact: mujoco._structs._MjContactList, geoms: npt.NDArray[np.int32], resting: list[int]
+    ) -> set[tuple[int, int, int]]:
+        """touching() for many contacts, with numpy; the wheels on a surface (whatever their normals) into
+        `resting`."""
+        n = len(geoms)
         owner = self.car_of_geom[geoms]
         first, second = owner[:, 0], owner[:, 1]
         touching = first != second  # a car and something not of it (the world is -1 on both sides of its own)
@@ -53,15 +71,19 @@ class CrashContacts:
             return set()
         wheel = self._wheel_geom[geoms]
         on_surface = (wheel[:, 0] & (second < 0)) | (wheel[:, 1] & (first < 0))
+        resting.extend(np.flatnonzero(on_surface).tolist())
         crash = touching & ~(on_surface & (np.abs(contact.frame[:n, 2]) > SUPPORT_NORMAL_Z))
         found: set[tuple[int, int, int]] = set()
         for index in np.flatnonzero(crash):
             found.add(_crash(int(first[index]), int(second[index]), int(geoms[index, 0]), int(geoms[index, 1])))
         return found
 
-    def _touching_few(self, contact: mujoco._structs._MjContactList, n: int) -> set[tuple[int, int, int]]:
+    def _touching_few(
+        self, contact: mujoco._structs._MjContactList, n: int, resting: list[int]
+    ) -> set[tuple[int, int, int]]:
         """touching() for a few contacts, element by element: the same tests on the same numbers (a Python float is
-        the float64 numpy compares), the normals read only when a wheel may rest on a surface."""
+        the float64 numpy compares), the normals read only when a wheel may rest on a surface (those into
+        `resting`)."""
         owner, wheel = self._owner_list, self._wheel_list
         found: set[tuple[int, int, int]] = set()
         normal_z: list[float] | None = None
@@ -70,6 +92,7 @@ class CrashContacts:
             if a == b:  # within one car, or the world against itself
                 continue
             if (wheel[ga] and b < 0) or (wheel[gb] and a < 0):
+                resting.append(index)
                 if normal_z is None:
                     normal_z = contact.frame[:n, 2].tolist()
                 if abs(normal_z[index]) > SUPPORT_NORMAL_Z:  # a wheel resting on the ground, a floor, a ramp
