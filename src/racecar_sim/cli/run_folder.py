@@ -14,8 +14,10 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import math
+import operator
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -296,10 +298,11 @@ def _recording(args: argparse.Namespace, sim: Simulator, record: Path | None) ->
 
     make_folder("--record", record.parent)
     image_topics = [car.camera.spec.image_topic for car in sim.cars if car.camera is not None]
+    clock = functools.partial(operator.attrgetter("time_ns"), sim.loop)  # sim.time_ns: no Python call per message
     try:
         return RunRecording(
             sim.bus,
-            lambda: sim.time_ns,
+            clock,
             record,
             image_topics=image_topics,
             raw_images=args.raw_images,

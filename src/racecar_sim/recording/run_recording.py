@@ -75,13 +75,13 @@ class RunRecording:
         if self.process is None:
             self.recorder = McapRecorder(self._path, compression=compression, stream=stream)
             self.writer = WriterThread(f"record {self._path}")
+        self._msgtypes: dict[type, str] = {}  # message class -> pkg/msg/Name (msgtype_of's, looked up once per class)
         try:
             for topic, msg in bus.latched_messages().items():
                 self._record(topic, msg)
         except BaseException:
             self.close()
             raise
-        self._msgtypes: dict[type, str] = {}  # message class -> pkg/msg/Name, for what comes as CDR bytes
         self._untap = bus.tap(self._record, cdr=self._record_cdr, cdr_batch=self._record_cdr_batch)
 
     def _record(self, topic: str, msg: object) -> None:
@@ -98,7 +98,10 @@ class RunRecording:
                     )
                 )
             else:
-                self.process.message(topic, msgtype_of(msg), serialize(msg), self.clock())
+                msgtype = self._msgtypes.get(type(msg))
+                if msgtype is None:
+                    msgtype = self._msgtypes[type(msg)] = msgtype_of(msg)
+                self.process.message(topic, msgtype, serialize(msg), self.clock())
             return
         # the writer thread gets batches: a queue hand-over per message would cost more than most messages' writing
         if topic in self.compressed and isinstance(msg, Image):
