@@ -114,3 +114,32 @@ def test_publish_cdr_many_is_publish_cdr_of_each_in_turn() -> None:
     bus.latch("/latched")
     with pytest.raises(ValueError, match="latched"):
         bus.publish_cdr_many(Float64, [("/latched", b"")])
+
+
+def test_listeners_epoch_changes_whenever_who_listens_changes() -> None:
+    """A publisher may keep has_listeners() and cdr_only() answers while listeners_epoch() stays the same: it changes
+    with every subscriber and tap that comes or goes, and is None while a tap decides by itself what it wants."""
+    bus = Bus()
+    seen = [bus.listeners_epoch()]
+
+    def changed() -> bool:
+        epoch = bus.listeners_epoch()
+        new = epoch is not None and epoch not in seen
+        seen.append(epoch)
+        return new
+
+    bus.publish("/a", Float64(1.0))
+    bus.latch("/b")
+    assert bus.listeners_epoch() == seen[-1]  # publishing and latching change no answer
+    sub = bus.subscribe("/a", lambda m: None)
+    assert changed() and bus.has_listeners("/a")
+    sub.unsubscribe()
+    assert changed() and not bus.has_listeners("/a")
+    bus.overhear("/a", lambda m: None)
+    assert changed()
+    remove = bus.tap(lambda topic, msg: None, cdr=lambda *item: None)
+    assert changed() and bus.cdr_only("/c")
+    remove()
+    assert changed() and not bus.has_listeners("/c")
+    bus.tap(lambda topic, msg: None, wants=lambda topic: topic == "/c")
+    assert bus.listeners_epoch() is None

@@ -384,7 +384,7 @@ def test_state_is_published_only_when_running_and_listened_to(sim):
     sim.run_until(0.5)
     assert sim.bus.count(topic) == 0  # nobody listens
     log = []
-    sim.subscribe(topic, log.append)
+    subscription = sim.subscribe(topic, log.append)
     sim.run_until(1.0)
     assert len(log) == 50
     assert sim.car.controller_manager.stop(REAR[0])
@@ -393,6 +393,9 @@ def test_state_is_published_only_when_running_and_listened_to(sim):
     assert sim.car.controller_manager.start(REAR[0])
     sim.run_until(2.0)
     assert len(log) == 100
+    subscription.unsubscribe()  # nobody listens again: nothing more is made
+    sim.run_until(2.5)
+    assert len(log) == 100 and sim.bus.count(topic) == 100
 
 
 def test_state_with_an_i_term_matches_the_actuator(tmp_path):

@@ -88,6 +88,8 @@ class Bus:
         self._all_taps = False  # a tap without `wants` listens to every topic
         self._object_taps_all = False  # a tap without `wants` that takes only message objects
         self._cdr_entries: tuple[_Tap, ...] = ()  # the taps that take CDR bytes
+        self._epoch = 0  # changes with every subscription, overhearing subscriber and tap that comes or goes
+        self._wanting = False  # a tap decides which topics it wants (`wants`): its answers may change at any time
         self._services: dict[str, Callable[[Any], Any]] = {}
 
     def advertise_service(self, name: str, handler: Callable[[Any], Any]) -> None:
@@ -179,6 +181,7 @@ class Bus:
         sub = Subscription(self, topic, callback, tuple((feeds or {}).items()), msgtype)
         t.subscribers.append(sub)
         t.refresh()
+        self._epoch += 1
         if t.latched and t.last is not None:
             callback(t.last)
         return sub
@@ -191,6 +194,7 @@ class Bus:
         sub = Subscription(self, topic, callback, passive=True)
         t.subscribers.append(sub)
         t.refresh()
+        self._epoch += 1
         if t.latched and t.last is not None:
             callback(t.last)
         return sub
@@ -228,16 +232,25 @@ class Bus:
         self._all_taps = any(e.wants is None for e in entries)
         self._object_taps_all = any(e.wants is None and e.cdr is None for e in entries)
         self._cdr_entries = tuple(e for e in entries if e.cdr is not None)
+        self._wanting = any(e.wants is not None for e in entries)
+        self._epoch += 1
 
     def _unsubscribe(self, sub: Subscription) -> None:
         t = self._topics[sub.topic]
         if sub in t.subscribers:
             t.subscribers.remove(sub)
             t.refresh()
+            self._epoch += 1
 
     def topics(self) -> dict[str, type | None]:
         """Every topic seen so far and its message class."""
         return {name: t.msgtype for name, t in sorted(self._topics.items())}
+
+    def listeners_epoch(self) -> int | None:
+        """A number that changes whenever has_listeners() or cdr_only() may answer differently for some topic (a
+        subscriber or a tap came or went), for a publisher that keeps their answers while it stays the same; None
+        while a tap decides by itself which topics it wants (a bridge: its answers may change at any time)."""
+        return None if self._wanting else self._epoch
 
     def has_listeners(self, topic: str) -> bool:
         """Whether a message on `topic` would reach anyone: a subscriber or a tap (a recorder, a bridge).

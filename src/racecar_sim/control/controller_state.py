@@ -66,27 +66,40 @@ class ControllerStatePublisher:
         # the MjData whose arrays these views are, and the views (MjData makes a new view object at every access)
         self._views: tuple[object, np.ndarray, np.ndarray, np.ndarray, np.ndarray] = (None, *(np.zeros(0),) * 4)
         self._layout: CdrLayout | None | Literal[False] = False  # read off the first message (None: none holds it)
+        # per controller, whether its topic is listened to and whether only a recorder takes it (bytes), and the bus's
+        # listeners epoch they were asked under (kept while it stays the same: twelve questions fewer per tick)
+        self._heard: tuple[int | None, list[tuple[bool, bool]]] = (None, [])
         scheduler.every(STATE_RATE, self.publish, "controller_state", unheard=self._unheard)
+
+    def _listening(self) -> list[tuple[bool, bool]]:
+        """Per controller: (whether anyone listens to its state topic, whether only a recorder does: its bytes)."""
+        bus = self.bus
+        epoch = bus.listeners_epoch()
+        if epoch is not None and self._heard[0] == epoch:
+            return self._heard[1]
+        heard = []
+        for c in self.controllers:
+            listened = bus.has_listeners(c.topic)  # asked first: the cheaper question, and mostly no
+            heard.append((listened, listened and bus.cdr_only(c.topic)))
+        self._heard = (epoch, heard)
+        return heard
 
     def _unheard(self, _now_ns: int) -> bool:
         """Nobody listens to any state topic: then there is nothing to do."""
-        listened = self.bus.has_listeners
-        for c in self.controllers:
-            if listened(c.topic):
-                return False
-        return True
+        return not any(listened for listened, _ in self._listening())
 
     def publish(self, now_ns: int) -> None:
         bus = self.bus
-        listened = bus.has_listeners  # asked first: the cheaper question, and mostly no
+        heard = self._listening()
         time_step = None
         direct: list[tuple[str, bytes]] = []  # the bytes of those only a recorder takes, handed over together
-        for c in self.controllers:
-            if listened(c.topic) and self.running(c.config.name):
+        for index, c in enumerate(self.controllers):
+            listened, bytes_alone = heard[index]
+            if listened and self.running(c.config.name):
                 if time_step is None:
                     time_step = float(self.state.model.opt.timestep)
                     sec, nanosec = divmod(now_ns, NS_PER_S)
-                if self._layout and bus.cdr_only(c.topic):  # only a recorder takes it: its bytes
+                if self._layout and bytes_alone:  # only a recorder takes it: its bytes
                     direct.append((c.topic, self._layout.pack((sec, nanosec, *self._numbers(c, time_step)))))
                     continue
                 if direct:  # those before it first: the messages keep their order
@@ -96,6 +109,7 @@ class ControllerStatePublisher:
                 if self._layout is False:  # the first message: its shape is every message's (frame id "")
                     self._layout = CdrLayout.read(msg)
                 bus.publish(c.topic, msg)
+                heard = self._listening()  # its subscribers may have changed who listens
         if direct:
             bus.publish_cdr_many(JointControllerState, direct)
 

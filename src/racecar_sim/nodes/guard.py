@@ -76,6 +76,7 @@ class GuardedBus:
         self._bus, self._guard = bus, guard
         self.publish = bus.publish
         self.has_listeners = bus.has_listeners
+        self.listeners_epoch = bus.listeners_epoch
         self.tally = bus.tally
         self.cdr_only = bus.cdr_only
         self.publish_cdr = bus.publish_cdr

@@ -18,6 +18,7 @@ class ScopedBus:
         self._bus = bus
         self.publish = bus.publish  # the hot paths, as plain attributes: no wrapper call per message
         self.has_listeners = bus.has_listeners
+        self.listeners_epoch = bus.listeners_epoch
         self.tally = bus.tally
         self.cdr_only = bus.cdr_only
         self.publish_cdr = bus.publish_cdr
