@@ -28,6 +28,8 @@ class CarState:
         """Use a recompiled model and its data (a model was spawned or deleted): every id and address is looked up
         again, and the address arrays joint_indices() handed out are updated in place, so nodes holding them go on."""
         self.model, self.data = model, data
+        # the arrays the per-tick reads and writes use, as views made once (MjData makes a new view at every access)
+        self._qpos, self._qvel, self._ctrl, self._qfrc_actuator = data.qpos, data.qvel, data.ctrl, data.qfrc_actuator
         self._base = model.body(self.names.mj(self.root_link)).id
         root = model.joint(self.names.mj(ROOT_JOINT)).id
         self._root_qpos, self._root_dof = int(model.jnt_qposadr[root]), int(model.jnt_dofadr[root])
@@ -41,7 +43,7 @@ class CarState:
 
     def set_command(self, actuator: str, value: float) -> None:
         """Set the setpoint of an actuator (and of its companion I-term actuator, if any)."""
-        ctrl = self.data.ctrl
+        ctrl = self._ctrl
         for adr in self._actuators.get(actuator) or self.actuator_ctrl(actuator):
             ctrl[adr] = value
 
@@ -94,8 +96,7 @@ class CarState:
     def joint_state(self, qpos_adr: np.ndarray, dof_adr: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Positions, velocities and actuator efforts of the joints at those addresses (new arrays: indexing with an
         address array copies)."""
-        d = self.data
-        return d.qpos[qpos_adr], d.qvel[dof_adr], d.qfrc_actuator[dof_adr]
+        return self._qpos[qpos_adr], self._qvel[dof_adr], self._qfrc_actuator[dof_adr]
 
     def base_pose(self) -> tuple[np.ndarray, np.ndarray]:
         """World position and (w, x, y, z) orientation of the base_link frame."""
@@ -113,7 +114,7 @@ class CarState:
         mujoco.mj_objectVelocity(self.model, self.data, _XBODY, self._base, self._vel, int(local))
         adr = self._root_qpos
         angular_linear = self._vel.tolist()
-        return self.data.qpos[adr : adr + 7].tolist() + angular_linear[3:] + angular_linear[:3]
+        return self._qpos[adr : adr + 7].tolist() + angular_linear[3:] + angular_linear[:3]
 
     @property
     def body_id(self) -> int:
