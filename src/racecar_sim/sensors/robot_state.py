@@ -96,8 +96,9 @@ class RobotStatePublisher(NodeBase):
             description = names.topic(ROBOT_DESCRIPTION)
             bus.latch(description)
             bus.publish(description, String(robot.urdf))
-        # the CDR layout of a /tf message and the (parent, child) frames it was read off (bytes for a recorder alone)
-        self._layout: tuple[tuple[tuple[str, str], ...], CdrLayout] | None = None
+        # the CDR layout of a /tf message, with the joint names of the joint state it was made of and its number of
+        # frames (the names, in order, give the frames: bytes for a recorder alone)
+        self._layout: tuple[list[str], int, CdrLayout] | None = None
         bus.subscribe(joint_states_topic, self._on_joint_states, feeds={TF: TFMessage})
 
     def _on_joint_states(self, msg: JointState) -> None:
@@ -149,9 +150,10 @@ class RobotStatePublisher(NodeBase):
                 )
         cdr = bus.cdr_only(TF)  # only a recorder takes /tf: its bytes, packed from the numbers
         if cdr and self._layout is not None:
-            if self._layout[0] == tuple(frame[:2] for frame in frames):
+            names, count, layout = self._layout
+            if len(frames) == count and names == list(msg.name):  # the same joints in the same order: the same frames
                 numbers = [value for frame in frames for value in (sec, nanosec, *frame[2:])]
-                bus.publish_cdr(TF, TFMessage, self._layout[1].pack(numbers))
+                bus.publish_cdr(TF, TFMessage, layout.pack(numbers))
                 return
         tf = TFMessage(
             [
@@ -164,8 +166,8 @@ class RobotStatePublisher(NodeBase):
             ]
         )
         if cdr:  # the layout of this message's frames, for the next ones
-            layout = CdrLayout.read(tf)
-            self._layout = None if layout is None else (tuple(frame[:2] for frame in frames), layout)
+            read = CdrLayout.read(tf)
+            self._layout = None if read is None else (list(msg.name), len(frames), read)
         bus.publish(TF, tf)
 
 
