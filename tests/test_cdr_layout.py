@@ -70,6 +70,7 @@ def test_packed_numbers_are_serialize_bytes(make) -> None:
     assert again is not None
     assert layout.pack(again[1]) == msgs.serialize(other)
     assert numbers != again[1]
+    assert layout.pack_many([again[1], numbers]) == [msgs.serialize(other), msgs.serialize(make(1.25))]
 
 
 def test_pack_doubles_gives_pack_bytes_for_float64_layouts() -> None:

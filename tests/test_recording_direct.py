@@ -76,10 +76,12 @@ def test_link_twists_are_mj_object_velocity_bit_for_bit() -> None:
     assert compared > 200
 
 
-def _one_car(path: Path, process: bool) -> bytes:
-    """A constant-command car's 0.7 s recorded by RunRecording to `path`."""
+def _one_car(path: Path, process: bool, listened: str | None = None) -> bytes:
+    """A constant-command car's 0.7 s recorded by RunRecording to `path`; `listened`: a topic a subscriber takes too."""
     sim = Simulator(world="empty", cars=[Car("car1", camera=False)])
     ConstantCommand(sim.bus, sim.scheduler, 1.5, 0.2, topic=sim.cars[0].topic(NAVIGATION))
+    if listened is not None:
+        sim.subscribe(listened, lambda msg: None)
     with RunRecording(sim.bus, lambda: sim.time_ns, path, process=process):
         sim.run_until(0.7)
     sim.close()
@@ -96,3 +98,27 @@ def test_run_recording_writes_the_same_bytes_both_ways(
         from_objects = _one_car(tmp_path / "objects.mcap", process)
     from_bytes = _one_car(tmp_path / "bytes.mcap", process)
     assert len(from_bytes) > 20_000 and from_bytes == from_objects
+
+
+def test_controller_states_partly_taken_by_a_subscriber_keep_their_order(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """One of a car's controller states also taken by a subscriber goes as an object, those before and after it as
+    bytes handed over together: the file is the one the objects give, message for message in the same order."""
+    listened = "/car1/racecar/right_front_wheel_velocity_controller/state"  # one in the middle of the six
+    with monkeypatch.context() as patch:
+        patch.setattr(Bus, "cdr_only", lambda self, topic: False)
+        from_objects = _one_car(tmp_path / "objects.mcap", False, listened)
+    batches: list[list[str]] = []
+    publish_cdr_many = Bus.publish_cdr_many
+
+    def seen(self: Bus, msgtype: type, messages: list[tuple[str, bytes]]) -> None:
+        batches.append([topic for topic, _ in messages])
+        publish_cdr_many(self, msgtype, messages)
+
+    with monkeypatch.context() as patch:
+        patch.setattr(Bus, "publish_cdr_many", seen)
+        from_bytes = _one_car(tmp_path / "bytes.mcap", False, listened)
+    assert batches and all(listened not in batch for batch in batches)
+    assert {len(batch) for batch in batches} == {2, 3}  # the six less the one, before it and after it
+    assert from_bytes == from_objects

@@ -15,7 +15,7 @@ A stopped controller is not updated, so it publishes nothing; nothing is compute
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -92,18 +92,17 @@ class ControllerStatePublisher:
         bus = self.bus
         heard = self._listening()
         time_step = None
-        direct: list[tuple[str, bytes]] = []  # the bytes of those only a recorder takes, handed over together
+        direct: list[_Controller] = []  # those only a recorder takes (bytes), in a row: read and handed over together
         for index, c in enumerate(self.controllers):
             listened, bytes_alone = heard[index]
             if listened and self.running(c.config.name):
                 if time_step is None:
                     time_step = float(self.state.model.opt.timestep)
-                    sec, nanosec = divmod(now_ns, NS_PER_S)
-                if self._layout and bytes_alone:  # only a recorder takes it: its bytes
-                    direct.append((c.topic, self._layout.pack((sec, nanosec, *self._numbers(c, time_step)))))
+                if self._layout and bytes_alone:
+                    direct.append(c)
                     continue
                 if direct:  # those before it first: the messages keep their order
-                    bus.publish_cdr_many(JointControllerState, direct)
+                    self._publish_bytes(direct, now_ns, time_step)
                     direct = []
                 msg = self._message(c, now_ns, time_step)
                 if self._layout is False:  # the first message: its shape is every message's (frame id "")
@@ -111,7 +110,14 @@ class ControllerStatePublisher:
                 bus.publish(c.topic, msg)
                 heard = self._listening()  # its subscribers may have changed who listens
         if direct:
-            bus.publish_cdr_many(JointControllerState, direct)
+            self._publish_bytes(direct, now_ns, time_step)  # type: ignore[arg-type]  # set with the first one
+
+    def _publish_bytes(self, controllers: list[_Controller], now_ns: int, time_step: float) -> None:
+        """The states of `controllers`, which only a recorder takes, as their CDR bytes in one hand-over."""
+        assert self._layout, "bytes only once the first message gave the layout"
+        rows = self._numbers_of(controllers, time_step, divmod(now_ns, NS_PER_S))
+        packed = self._layout.pack_many(rows)
+        self.bus.publish_cdr_many(JointControllerState, [(c.topic, data) for c, data in zip(controllers, packed)])
 
     def message(self, c: _Controller, now_ns: int) -> JointControllerState:
         """The state message of one controller now."""
@@ -138,27 +144,40 @@ class ControllerStatePublisher:
     ) -> tuple[float, float, float, float, float, float, float, float, float, float, bool]:
         """The message's fields after its header: set point, process value and its rate, error, time step, command,
         the gains p, i, d, the integral clamp, antiwindup."""
-        g, state = c.config.gains, self.state
-        qpos, dof, ctrl, act = self._addresses(c) if c.model is not state.model else c.addresses
+        return self._numbers_of((c,), time_step)[0]  # type: ignore[return-value]  # an empty head: the fields alone
+
+    def _numbers_of(
+        self, controllers: Sequence[_Controller], time_step: float, head: tuple[int, ...] = ()
+    ) -> list[tuple[int | float | bool, ...]]:
+        """_numbers() of each controller, in order, each after `head` (a stamp's sec and nanosec): one call for a
+        car's controllers."""
+        state = self.state
         data, qpos_, qvel, ctrl_, act_ = self._views
         if data is not state.data:
             data = state.data
             self._views = data, qpos_, qvel, ctrl_, act_ = data, data.qpos, data.qvel, data.ctrl, data.act
-        q, w, set_point = qpos_.item(qpos), qvel.item(dof), ctrl_.item(ctrl)
-        i_term = 0.0
-        velocity = c.config.type == VELOCITY
-        if g.i:
-            if act < 0:  # the gain was 0 when the addresses were looked up
-                c.model = None
-                qpos, dof, ctrl, act = self._addresses(c)
-            integral = act_.item(act)
-            i_term = g.i * (integral - q) if velocity else g.i * integral
-            if velocity and g.i_clamp:
-                i_term = min(max(i_term, -g.i_clamp), g.i_clamp)
-        if velocity:
-            value, value_dot, error = w, 0.0, set_point - w  # ros_control leaves process_value_dot at 0 here
-            command = g.p * error + i_term
-        else:
-            value, value_dot, error = q, w, set_point - q
-            command = g.p * error - g.d * w + i_term
-        return set_point, value, value_dot, error, time_step, command, g.p, g.i, g.d, g.i_clamp, False
+        rows: list[tuple[int | float | bool, ...]] = []
+        for c in controllers:
+            g = c.config.gains
+            qpos, dof, ctrl, act = self._addresses(c) if c.model is not state.model else c.addresses
+            q, w, set_point = qpos_.item(qpos), qvel.item(dof), ctrl_.item(ctrl)
+            i_term = 0.0
+            velocity = c.config.type == VELOCITY
+            if g.i:
+                if act < 0:  # the gain was 0 when the addresses were looked up
+                    c.model = None
+                    qpos, dof, ctrl, act = self._addresses(c)
+                integral = act_.item(act)
+                i_term = g.i * (integral - q) if velocity else g.i * integral
+                if velocity and g.i_clamp:
+                    i_term = min(max(i_term, -g.i_clamp), g.i_clamp)
+            if velocity:
+                value, value_dot, error = w, 0.0, set_point - w  # ros_control leaves process_value_dot at 0 here
+                command = g.p * error + i_term
+            else:
+                value, value_dot, error = q, w, set_point - q
+                command = g.p * error - g.d * w + i_term
+            rows.append(
+                (*head, set_point, value, value_dot, error, time_step, command, g.p, g.i, g.d, g.i_clamp, False)
+            )
+        return rows

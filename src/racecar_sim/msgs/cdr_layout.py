@@ -103,14 +103,19 @@ class CdrLayout:
         self.msgtype = msgtype
         self.count = count  # how many numbers a message has
         self._struct = struct.Struct(fmt)
-        self.pack: Callable[[Sequence[Any]], bytes] = self._packer(literals, count)
+        self.pack: Callable[[Sequence[Any]], bytes]
+        self.pack_many: Callable[[Sequence[Sequence[Any]]], list[bytes]]  # pack() of each, in one call
+        self.pack, self.pack_many = self._packer(literals, count)
         # all numbers float64: each literal, then the numbers up to the next one (pack_doubles)
         self._doubles = fmt.lstrip("<").translate(_NOT_NUMBER_CODES) == "d" * count
         ends = [at for at, _ in literals[1:]] + [count]
         self._segments = [(data, at, end) for (at, data), end in zip(literals, ends)]
 
-    def _packer(self, literals: list[tuple[int, bytes]], count: int) -> Callable[[Sequence[Any]], bytes]:
-        """One function that hands the struct the literals and the slices of numbers between them, in order."""
+    def _packer(
+        self, literals: list[tuple[int, bytes]], count: int
+    ) -> tuple[Callable[[Sequence[Any]], bytes], Callable[[Sequence[Sequence[Any]]], list[bytes]]]:
+        """One function that hands the struct the literals and the slices of numbers between them, in order; and one
+        that does so for each of several messages' numbers."""
         names: dict[str, Any] = {"_pack": self._struct.pack}
         args, start = [], 0
         for index, (at, data) in enumerate(literals):
@@ -121,10 +126,10 @@ class CdrLayout:
             start = at
         if count > start:
             args.append(f"*v[{start}:]" if start else "*v")
-        source = f"def pack(v):\n    return _pack({', '.join(args)})"
+        call = f"_pack({', '.join(args)})"
+        source = f"def pack(v):\n    return {call}\ndef pack_many(rows):\n    return [{call} for v in rows]"
         exec(compile(source, f"<cdr layout of {self.msgtype}>", "exec"), names)  # made from the field model
-        pack: Callable[[Sequence[Any]], bytes] = names["pack"]
-        return pack
+        return names["pack"], names["pack_many"]
 
     def pack_doubles(self, numbers: np.ndarray) -> bytes:
         """pack() of a float64 array, its runs copied as they are: for a layout whose numbers are all float64
