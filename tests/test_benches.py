@@ -71,6 +71,21 @@ def test_startup_bench_quick_prints_the_ratios_to_the_floor():
         assert line in out, line
 
 
+def test_writer_bench_quick_replays_a_run_through_the_writer_process():
+    """bench/bench_writer.py --quick: a 1 s main job's hand-overs (its messages, its camera frames as JPEG and video)
+    replayed through a writer process, whose CPU it prints."""
+    bench = Path(__file__).resolve().parents[1] / "bench" / "bench_writer.py"
+    result = subprocess.run(
+        [sys.executable, str(bench), "--quick"], capture_output=True, text=True, timeout=600, check=False
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    out = result.stdout
+    assert out.startswith("CPU "), out
+    row = re.search(r"round 1/1: new writer process ([0-9.]+) s CPU \(([0-9.]+) s wall, (\d+) frames\)", out)
+    assert row is not None and float(row[1]) > 0 and int(row[3]) >= 25, out  # the camera's 30 Hz, 1 sim s
+    assert re.search(r"new +[0-9.]+ s, \d+ ms a sim second", out), out
+
+
 def test_soak_bench_runs_and_prints_its_table():
     """bench/bench_soak.py --quick: the memory slopes of a short fleet run and a short one-car run."""
     bench = Path(__file__).resolve().parents[1] / "bench" / "bench_soak.py"

@@ -118,7 +118,7 @@ def test_recording_chunks_at_level_1_hold_the_same_messages(tmp_path: Path, monk
     messages = _messages()
     files = {}
     for level in (1, 3):
-        monkeypatch.setattr(mcap_recorder, "compress_chunks", lambda writer, level=level: compress_chunks(writer, level))
+        monkeypatch.setattr(mcap_recorder, "compress_chunks", lambda writer, at=level: compress_chunks(writer, at))
         files[level] = tmp_path / f"level{level}.mcap"
         with McapRecorder(files[level], chunk_size=4096) as recorder:
             recorder.write_many(messages)
