@@ -214,7 +214,7 @@ def test_camera_bench_prints_the_cpu_of_a_frame_by_thread():
     )
     assert result.returncode == 0, result.stderr[-3000:]
     assert "CPU ms main / GL / llvmpipe" in result.stdout, result.stdout
-    row = re.search(r"^walker +(\d+) +(\d+) +(\d+) .* ([0-9.]+) / ([0-9.]+) / ([0-9.]+) +([0-9.]+)$", result.stdout, re.M)
+    row = re.search(r"^walker .* ([0-9.]+) / ([0-9.]+) / ([0-9.]+) +([0-9.]+)$", result.stdout, re.M)
     assert row is not None, result.stdout
-    main, gl, geoms = float(row[4]), float(row[5]), float(row[7])
+    main, gl, geoms = float(row[1]), float(row[2]), float(row[4])
     assert main > 0 and gl > 0 and 0 < geoms < 69  # walker's model has 69 geoms: some are culled
