@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 
+from conftest import needs_gl
 from racecar_sim.bridges.ros1 import ros_available
 from racecar_sim.core.machine import cpu_model
 
@@ -212,3 +213,23 @@ def test_the_rtf_bench_names_the_cpu_it_ran_on():
         names = [line.split(":", 1)[1].strip() for line in lscpu.splitlines() if line.startswith("Model name:")]
         if names:
             assert " ".join(names[0].split()) == cpu_model()
+
+
+@needs_gl
+def test_camera_bench_prints_the_cpu_of_a_frame_by_thread():
+    """bench/bench_camera.py: frames per second, and a full frame's CPU on the taking thread, the GL thread and
+    llvmpipe's, with the geoms a frame draws."""
+    bench = Path(__file__).resolve().parents[1] / "bench" / "bench_camera.py"
+    result = subprocess.run(
+        [sys.executable, str(bench), "--frames", "5", "--worlds", "walker"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert "CPU ms main / GL / llvmpipe" in result.stdout, result.stdout
+    row = re.search(r"^walker .* ([0-9.]+) / ([0-9.]+) / ([0-9.]+) +([0-9.]+)$", result.stdout, re.M)
+    assert row is not None, result.stdout
+    main, gl, geoms = float(row[1]), float(row[2]), float(row[4])
+    assert main > 0 and gl > 0 and 0 < geoms < 69  # walker's model has 69 geoms: some are culled
