@@ -6,12 +6,17 @@ Per world, with the car driving a 1 m/s, 0.2 rad circle (physics steps between f
   + readback  the same plus reading the pixels back (OffscreenCamera.render)
   full frame  what a 30 Hz tick costs: render, readback, flip to BGR, Gaussian noise, Image + CameraInfo, publish
   finish      the frame's finish alone, on the thread that takes it: flip to BGR, sky, noise (camera_noise.py)
+and, for the full frame, the CPU it takes a frame on each thread (Linux: /proc/self/task/*/schedstat): the thread
+that takes the frame (pose, finish, publish), the GL thread (MuJoCo's GL calls, Mesa's vertex work and triangle
+binning, the pixels' readback) and llvmpipe's rasteriser threads; and how many geoms a frame draws (culling.py).
 The OpenGL renderer is printed first: "llvmpipe" is Mesa's software rasteriser (no GPU).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import threading
 import time
 from collections.abc import Callable
 
@@ -32,6 +37,54 @@ def _fps(sim: Simulator, frames: int, work: Callable[[int], object]) -> float:
         work(sim.time_ns)
         wall += time.perf_counter() - start
     return frames / wall
+
+
+def _thread_ns(names: tuple[str, ...]) -> int:
+    """CPU nanoseconds so far of this process's threads whose name starts with one of `names` (0 off Linux)."""
+    total = 0
+    try:
+        tasks = os.listdir("/proc/self/task")
+    except OSError:
+        return 0
+    for task in tasks:
+        try:
+            with open(f"/proc/self/task/{task}/comm") as comm, open(f"/proc/self/task/{task}/schedstat") as stat:
+                if comm.read().startswith(names):
+                    total += int(stat.read().split()[0])
+        except OSError:
+            continue  # a thread that ended
+    return total
+
+
+def _cpu(sim: Simulator, frames: int, camera: CameraPublisher) -> dict[str, float]:
+    """CPU ms a full frame (camera._tick) on the calling thread, the GL thread and llvmpipe's threads, and the
+    geoms drawn a frame."""
+    period = 1 / camera.spec.rate_hz
+    gl = camera.renderer.gl
+    gl_thread = gl.call(threading.get_native_id)
+    main = geoms = 0
+    gl_before, raster_before = _task_ns(gl_thread), _thread_ns(("llvmpipe",))
+    for _ in range(frames):
+        sim.run_for(period)
+        start = time.thread_time_ns()
+        camera._tick(sim.time_ns)
+        main += time.thread_time_ns() - start
+        assert camera.renderer.target is not None
+        geoms += camera.renderer.target.scene.ngeom
+    return {
+        "cpu main": main / frames / 1e6,
+        "cpu GL": (_task_ns(gl_thread) - gl_before) / frames / 1e6,
+        "cpu llvmpipe": (_thread_ns(("llvmpipe",)) - raster_before) / frames / 1e6,
+        "geoms": geoms / frames,
+    }
+
+
+def _task_ns(tid: int) -> int:
+    try:
+        with open(f"/proc/self/task/{tid}/schedstat") as stat:
+            return int(stat.read().split()[0])
+    except OSError:
+        return 0
 
 
 def _draw(camera: CameraPublisher) -> Callable[[int], None]:
@@ -74,6 +127,7 @@ def measure(world: str, frames: int) -> tuple[str, dict[str, float]]:
     }
     sim.subscribe(camera.spec.image_topic, lambda msg: None)
     rows["full frame"] = _fps(sim, frames, camera._tick)
+    rows.update(_cpu(sim, frames, camera))
     drawn = camera.renderer.render()  # a GL buffer as the GL thread leaves it; each stamp draws other noise
     rows["finish"] = _fps(sim, frames, lambda stamp: camera._finish(drawn, stamp))
     renderer = camera.gl_renderer
@@ -84,17 +138,19 @@ def measure(world: str, frames: int) -> tuple[str, dict[str, float]]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=300, help="frames per measurement (default 300)")
+    parser.add_argument("--worlds", nargs="+", default=["empty", "tunnel"], help="worlds (default empty tunnel)")
     args = parser.parse_args()
-    results = {world: measure(world, args.frames) for world in ("empty", "tunnel")}
+    results = {world: measure(world, args.frames) for world in args.worlds}
     print(f"OpenGL: {next(iter(results.values()))[0]}; 640x480, {args.frames} frames per figure, one run")
     print(
         f"{'world':<8}{'draw fps':>10}{'+ readback fps':>16}{'full frame fps':>16}{'full frame ms':>15}"
-        f"{'finish ms':>11}"
+        f"{'finish ms':>11}{'CPU ms main / GL / llvmpipe':>29}{'geoms':>7}"
     )
     for world, (_, rows) in results.items():
         print(
             f"{world:<8}{rows['draw']:>10.0f}{rows['+ readback']:>16.0f}{rows['full frame']:>16.0f}"
             f"{1e3 / rows['full frame']:>15.2f}{1e3 / rows['finish']:>11.2f}"
+            f"{rows['cpu main']:>13.2f} / {rows['cpu GL']:.2f} / {rows['cpu llvmpipe']:.2f}{rows['geoms']:>7.1f}"
         )
 
 

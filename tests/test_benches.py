@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 
+from conftest import needs_gl
 from racecar_sim.bridges.ros1 import ros_available
 from racecar_sim.core.machine import cpu_model
 
@@ -69,6 +70,21 @@ def test_startup_bench_quick_prints_the_ratios_to_the_floor():
         assert row is not None and float(row[1]) > 0 and float(row[2]) > 0, out
     for line in ("start -> first physics step", "import racecar_sim.msgs", "whole command, start -> exit"):
         assert line in out, line
+
+
+def test_writer_bench_quick_replays_a_run_through_the_writer_process():
+    """bench/bench_writer.py --quick: a 1 s main job's hand-overs (its messages, its camera frames as JPEG and video)
+    replayed through a writer process, whose CPU it prints."""
+    bench = Path(__file__).resolve().parents[1] / "bench" / "bench_writer.py"
+    result = subprocess.run(
+        [sys.executable, str(bench), "--quick"], capture_output=True, text=True, timeout=600, check=False
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    out = result.stdout
+    assert out.startswith("CPU "), out
+    row = re.search(r"round 1/1: new writer process ([0-9.]+) s CPU \(([0-9.]+) s wall, (\d+) frames\)", out)
+    assert row is not None and float(row[1]) > 0 and int(row[3]) >= 25, out  # the camera's 30 Hz, 1 sim s
+    assert re.search(r"new +[0-9.]+ s, \d+ ms a sim second", out), out
 
 
 def test_soak_bench_runs_and_prints_its_table():
@@ -197,3 +213,23 @@ def test_the_rtf_bench_names_the_cpu_it_ran_on():
         names = [line.split(":", 1)[1].strip() for line in lscpu.splitlines() if line.startswith("Model name:")]
         if names:
             assert " ".join(names[0].split()) == cpu_model()
+
+
+@needs_gl
+def test_camera_bench_prints_the_cpu_of_a_frame_by_thread():
+    """bench/bench_camera.py: frames per second, and a full frame's CPU on the taking thread, the GL thread and
+    llvmpipe's, with the geoms a frame draws."""
+    bench = Path(__file__).resolve().parents[1] / "bench" / "bench_camera.py"
+    result = subprocess.run(
+        [sys.executable, str(bench), "--frames", "5", "--worlds", "walker"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert "CPU ms main / GL / llvmpipe" in result.stdout, result.stdout
+    row = re.search(r"^walker .* ([0-9.]+) / ([0-9.]+) / ([0-9.]+) +([0-9.]+)$", result.stdout, re.M)
+    assert row is not None, result.stdout
+    main, gl, geoms = float(row[1]), float(row[2]), float(row[4])
+    assert main > 0 and gl > 0 and 0 < geoms < 69  # walker's model has 69 geoms: some are culled

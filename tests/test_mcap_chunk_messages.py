@@ -3,13 +3,19 @@ Writer.add_message gives, byte for byte, and a file mcap reads back whole."""
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import pytest
+import zstandard
 from mcap.reader import make_reader
+from mcap.records import Chunk
+from mcap.stream_reader import StreamReader
+from mcap.writer import CompressionType, Writer
 
 from racecar_sim.msgs import Float64, Header, JointControllerState, String, serialize
 from racecar_sim.recording import mcap_recorder
+from racecar_sim.recording.chunk_compression import compress_chunks
 from racecar_sim.recording.chunk_messages import ChunkMessages
 from racecar_sim.recording.mcap_recorder import McapRecorder
 
@@ -79,3 +85,60 @@ def test_unknown_writer_falls_back(tmp_path: Path) -> None:
     assert ChunkMessages.of(Other()) is None  # type: ignore[arg-type]
     with McapRecorder(tmp_path / "a.mcap") as recorder:
         assert recorder._chunk_messages is not None
+
+
+def _plain_writer_file(path: Path, messages: list[tuple[str, str, bytes, int]], level: int | None) -> bytes:
+    """`messages` through mcap's own Writer.add_message, its chunks compressed by mcap (level None) or at `level`."""
+    with open(path, "wb") as stream:
+        writer = Writer(stream, chunk_size=4096, compression=CompressionType.ZSTD)
+        if level is not None:
+            assert compress_chunks(writer, level)
+        writer.start(profile="ros2", library="test")
+        channels: dict[str, int] = {}
+        for topic, msgtype, data, t in messages:
+            if topic not in channels:
+                schema = writer.register_schema(msgtype, "ros2msg", b"")
+                channels[topic] = writer.register_channel(topic, "cdr", schema)
+            writer.add_message(channels[topic], t, data, t)
+        writer.finish()
+    return path.read_bytes()
+
+
+def test_chunks_compressed_at_mcaps_level_are_mcaps_file(tmp_path: Path) -> None:
+    """The chunk finalizer is mcap's: at mcap's own level (3) the file is the one mcap writes, byte for byte."""
+    messages = _messages()
+    assert _plain_writer_file(tmp_path / "ours.mcap", messages, 3) == _plain_writer_file(
+        tmp_path / "mcap.mcap", messages, None
+    )
+
+
+def test_recording_chunks_at_level_1_hold_the_same_messages(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A recording's chunks are zstd at level 1: each decompresses to the chunk level 3 would have compressed, and
+    mcap's reader reads the file back whole."""
+    messages = _messages()
+    files = {}
+    for level in (1, 3):
+        monkeypatch.setattr(mcap_recorder, "compress_chunks", lambda writer, at=level: compress_chunks(writer, at))
+        files[level] = tmp_path / f"level{level}.mcap"
+        with McapRecorder(files[level], chunk_size=4096) as recorder:
+            recorder.write_many(messages)
+
+    def chunks(path: Path) -> list[tuple[bytes, bytes]]:
+        records = StreamReader(io.BytesIO(path.read_bytes()), emit_chunks=True).records
+        return [(r.data, zstandard.decompress(r.data)) for r in records if isinstance(r, Chunk)]
+
+    level1, level3 = chunks(files[1]), chunks(files[3])
+    assert len(level1) > 3 and [raw for _, raw in level1] == [raw for _, raw in level3]
+    assert [data for data, _ in level1] == [zstandard.ZstdCompressor(level=1).compress(raw) for _, raw in level1]
+    assert [data for data, _ in level3] == [zstandard.compress(raw) for _, raw in level3]  # mcap's own
+    with open(files[1], "rb") as stream:
+        reader = make_reader(stream)
+        assert {c.compression for c in reader.get_summary().chunk_indexes} == {"zstd"}  # type: ignore[union-attr]
+        read = [(c.topic, m.data, m.log_time) for _, c, m in reader.iter_messages(log_time_order=False)]
+    assert read == [(topic, data, t) for topic, _, data, t in messages]
+
+
+def test_a_writer_not_compressing_with_zstd_is_left_alone(tmp_path: Path) -> None:
+    with open(tmp_path / "a.mcap", "wb") as stream:
+        assert not compress_chunks(Writer(stream, compression=CompressionType.NONE))
+        assert not compress_chunks(Writer(stream, use_chunking=False))

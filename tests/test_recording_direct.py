@@ -10,6 +10,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from conftest import needs_gl
 from racecar_sim import Car, Simulator, Spawn
 from racecar_sim.bus import Bus
 from racecar_sim.cli.main import main
@@ -23,8 +24,8 @@ DIRECT = {"/gazebo/link_states", "/gazebo/model_states", "/clock", "/tf",
           "/car2/racecar/left_rear_wheel_velocity_controller/state"}  # fmt: skip
 
 
-def _run(out: Path, monkeypatch: pytest.MonkeyPatch, objects: bool) -> tuple[bytes, set[str]]:
-    """run.mcap of RUN, and the topics handed over as bytes; `objects`: every message made as an object."""
+def _run(out: Path, monkeypatch: pytest.MonkeyPatch, objects: bool, command: list[str] = RUN) -> tuple[bytes, set[str]]:
+    """run.mcap of `command`, and the topics handed over as bytes; `objects`: every message made as an object."""
     direct: set[str] = set()
     publish_cdr, publish_cdr_many = Bus.publish_cdr, Bus.publish_cdr_many
 
@@ -41,7 +42,7 @@ def _run(out: Path, monkeypatch: pytest.MonkeyPatch, objects: bool) -> tuple[byt
         patch.setattr(Bus, "publish_cdr_many", counted_many)
         if objects:
             patch.setattr(Bus, "cdr_only", lambda self, topic: False)
-        assert main([*RUN, "--out", str(out)]) == 0
+        assert main([*command, "--out", str(out)]) == 0
     return (out / "run.mcap").read_bytes(), direct
 
 
@@ -122,3 +123,15 @@ def test_controller_states_partly_taken_by_a_subscriber_keep_their_order(
     assert batches and all(listened not in batch for batch in batches)
     assert {len(batch) for batch in batches} == {2, 3}  # the six less the one, before it and after it
     assert from_bytes == from_objects
+
+
+@needs_gl
+def test_camera_info_from_bytes_makes_the_same_run_mcap(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The camera's CameraInfo, whose only taker is the recorder, goes as bytes packed from its stamp: the file (JPEG
+    frames and infos) is the one the message objects give."""
+    run = ["run", "--world", "walker", "--driver", "wall-follow", "--no-video", "--no-summary", "--duration", "0.3"]
+    from_objects, none = _run(tmp_path / "objects", monkeypatch, objects=True, command=run)
+    from_bytes, direct = _run(tmp_path / "bytes", monkeypatch, objects=False, command=run)
+    assert not none
+    assert "/camera/zed/rgb/camera_info" in direct
+    assert len(from_bytes) > 100_000 and from_bytes == from_objects

@@ -4,7 +4,10 @@ mjr_render draws every geom of the scene, and on Mesa's llvmpipe each draw costs
 whether or not a pixel of it lands in the image (about 9 us a geom: a quarter of a walker frame's drawing goes to
 the car under the camera and the walls behind it). With shadows and reflections off (offscreen.py), a geom's only
 effect on the image is its own fragments: a geom whose bounding sphere lies wholly outside the view frustum has
-none, and leaving it out changes no pixel. The geoms kept are drawn in their order, so depth ties between them
+none, and leaving it out changes no pixel. Nor has a sphere, ellipsoid, cylinder or box whose own box (its size in
+its frame) lies wholly outside one of the frustum's planes, the near plane included: that test leaves out the car's
+own parts around the camera, whose spheres reach into the view while the parts do not (17 geoms drawn a walker
+frame become 13). The geoms kept are drawn in their order, so depth ties between them
 resolve as before: the image is MuJoCo's, bit for bit.
 
 The bindings give each MjvGeom field separately; taking out geoms field by field would cost more Python than the
@@ -18,6 +21,7 @@ from __future__ import annotations
 
 import ctypes
 import functools
+from typing import NamedTuple
 
 import mujoco
 import numpy as np
@@ -26,6 +30,19 @@ MARGIN = 1.25
 """The frustum's half-extents are widened by this factor (and bounding spheres by CLEARANCE) before testing: the test
 is conservative, culling only geoms well outside the image."""
 CLEARANCE = 0.01  # m
+
+
+def _boxed_types() -> np.ndarray:
+    """By geom type (MjvGeom.type): 1 where all that mjr_render draws of the geom lies in the box of half-extents
+    `size` in its frame (pos, mat): it draws a unit sphere, cylinder or cube scaled by size; 0 where no such box is
+    known (planes, capsules, meshes, decorations): the sphere test alone decides."""
+    boxed = np.zeros(1 + max(int(t) for t in mujoco.mjtGeom.__members__.values()), np.uint8)
+    for name in ("mjGEOM_SPHERE", "mjGEOM_ELLIPSOID", "mjGEOM_CYLINDER", "mjGEOM_BOX"):
+        boxed[int(getattr(mujoco.mjtGeom, name))] = 1
+    return boxed
+
+
+_BOXED = _boxed_types()
 
 
 class FrustumCuller:
@@ -39,12 +56,15 @@ class FrustumCuller:
         self._views: tuple[np.ndarray, ...] = ()  # the eyes' positions, forward and up
         if layout is None or scene.maxgeom < 2:
             return
-        size, pos_at, rbound_at = layout
-        base = _address(scene.geoms[0].pos) - pos_at
+        size = layout.size
+        base = _address(scene.geoms[0].pos) - layout.pos
         memory = (ctypes.c_uint8 * (size * scene.maxgeom)).from_address(base)
         self._raw = np.ctypeslib.as_array(memory).reshape(scene.maxgeom, size)
-        self._pos = np.ndarray((scene.maxgeom, 3), np.float32, memory, pos_at, (size, 4))
-        self._rbound = np.ndarray((scene.maxgeom,), np.float32, memory, rbound_at, (size,))
+        self._pos = np.ndarray((scene.maxgeom, 3), np.float32, memory, layout.pos, (size, 4))
+        self._rbound = np.ndarray((scene.maxgeom,), np.float32, memory, layout.rbound, (size,))
+        self._type = np.ndarray((scene.maxgeom,), np.int32, memory, layout.type, (size,))
+        self._half = np.ndarray((scene.maxgeom, 3), np.float32, memory, layout.half, (size, 4))
+        self._mat = np.ndarray((scene.maxgeom, 9), np.float32, memory, layout.mat, (size, 4))
         self._load_kernel(self._raw)
 
     def _load_kernel(self, raw: np.ndarray) -> None:
@@ -53,7 +73,10 @@ class FrustumCuller:
         from racecar_sim.render.frustum_kernel import cull_records
 
         eye, forward, up = np.zeros(3, np.float32), np.array([1, 0, 0], np.float32), np.array([0, 0, 1], np.float32)
-        cull_records(raw, self._pos, self._rbound, 0, eye, eye, forward, up, 0.1, 0.0, -0.1, 0.1, 1.0, 0.0, 0.0)
+        cull_records(
+            raw, self._pos, self._rbound, self._type, self._half, self._mat, _BOXED, 0,
+            eye, eye, forward, up, 0.1, 0.0, -0.1, 0.1, 1.0, 0.0, 0.0,
+        )  # fmt: skip
 
     @property
     def active(self) -> bool:
@@ -79,6 +102,10 @@ class FrustumCuller:
             raw,
             self._pos,
             self._rbound,
+            self._type,
+            self._half,
+            self._mat,
+            _BOXED,
             n,
             self._views[0],
             self._views[1],
@@ -100,9 +127,21 @@ def _address(array: np.ndarray) -> int:
     return int(array.ctypes.data)
 
 
+class RecordLayout(NamedTuple):
+    """Where an MjvGeom's fields lie in its record, in bytes: the record's size and the offsets of `pos` (3 float32),
+    `modelrbound` (float32), `type` (int32), `size` (3 float32) and `mat` (9 float32, row-major)."""
+
+    size: int
+    pos: int
+    rbound: int
+    type: int
+    half: int
+    mat: int
+
+
 @functools.cache
-def _record_layout() -> tuple[int, int, int] | None:
-    """(record size, offset of pos, offset of modelrbound) of an MjvGeom in this MuJoCo, or None if not found.
+def _record_layout() -> RecordLayout | None:
+    """The layout of an MjvGeom record in this MuJoCo, or None if not found.
 
     Each field of the middle geom of a 3-geom probe scene is changed through the bindings, and the bytes that change
     are its place; the record starts at the lowest of them (a C struct's first member is at offset 0)."""
@@ -128,24 +167,38 @@ def _record_layout() -> tuple[int, int, int] | None:
         if changed.size == 0:
             return None
         places[name] = (int(changed[0]) - size, int(changed[-1]) - size)  # relative to pos of geom 1
-    if "pos" not in places or "modelrbound" not in places:
+    if not {"pos", "modelrbound", "type", "size", "mat"} <= places.keys():
         return None
     first = min(lo for lo, _ in places.values()) // 4 * 4  # the record starts with a 4-byte member (int type)
     last = max(hi for _, hi in places.values())
     if last - first >= size:
         return None
-    # places are relative to pos; a float's first changed byte need not be its first
-    pos_at, rbound_at = -first, places["modelrbound"][0] // 4 * 4 - first
-    records = np.ctypeslib.as_array((ctypes.c_uint8 * (3 * size)).from_address(anchor - pos_at - size))
+
+    def at(name: str) -> int:  # places are relative to pos; a number's first changed byte need not be its first
+        return places[name][0] // 4 * 4 - first
+
+    layout = RecordLayout(size, -first, at("modelrbound"), at("type"), at("size"), at("mat"))
+    records = np.ctypeslib.as_array((ctypes.c_uint8 * (3 * size)).from_address(anchor - layout.pos - size))
     for index, geom in enumerate(geoms):  # read back where the layout says, what the bindings wrote
         geom.pos[:] = (1.5 + index, -2.5, 3.25)
         geom.modelrbound = 7.125 + index
+        geom.type = index + 4
+        geom.size[:] = (0.5 + index, 1.75, -3.5)
+        geom.mat[...] = (np.arange(9) + 0.25 * index).reshape(geom.mat.shape)
         record = records[index * size : (index + 1) * size]
-        pos = record[pos_at : pos_at + 12].copy().view(np.float32)
-        rbound = record[rbound_at : rbound_at + 4].copy().view(np.float32)[0]
-        if not (np.array_equal(pos, geom.pos) and rbound == np.float32(geom.modelrbound)):
+        if not (
+            np.array_equal(_floats(record, layout.pos, 3), geom.pos)
+            and _floats(record, layout.rbound, 1)[0] == np.float32(geom.modelrbound)
+            and record[layout.type : layout.type + 4].copy().view(np.int32)[0] == geom.type
+            and np.array_equal(_floats(record, layout.half, 3), geom.size)
+            and np.array_equal(_floats(record, layout.mat, 9), geom.mat.ravel())
+        ):
             return None
-    return size, pos_at, rbound_at
+    return layout
+
+
+def _floats(record: np.ndarray, at: int, count: int) -> np.ndarray:
+    return record[at : at + 4 * count].copy().view(np.float32)
 
 
 def _change(geom: mujoco.MjvGeom, name: str, value: object) -> bool:

@@ -45,3 +45,12 @@ def drop_stencil(context: mujoco.MjrContext) -> bool:
         gl.GL_FRAMEBUFFER, gl.GL_DEPTH_STENCIL_ATTACHMENT, gl.GL_RENDERBUFFER, context.offDepthStencil
     )
     return False
+
+
+def keeps_stencil(context: mujoco.MjrContext) -> bool:
+    """Whether `context`'s offscreen depth buffer has a stencil (False after drop_stencil changed it); on the
+    context's GL thread."""
+    if context.offSamples or not context.offFBO or not context.offDepthStencil:
+        return True  # left to MuJoCo: assume it has one
+    gl.bind_renderbuffer(gl.GL_RENDERBUFFER, context.offDepthStencil)
+    return gl.renderbuffer_parameter(gl.GL_RENDERBUFFER, gl.GL_RENDERBUFFER_INTERNAL_FORMAT) != gl.GL_DEPTH_COMPONENT32F

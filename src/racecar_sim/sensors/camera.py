@@ -21,9 +21,11 @@ import numpy as np
 from racecar_sim.core.errors import DescriptionError, RenderingError
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.rng import NoiseTable
+from racecar_sim.core.time import NS_PER_S
 from racecar_sim.core.transforms import quat_from_rpy, quat_mul
 from racecar_sim.description.urdf import Robot, Sensor
-from racecar_sim.msgs import Header, Image
+from racecar_sim.msgs import CameraInfo, Header, Image
+from racecar_sim.msgs.cdr_layout import CdrLayout
 from racecar_sim.nodes import NodeBase, NodeContext, Parts
 from racecar_sim.render.offscreen import OffscreenCamera
 from racecar_sim.sensors.camera_spec import CameraSpec
@@ -145,6 +147,9 @@ class CameraPublisher(NodeBase):
         self.renderer = OffscreenCamera(model, data, self.parts[part], self.spec.width, self.spec.height)
         self.frames_rendered = 0
         self._ahead = False
+        self._table: NoiseTable | None = None  # the noise table, kept from the first noisy frame
+        # the CDR layout of this camera's CameraInfo and the numbers after its stamp, read off the first one
+        self._info_layout: tuple[CdrLayout, list[object]] | None = None
         # (stamp, drawing, its finished frame or None): the frame drawn ahead, not yet published
         self._pending: tuple[int, Future[np.ndarray], np.ndarray | None] | None = None
         self._prepare()
@@ -216,7 +221,17 @@ class CameraPublisher(NodeBase):
     def _publish(self, stamp_ns: int, pixels: np.ndarray) -> None:
         spec = self.spec
         self.bus.publish(spec.image_topic, self._image(stamp_ns, pixels))
-        self.bus.publish(spec.info_topic, spec.camera_info(stamp_ns))
+        if self._info_layout is not None and self.bus.cdr_only(spec.info_topic):
+            # only a recorder takes it: its bytes, the stamp packed into those of the first (all else is the same)
+            layout, rest = self._info_layout
+            self.bus.publish_cdr(spec.info_topic, CameraInfo, layout.pack([*divmod(stamp_ns, NS_PER_S), *rest]))
+            return
+        info = spec.camera_info(stamp_ns)
+        if self._info_layout is None:
+            made = CdrLayout.of(info)
+            if made is not None and made[1][:2] == [info.header.stamp.sec, info.header.stamp.nanosec]:
+                self._info_layout = made[0], made[1][2:]
+        self.bus.publish(spec.info_topic, info)
 
     def _image(self, stamp_ns: int, pixels: np.ndarray) -> Image:
         spec = self.spec
@@ -252,8 +267,10 @@ class CameraPublisher(NodeBase):
         pixels = np.empty((spec.height, spec.width, 3), dtype=np.uint8)  # the message keeps its own pixels
         table, first, second = _NO_NOISE, 0, 0
         if self.noise:
-            table = self._noise_table.values
-            first, second = self._noise_table.offsets(self.seed ^ self._stream_key, stamp_ns)
+            noise = self._table or self._noise_table
+            self._table = noise
+            table = noise.values
+            first, second = noise.offsets(self.seed ^ self._stream_key, stamp_ns)
         finish_frame(
             gl_rgba,
             _NO_SKY if sky is None else sky,
