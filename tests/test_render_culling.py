@@ -88,14 +88,7 @@ def test_a_box_whose_sphere_meets_the_frustum_is_left_out_only_when_the_box_lies
     model = mujoco.MjModel.from_xml_string(
         f"<mujoco><worldbody><geom type='box' size='0.5 0.01 0.01' pos='1 0 {z}'/></worldbody></mujoco>"
     )
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    scene = mujoco.MjvScene(model, 10)
-    culler = FrustumCuller(scene, 64, 48)
-    camera = mujoco.MjvCamera()
-    camera.lookat[:] = (0, 0, 0)
-    camera.distance, camera.elevation, camera.azimuth = 1.0, 0.0, 0.0  # at (-1, 0, 0), looking along +x, level
-    mujoco.mjv_updateScene(model, data, mujoco.MjvOption(), None, camera, mujoco.mjtCatBit.mjCAT_ALL, scene)
+    scene, culler = _level_view(model)
     assert scene.camera[0].frustum_top == pytest.approx(scene.camera[0].frustum_near * np.tan(np.radians(22.5)))
     assert culler.cull() == 1 - kept and scene.ngeom == kept
 
@@ -106,14 +99,20 @@ def test_a_geom_wholly_before_the_near_plane_is_left_out():
         "<mujoco><statistic extent='1'/><visual><map znear='0.5'/></visual><worldbody>"
         "<geom type='sphere' size='0.05' pos='-0.7 0 0'/><geom size='0.05' pos='1 0 0'/></worldbody></mujoco>"
     )
+    scene, culler = _level_view(model)
+    assert scene.camera[0].frustum_near == pytest.approx(0.5)
+    assert culler.cull() == 1 and scene.ngeom == 1
+    assert scene.geoms[0].pos[0] == pytest.approx(1.0)
+
+
+def _level_view(model: mujoco.MjModel) -> tuple[mujoco.MjvScene, FrustumCuller]:
+    """The scene of `model` at rest seen by a level camera at (-1, 0, 0) looking along +x, and its culler (64x48)."""
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     scene = mujoco.MjvScene(model, 10)
     culler = FrustumCuller(scene, 64, 48)
     camera = mujoco.MjvCamera()
     camera.lookat[:] = (0, 0, 0)
-    camera.distance, camera.elevation, camera.azimuth = 1.0, 0.0, 0.0  # at (-1, 0, 0), looking along +x
+    camera.distance, camera.elevation, camera.azimuth = 1.0, 0.0, 0.0
     mujoco.mjv_updateScene(model, data, mujoco.MjvOption(), None, camera, mujoco.mjtCatBit.mjCAT_ALL, scene)
-    assert scene.camera[0].frustum_near == pytest.approx(0.5)
-    assert culler.cull() == 1 and scene.ngeom == 1
-    assert scene.geoms[0].pos[0] == pytest.approx(1.0)
+    return scene, culler

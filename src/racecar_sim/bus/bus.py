@@ -289,6 +289,14 @@ class Bus:
         cdr_only(topic) says its only takers are taps that take bytes: they get `data`, and the topic counts it as
         publish() would (what its subscribers would have published in turn is tallied, unheard). Not for a latched
         topic (a late subscriber would get its last message)."""
+        self._count_cdr(topic, msgtype)
+        for e in self._cdr_entries:
+            if e.wants is None or e.wants(topic):
+                e.cdr(topic, msgtype, data)  # type: ignore[misc]  # a _cdr_entries entry has one
+
+    def _count_cdr(self, topic: str, msgtype: type) -> None:
+        """Count a message of class `msgtype` published as bytes on `topic`, as publish() would (and tally what its
+        feeds would have published); a latched topic or another class on the topic is refused."""
         t = self._topics.get(topic) or self._topic(topic)
         if t.latched:
             raise ValueError(f"topic {topic} is latched: publish its messages")
@@ -299,26 +307,13 @@ class Bus:
         t.count += 1
         for feed, feed_type in t.feeds:
             self.tally(feed, feed_type)
-        for e in self._cdr_entries:
-            if e.wants is None or e.wants(topic):
-                e.cdr(topic, msgtype, data)  # type: ignore[misc]  # a _cdr_entries entry has one
 
     def publish_cdr_many(self, msgtype: type, messages: list[tuple[str, bytes]]) -> None:
         """publish_cdr() of every (topic, data) of `messages`, in order, messages of class `msgtype` published at one
         moment (a car's controller states): cdr_only() holds for each topic. A tap that takes batches gets them in
         one call; each tap gets them in their order (taps are served one after the other, not message by message)."""
-        topics = self._topics
         for topic, _ in messages:
-            t = topics.get(topic) or self._topic(topic)
-            if t.latched:
-                raise ValueError(f"topic {topic} is latched: publish its messages")
-            if msgtype is not t.msgtype:
-                if t.msgtype is not None:
-                    raise TypeError(f"topic {topic} carries {t.msgtype.__name__}, got {msgtype.__name__}")
-                t.msgtype = msgtype
-            t.count += 1
-            for feed, feed_type in t.feeds:
-                self.tally(feed, feed_type)
+            self._count_cdr(topic, msgtype)
         for e in self._cdr_entries:
             wants = e.wants
             taken = messages if wants is None else [m for m in messages if wants(m[0])]
