@@ -22,6 +22,14 @@ COMPRESSED_MSGTYPE = "sensor_msgs/msg/CompressedImage"
 THREAD_BATCH = 32  # messages handed to the fallback writer thread at once (a few ms of sim time, images included)
 
 
+class _MsgTypes(dict[type, str]):
+    """Message class -> its pkg/msg/Name (msgtype_of), found the first time a class is asked for."""
+
+    def __missing__(self, cls: type) -> str:
+        msgtype = self[cls] = msgtype_of(cls)
+        return msgtype
+
+
 class RunRecording:
     """Records every message on `bus` to the MCAP file `path`, log time `clock()` (sim time, integer ns).
 
@@ -75,7 +83,7 @@ class RunRecording:
         if self.process is None:
             self.recorder = McapRecorder(self._path, compression=compression, stream=stream)
             self.writer = WriterThread(f"record {self._path}")
-        self._msgtypes: dict[type, str] = {}  # message class -> pkg/msg/Name (msgtype_of's, looked up once per class)
+        self._msgtypes = _MsgTypes()  # message class -> pkg/msg/Name, looked up once per class
         try:
             for topic, msg in bus.latched_messages().items():
                 self._record(topic, msg)
@@ -98,24 +106,19 @@ class RunRecording:
                     )
                 )
             else:
-                msgtype = self._msgtypes.get(type(msg))
-                if msgtype is None:
-                    msgtype = self._msgtypes[type(msg)] = msgtype_of(msg)
-                self.process.message(topic, msgtype, serialize(msg), self.clock())
+                self.process.message(topic, self._msgtypes[type(msg)], serialize(msg), self.clock())
             return
         # the writer thread gets batches: a queue hand-over per message would cost more than most messages' writing
         if topic in self.compressed and isinstance(msg, Image):
             self._batch.append((self.compressed[topic], None, msg, self.clock()))
         else:
-            self._batch.append((topic, msgtype_of(msg), serialize(msg), self.clock()))
+            self._batch.append((topic, self._msgtypes[type(msg)], serialize(msg), self.clock()))
         if len(self._batch) >= THREAD_BATCH:
             self._submit()
 
     def _record_cdr(self, topic: str, cls: type, data: bytes) -> None:
         """A message handed over as its CDR bytes (Bus.publish_cdr: the recording is its only taker)."""
-        msgtype = self._msgtypes.get(cls)
-        if msgtype is None:
-            msgtype = self._msgtypes[cls] = msgtype_of(cls)
+        msgtype = self._msgtypes[cls]
         if self.process is not None:
             self.process.message(topic, msgtype, data, self.clock())
             return
@@ -126,9 +129,7 @@ class RunRecording:
     def _record_cdr_batch(self, cls: type, messages: list[tuple[str, bytes]]) -> None:
         """Messages of one class published at one moment, as (topic, CDR bytes) (Bus.publish_cdr_many): one look-up of
         their type and of the time, one hand-over call."""
-        msgtype = self._msgtypes.get(cls)
-        if msgtype is None:
-            msgtype = self._msgtypes[cls] = msgtype_of(cls)
+        msgtype = self._msgtypes[cls]
         now = self.clock()
         if self.process is not None:
             self.process.messages(msgtype, messages, now)

@@ -267,8 +267,7 @@ class CameraPublisher(NodeBase):
         pixels = np.empty((spec.height, spec.width, 3), dtype=np.uint8)  # the message keeps its own pixels
         table, first, second = _NO_NOISE, 0, 0
         if self.noise:
-            noise = self._table or self._noise_table
-            self._table = noise
+            noise = self._table = self._table or self._noise_table
             table = noise.values
             first, second = noise.offsets(self.seed ^ self._stream_key, stamp_ns)
         finish_frame(
