@@ -73,6 +73,21 @@ def test_process_writes_the_bytes_the_thread_writes(tmp_path):
     assert (tmp_path / "raw_True.mcap").read_bytes() == (tmp_path / "raw_False.mcap").read_bytes()
 
 
+def test_a_process_started_early_records_the_same_bytes_and_one_left_unused_exits(tmp_path):
+    record(tmp_path / "fresh.mcap", process=True)
+    writer_process.start_early()
+    early = writer_process._early
+    assert early is not None and early._process.poll() is None  # its child starts before any file is opened
+    rec = record(tmp_path / "early.mcap", process=True)
+    assert rec.process is early and writer_process._early is None  # taken, the recording's file passed to it later
+    assert (tmp_path / "early.mcap").read_bytes() == (tmp_path / "fresh.mcap").read_bytes()
+    writer_process.start_early()
+    unused = writer_process._early
+    assert unused is not None
+    writer_process.close_early()
+    assert writer_process._early is None and unused.closed and unused._process.returncode == 0
+
+
 def test_recorded_jpegs_decode_to_the_published_frames_in_publication_order(tmp_path):
     record(tmp_path / "run.mcap", process=True)
     with open(tmp_path / "run.mcap", "rb") as f:
