@@ -656,6 +656,7 @@ class _Files:
         self.ring: mmap.mmap | None = None  # the shared memory, mapped with the first frame in it
         self.held: np.ndarray | None = None  # its head's count: the parent's _FrameRing.held
         self.holding: int | None = None  # the frame of the shared memory last_image is
+        self.planes: Any = None  # colour.CameraPlanes: a camera frame converted once for the JPEG and the video
 
     def image(self, pixels: tuple[Any, ...] | None) -> Image:
         if pixels is not _SAME:
@@ -708,15 +709,18 @@ class _Files:
             self.recorder.write_serialized(op[1], op[2], op[3], op[4])
         elif kind == JPEG:
             from racecar_sim.msgs import serialize
-            from racecar_sim.recording.images import compress_image
 
             _, topic, msgtype, pixels, log_time, quality = op
-            self.recorder.write_serialized(
-                topic, msgtype, serialize(compress_image(self.image(pixels), quality)), log_time
-            )
+            compressed = self.camera_planes().compressed(self.image(pixels), self.video, quality)
+            self.recorder.write_serialized(topic, msgtype, serialize(compressed), log_time)
         elif kind == FRAME:
             try:
-                self.video.write(self.image(op[1]).bgr_pixels())
+                image = self.image(op[1])
+                frame = self.camera_planes().video_frame(image, self.video)
+                if frame is None:
+                    self.video.write(image.bgr_pixels())
+                else:
+                    self.video.write_yuv420p(frame)
             except OSError as exc:  # a full disk, a file size limit: one line, not the encoder's traceback
                 raise RecordingError(
                     f"{self.video_path}: the video stopped: cannot write the file ({exc.strerror or exc})"
@@ -734,6 +738,13 @@ class _Files:
         elif kind == CLOSE_VIDEO:
             self.close_video()
             self.reports.send("reply", self.video_path)
+
+    def camera_planes(self) -> Any:
+        if self.planes is None:
+            from racecar_sim.recording.colour import CameraPlanes
+
+            self.planes = CameraPlanes()
+        return self.planes
 
     def close_video(self) -> None:
         if self.video is not None:

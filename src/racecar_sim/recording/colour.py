@@ -1,0 +1,109 @@
+"""A camera frame's colour conversion done once in the writer process, for both the JPEG and the video.
+
+Each bgr8 frame the writer process records is encoded twice: a JPEG for `<image topic>/compressed` and an x264
+frame for camera.mp4. Each encoder converted the BGR pixels on its own: libjpeg-turbo to full-range YCbCr 4:2:0
+(~0.3 ms of a 640x480 frame) and libswscale to limited-range yuv420p (~1 ms: FFmpeg's C loop for bgr24, without
+SIMD). Here one compiled pass (colour_kernel.py, ~0.4 ms) makes the JPEG's planes exactly as libjpeg-turbo does,
+so simplejpeg.encode_jpeg_yuv_planes gives encode_jpeg's bytes, and the video's from them (within a level or two
+of swscale's); the video frame is filled in place and swscale is not run.
+
+Frames the kernel does not cover (odd sizes, rgb8, padded rows, a non-MP4 video) and machines where the kernel does
+not load (no numba) go the encoders' own way, as before.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from racecar_sim.msgs import Image
+from racecar_sim.recording.images import JPEG_QUALITY, compress_image
+
+log = logging.getLogger("racecar_sim")
+
+_NOT_LOADED: Any = object()
+
+
+def _load_kernel() -> Callable[..., None] | None:
+    """The compiled conversion (numba's cached kernel, loaded the light way), or None where it cannot load."""
+    try:
+        from racecar_sim.core.compiled import load_numba
+
+        load_numba()
+        from racecar_sim.recording.colour_kernel import bgr_to_planes
+    except Exception as exc:  # no numba, or a broken cache: the encoders convert, as before
+        log.debug("writer: no compiled colour conversion (%s); the encoders convert each frame", exc)
+        return None
+    return bgr_to_planes  # type: ignore[no-any-return]
+
+
+class CameraPlanes:
+    """The last camera image's planes: the JPEG's (reused buffers) and, when a video takes them, its yuv420p frame.
+
+    jpeg(msg) and video_frame(msg) convert `msg` at the first of the two calls for it (the same Image object) and
+    reuse the result at the second. Both return None where the fast path does not cover the image: the caller
+    then encodes it as before."""
+
+    def __init__(self) -> None:
+        self._kernel: Callable[..., None] | None = _NOT_LOADED
+        self._image: Image | None = None
+        self._jpeg_planes: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._frame: Any = None  # the video's yuv420p frame of _image, until the video takes it
+
+    def jpeg(self, msg: Image, video: Any, quality: int = JPEG_QUALITY) -> bytes | None:
+        """`msg`'s JPEG: simplejpeg.encode_jpeg's bytes of its pixels; None where not covered. `video`: the open
+        VideoWriter (or None), whose frame of `msg` is made in the same pass."""
+        if not self._convert(msg, video):
+            return None
+        import simplejpeg
+
+        assert self._jpeg_planes is not None
+        return simplejpeg.encode_jpeg_yuv_planes(*self._jpeg_planes, quality=quality)  # type: ignore[no-any-return]
+
+    def compressed(self, msg: Image, video: Any, quality: int = JPEG_QUALITY) -> Any:
+        """`msg` as compress_image() makes it (the same header, format and bytes)."""
+        from racecar_sim.msgs.sensor_msgs import CompressedImage
+
+        jpeg = self.jpeg(msg, video, quality)
+        if jpeg is None:
+            return compress_image(msg, quality)
+        return CompressedImage(msg.header, f"{msg.encoding}; jpeg compressed bgr8", jpeg)
+
+    def video_frame(self, msg: Image, video: Any) -> Any:
+        """`msg` as `video`'s yuv420p frame (a PyAV VideoFrame, given once); None where not covered."""
+        if not self._convert(msg, video):
+            return None
+        frame, self._frame = self._frame, None
+        return frame
+
+    def _convert(self, msg: Image, video: Any) -> bool:
+        if msg is self._image:
+            return True
+        self._image, self._frame = None, None
+        if msg.encoding != "bgr8" or msg.height % 2 or msg.width % 2 or msg.step != 3 * msg.width:
+            return False
+        if self._kernel is _NOT_LOADED:
+            self._kernel = _load_kernel()
+        if self._kernel is None:
+            return False
+        height, width = msg.height, msg.width
+        rows = np.frombuffer(msg.data, np.uint8, height * msg.step).reshape(height, msg.step)
+        if self._jpeg_planes is None or self._jpeg_planes[0].shape != (height, width):
+            half = (height // 2, width // 2)
+            self._jpeg_planes = (np.empty((height, width), np.uint8), np.empty(half, np.uint8), np.empty(half, np.uint8))
+        frame = video.yuv420p_frame() if video is not None and video.shape == (height, width, 3) else None
+        planes = frame_planes(frame) if frame is not None else self._jpeg_planes
+        self._kernel(rows, *self._jpeg_planes, frame is not None, *planes)
+        self._image, self._frame = msg, frame
+        return True
+
+
+def frame_planes(frame: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A yuv420p VideoFrame's Y, U and V planes as writable arrays of its size (rows a line size apart)."""
+    return tuple(  # type: ignore[return-value]
+        np.frombuffer(plane, np.uint8).reshape(-1, plane.line_size)[: plane.height, : plane.width]
+        for plane in frame.planes
+    )
