@@ -124,7 +124,8 @@ def _light_environments() -> None:
 
     def _rebuild_env(modname: str, consts: Any, env_name: str) -> Any:
         light = getattr(_loading, "ours", False) and not consts and modname.startswith("numba.")
-        if not light or modname in sys.modules or environment.lookup_environment(env_name) is not None:
+        known = environment.lookup_environment(env_name)  # type: ignore[no-untyped-call]
+        if not light or modname in sys.modules or known is not None:
             return original(modname, consts, env_name)
         env = environment.Environment({"__name__": modname})
         env.env_name = env_name

@@ -7,7 +7,8 @@ SIMD). Here one compiled pass (colour_kernel.py, ~0.4 ms) makes the JPEG's plane
 so simplejpeg.encode_jpeg_yuv_planes gives encode_jpeg's bytes, and the video's from them (within a level or two
 of swscale's); the video frame is filled in place and swscale is not run.
 
-Frames the kernel does not cover (odd sizes, rgb8, padded rows, a non-MP4 video) and machines where the kernel does
+Frames the kernel does not cover (odd sizes, and for the JPEG widths not a multiple of 16; rgb8, padded rows, a
+GIF video) and machines where the kernel does
 not load (no numba) go the encoders' own way, as before.
 """
 
@@ -20,11 +21,16 @@ from typing import Any
 import numpy as np
 
 from racecar_sim.msgs import Image
+from racecar_sim.msgs.sensor_msgs import CompressedImage
 from racecar_sim.recording.images import JPEG_QUALITY, compress_image
 
 log = logging.getLogger("racecar_sim")
 
 _NOT_LOADED: Any = object()
+JPEG_WIDTH_STEP = 16
+"""The JPEG from planes is encode_jpeg's for any even height, but only for widths of whole 16-pixel MCUs: at a
+ragged right edge libjpeg-turbo replicates the last full-resolution column before downsampling, and the planes'
+encoder pads the downsampled planes."""
 
 
 def _load_kernel() -> Callable[..., None] | None:
@@ -37,7 +43,7 @@ def _load_kernel() -> Callable[..., None] | None:
     except Exception as exc:  # no numba, or a broken cache: the encoders convert, as before
         log.debug("writer: no compiled colour conversion (%s); the encoders convert each frame", exc)
         return None
-    return bgr_to_planes  # type: ignore[no-any-return]
+    return bgr_to_planes
 
 
 class CameraPlanes:
@@ -56,17 +62,15 @@ class CameraPlanes:
     def jpeg(self, msg: Image, video: Any, quality: int = JPEG_QUALITY) -> bytes | None:
         """`msg`'s JPEG: simplejpeg.encode_jpeg's bytes of its pixels; None where not covered. `video`: the open
         VideoWriter (or None), whose frame of `msg` is made in the same pass."""
-        if not self._convert(msg, video):
+        if msg.width % JPEG_WIDTH_STEP or not self._convert(msg, video):
             return None
         import simplejpeg
 
         assert self._jpeg_planes is not None
-        return simplejpeg.encode_jpeg_yuv_planes(*self._jpeg_planes, quality=quality)  # type: ignore[no-any-return]
+        return simplejpeg.encode_jpeg_yuv_planes(*self._jpeg_planes, quality=quality)
 
     def compressed(self, msg: Image, video: Any, quality: int = JPEG_QUALITY) -> Any:
         """`msg` as compress_image() makes it (the same header, format and bytes)."""
-        from racecar_sim.msgs.sensor_msgs import CompressedImage
-
         jpeg = self.jpeg(msg, video, quality)
         if jpeg is None:
             return compress_image(msg, quality)
@@ -93,7 +97,11 @@ class CameraPlanes:
         rows = np.frombuffer(msg.data, np.uint8, height * msg.step).reshape(height, msg.step)
         if self._jpeg_planes is None or self._jpeg_planes[0].shape != (height, width):
             half = (height // 2, width // 2)
-            self._jpeg_planes = (np.empty((height, width), np.uint8), np.empty(half, np.uint8), np.empty(half, np.uint8))
+            self._jpeg_planes = (
+                np.empty((height, width), np.uint8),
+                np.empty(half, np.uint8),
+                np.empty(half, np.uint8),
+            )
         frame = video.yuv420p_frame() if video is not None and video.shape == (height, width, 3) else None
         planes = frame_planes(frame) if frame is not None else self._jpeg_planes
         self._kernel(rows, *self._jpeg_planes, frame is not None, *planes)

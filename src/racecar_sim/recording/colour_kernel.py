@@ -30,9 +30,12 @@ _JCR_R, _JCR_G, _JCR_B = _fix(0.5), -_fix(0.41869), -_fix(0.08131)
 _J_HALF = 1 << 15
 _J_CHROMA_OFFSET = (128 << 16) + _J_HALF - 1
 
-# the video's limited range from the JPEG's full range: 219 levels of luma from 16, 224 of chroma around 128
-_LUMA_SCALE, _CHROMA_SCALE = round(219 / 255 * _SCALE), round(224 / 255 * _SCALE)
-_LUMA_OFFSET = 16 << 16
+# the video's luma as libswscale's bgr24ToY_c computes it (RGB2YUV_SHIFT 15: BT.601 scaled to 219 levels from 16,
+# truncated), and its chroma scaled from the JPEG's (224 levels around 128)
+_SHIFT = 15
+_VY_R, _VY_G, _VY_B = (round(c * 219 / 255 * (1 << _SHIFT)) for c in (0.299, 0.587, 0.114))
+_VY_OFFSET = 16 << _SHIFT
+_CHROMA_SCALE = round(224 / 255 * _SCALE)
 _CHROMA_OFFSET = (128 << 16) - 128 * _CHROMA_SCALE
 
 
@@ -51,7 +54,7 @@ def bgr_to_planes(
     (h/2, w/2); and, if `video`, the video's (the same shapes; rows may be longer, as a frame's line size).
 
     A row pair at a time, in loops the compiler vectorises (int32 arithmetic: 8 pixels a step): each pixel's
-    Y, Cb and Cr, the 2x2 blocks' means, then the video's levels scaled from the JPEG's."""
+    Y, Cb and Cr, the 2x2 blocks' means; the video's luma from the pixels, its chroma scaled from the JPEG's."""
     height, width = bgr.shape[0], bgr.shape[1] // 3
     half = width // 2
     cb = np.empty((2, width), np.int32)
@@ -72,9 +75,10 @@ def bgr_to_planes(
             out_cr[col] = np.uint8(np.int32(cr[0, x] + cr[0, x + 1] + cr[1, x] + cr[1, x + 1] + bias) >> 2)
         if video:
             for k in range(2):
-                luma, out = jpeg_y[2 * pair + k], video_y[2 * pair + k]
+                pixels, luma = bgr[2 * pair + k], video_y[2 * pair + k]
                 for x in range(width):
-                    out[x] = np.uint8(np.int32(np.int32(luma[x]) * _LUMA_SCALE + _LUMA_OFFSET) >> 16)
+                    b, g, r = np.int32(pixels[3 * x]), np.int32(pixels[3 * x + 1]), np.int32(pixels[3 * x + 2])
+                    luma[x] = np.uint8(_dot(r, g, b, _VY_R, _VY_G, _VY_B, _VY_OFFSET) >> _SHIFT)
             out_u, out_v = video_u[pair], video_v[pair]
             for col in range(half):
                 out_u[col] = np.uint8(np.int32(np.int32(out_cb[col]) * _CHROMA_SCALE + _CHROMA_OFFSET) >> 16)
@@ -84,4 +88,6 @@ def bgr_to_planes(
 @njit(cache=True, nogil=True, inline="always")
 def _dot(r: np.int32, g: np.int32, b: np.int32, kr: int, kg: int, kb: int, offset: int) -> np.int32:
     """kr r + kg g + kb b + offset in int32 (numba would widen each product to int64: half the vector width)."""
-    return np.int32(np.int32(np.int32(kr) * r) + np.int32(np.int32(kg) * g) + np.int32(np.int32(kb) * b) + np.int32(offset))
+    return np.int32(
+        np.int32(np.int32(kr) * r) + np.int32(np.int32(kg) * g) + np.int32(np.int32(kb) * b) + np.int32(offset)
+    )
