@@ -5,6 +5,7 @@ Frames the fast path does not cover, and a writer without the kernel, give compr
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import av
@@ -96,6 +97,16 @@ def test_frames_the_fast_path_does_not_cover_are_compressed_as_before(msg):
     assert planes.compressed(msg, None).data == compress_image(msg).data
 
 
+def test_loading_in_the_background_converts_once_loaded():
+    planes = CameraPlanes(background=True)  # as the writer process makes it when it opens an MP4
+    msg = image(random_frame(48, 64))
+    for _ in range(200):
+        if planes.jpeg(msg, None) is not None:
+            break
+        time.sleep(0.05)
+    assert planes.jpeg(msg, None) == expected_jpeg(random_frame(48, 64))
+
+
 def test_without_the_kernel_images_are_compressed_as_before(monkeypatch):
     monkeypatch.setattr(colour, "_load_kernel", lambda: None)
     msg = image(random_frame(48, 64))
@@ -168,7 +179,8 @@ def test_a_video_from_planes_decodes_as_the_bgr_video_does(tmp_path):
 def test_a_gif_or_odd_sized_video_takes_bgr_frames(tmp_path):
     with VideoWriter(tmp_path / "odd.mp4", 30.0, 49, 36) as video:
         msg = image(random_frame(36, 49))
-        assert video.yuv420p_frame() is None and CameraPlanes().video_frame(msg, video) is None
+        assert not video.takes_yuv420p and video.yuv420p_frame() is None
+        assert CameraPlanes().video_frame(msg, video) is None
         video.write(msg.bgr_pixels())
 
 

@@ -15,6 +15,7 @@ not load (no numba) go the encoders' own way, as before.
 from __future__ import annotations
 
 import logging
+import threading
 from collections.abc import Callable
 from typing import Any
 
@@ -26,7 +27,6 @@ from racecar_sim.recording.images import JPEG_QUALITY, compress_image
 
 log = logging.getLogger("racecar_sim")
 
-_NOT_LOADED: Any = object()
 JPEG_WIDTH_STEP = 16
 """The JPEG from planes is encode_jpeg's for any even height, but only for widths of whole 16-pixel MCUs: at a
 ragged right edge libjpeg-turbo replicates the last full-resolution column before downsampling, and the planes'
@@ -50,11 +50,15 @@ class CameraPlanes:
     """The last camera image's planes: the JPEG's (reused buffers) and, when a video takes them, its yuv420p frame.
 
     jpeg(msg) and video_frame(msg) convert `msg` at the first of the two calls for it (the same Image object) and
-    reuse the result at the second. Both return None where the fast path does not cover the image: the caller
-    then encodes it as before."""
+    reuse the result at the second. Both return None where the fast path does not cover the image (or the kernel
+    is not loaded: `background` loads it on a thread of its own): the caller then encodes it as before."""
 
-    def __init__(self) -> None:
-        self._kernel: Callable[..., None] | None = _NOT_LOADED
+    def __init__(self, background: bool = False) -> None:
+        self._kernel: Callable[..., None] | None = None
+        if background:  # the encoders convert until the kernel is loaded (numba's import: ~0.4 s)
+            threading.Thread(target=self._load, name="colour kernel", daemon=True).start()
+        else:
+            self._load()
         self._image: Image | None = None
         self._jpeg_planes: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._frame: Any = None  # the video's yuv420p frame of _image, until the video takes it
@@ -83,15 +87,16 @@ class CameraPlanes:
         frame, self._frame = self._frame, None
         return frame
 
+    def _load(self) -> None:
+        self._kernel = _load_kernel()
+
     def _convert(self, msg: Image, video: Any) -> bool:
         if msg is self._image:
             return True
         self._image, self._frame = None, None
         if msg.encoding != "bgr8" or msg.height % 2 or msg.width % 2 or msg.step != 3 * msg.width:
             return False
-        if self._kernel is _NOT_LOADED:
-            self._kernel = _load_kernel()
-        if self._kernel is None:
+        if self._kernel is None:  # not loaded (yet)
             return False
         height, width = msg.height, msg.width
         rows = np.frombuffer(msg.data, np.uint8, height * msg.step).reshape(height, msg.step)

@@ -82,13 +82,24 @@ class VideoWriter:
             self._thread.submit(functools.partial(self._encoder.write, frame, self.frames))
         self.frames += 1
 
+    @property
+    def takes_yuv420p(self) -> bool:
+        """Whether write_yuv420p() can be used: not for the GIF preview, an odd width or height, a background
+        encoder."""
+        encoder = self._encoder
+        return (
+            self._thread is None
+            and isinstance(encoder, _Mp4Encoder)
+            and encoder.width == self.width
+            and (encoder.height == self.height)
+        )
+
     def yuv420p_frame(self) -> Any:
         """A new frame for write_yuv420p() to fill (PyAV's yuv420p VideoFrame of the video's size), or None where
-        the video takes BGR frames only (the GIF preview, an odd width or height, a background encoder)."""
-        if self._thread is not None or not isinstance(self._encoder, _Mp4Encoder):
+        the video takes BGR frames only (takes_yuv420p)."""
+        if not self.takes_yuv420p:
             return None
-        if (self._encoder.width, self._encoder.height) != (self.width, self.height):
-            return None
+        assert isinstance(self._encoder, _Mp4Encoder)
         return self._encoder.frame_type(self.width, self.height, PIX_FMT)
 
     def write_yuv420p(self, frame: Any) -> None:
