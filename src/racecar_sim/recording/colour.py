@@ -40,6 +40,9 @@ def _load_kernel() -> Callable[..., None] | None:
 
         load_numba()
         from racecar_sim.recording.colour_kernel import bgr_to_planes
+
+        pixels, luma, chroma = np.zeros((2, 6), np.uint8), np.zeros((2, 2), np.uint8), np.zeros((1, 1), np.uint8)
+        bgr_to_planes(pixels, luma, chroma, chroma, True, luma, chroma, chroma)  # its machine code linked in now
     except Exception as exc:  # no numba, or a broken cache: the encoders convert, as before
         log.debug("writer: no compiled colour conversion (%s); the encoders convert each frame", exc)
         return None
