@@ -5,9 +5,9 @@ JPEG: libjpeg-turbo's JFIF conversion (jccolor.c, fixed point with 16 fraction b
 downsampling (jcsample.c: each 2x2 block's sum plus a bias of 1, 2, 1, 2, ... along the row, shifted down by 2), so
 that simplejpeg.encode_jpeg_yuv_planes makes the bytes encode_jpeg makes from the BGR pixels.
 
-Video: limited-range BT.601 as libswscale makes it for bgr24 -> yuv420p (input.c's bgr24ToY_c with its 15-bit
-coefficients and two roundings for luma); chroma is each 2x2 block's mean, where swscale sums pixel pairs then
-filters rows: within a level or two of it.
+Video: limited-range BT.601 yuv420p. Luma as libswscale makes it for bgr24 (input.c's bgr24ToY_c: 15-bit
+coefficients, truncated), value for value; chroma is the JPEG's 2x2 means scaled to 224 levels around 128, within
+two levels of libswscale's (which sums pixel pairs, filters rows, and puts grey at 127).
 """
 
 from __future__ import annotations
