@@ -57,7 +57,7 @@ def swscale_planes(bgr: np.ndarray) -> list[np.ndarray]:
 
 
 def test_the_kernel_loads():
-    assert colour._load_kernel() is not None  # numba is a dependency: the fast path is what the tests below check
+    assert colour.load_kernel() is not None  # numba is a dependency: the fast path is what the tests below check
 
 
 @pytest.mark.parametrize(
@@ -108,7 +108,7 @@ def test_loading_in_the_background_converts_once_loaded():
 
 
 def test_without_the_kernel_images_are_compressed_as_before(monkeypatch):
-    monkeypatch.setattr(colour, "_load_kernel", lambda: None)
+    monkeypatch.setattr(colour, "load_kernel", lambda: None)
     msg = image(random_frame(48, 64))
     planes = CameraPlanes()
     assert planes.jpeg(msg, None) is None

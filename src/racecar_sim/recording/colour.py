@@ -33,8 +33,20 @@ ragged right edge libjpeg-turbo replicates the last full-resolution column befor
 encoder pads the downsampled planes."""
 
 
-def _load_kernel() -> Callable[..., None] | None:
-    """The compiled conversion (numba's cached kernel, loaded the light way), or None where it cannot load."""
+_loading = threading.Lock()  # one load at a time: the writer's start and a video opened meanwhile wait for one
+_loaded: list[Callable[..., None] | None] = []
+
+
+def load_kernel() -> Callable[..., None] | None:
+    """The compiled conversion (numba's cached kernel, loaded the light way), or None where it cannot load; loaded
+    once per process."""
+    with _loading:
+        if not _loaded:
+            _loaded.append(_load())
+        return _loaded[0]
+
+
+def _load() -> Callable[..., None] | None:
     try:
         from racecar_sim.core.compiled import load_numba
 
@@ -91,7 +103,7 @@ class CameraPlanes:
         return frame
 
     def _load(self) -> None:
-        self._kernel = _load_kernel()
+        self._kernel = load_kernel()
 
     def _convert(self, msg: Image, video: Any) -> bool:
         if msg is self._image:

@@ -79,10 +79,13 @@ class WriterProcess:
     reaches the whole process group, and the parent's close() is what ends it.
 
     `pass_fds`: the parent's open files the child uses, named in operations by their numbers here (pass_fds()).
-    open() takes the process start_early() started, if one waits.
+    `colour`: the child loads the compiled colour conversion (recording/colour.py: numba, ~0.45 s of CPU) as it
+    starts, and an MP4 it writes takes its frames from it (one conversion for the JPEG and the video); for a process
+    started before the run, where the load is free (start_early()). open() takes the process start_early() started,
+    if one waits.
     """
 
-    def __init__(self, name: str, pass_fds: Sequence[int] = ()) -> None:
+    def __init__(self, name: str, pass_fds: Sequence[int] = (), colour: bool = False) -> None:
         self.name = name
         self.results: dict[str, Any] = {}
         self._ops: list[tuple[Any, ...]] = []
@@ -115,6 +118,7 @@ class WriterProcess:
             str(linked),
             str(-1 if self._ring_fd is None else self._ring_fd),
             str(fds_child.fileno()),
+            str(int(colour)),
         ]
         # the child starts with SIGINT and SIGTERM blocked, so none arrives before it ignores them
         blocked = signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
@@ -370,14 +374,15 @@ def _shared_memory() -> int | None:
 _early: WriterProcess | None = None  # start_early()'s process, until WriterProcess.open() takes it
 
 
-def start_early() -> None:
+def start_early(colour: bool = False) -> None:
     """Start a writer process now, for the next WriterProcess.open() to take: its child's interpreter and imports
-    (its modules and the encoders': ~0.3 s of CPU) then run beside the caller's own start (building a simulation, on
-    one core), not beside the run that the files record. The process is closed by close_early() if none takes it."""
+    (its modules and the encoders': ~0.3 s of CPU; with `colour`, the compiled colour conversion too: ~0.45 s more)
+    then run beside the caller's own start (building a simulation, on one core), not beside the run that the files
+    record. The process is closed by close_early() if none takes it."""
     global _early
     if _early is None:
         with contextlib.suppress(OSError):  # no process: WriterProcess.open() tries again, and falls back as before
-            _early = WriterProcess("writer process started early")
+            _early = WriterProcess("writer process started early", colour=colour)
 
 
 def close_early() -> None:
@@ -557,15 +562,18 @@ def serve() -> None:
     back = _Reports(int(sys.argv[2]))
     ring = int(sys.argv[4]) if len(sys.argv) > 4 else -1
     fds = socket.socket(fileno=int(sys.argv[5])) if len(sys.argv) > 5 else None
-    threading.Thread(target=_import_encoders, name="imports", daemon=True).start()
+    colour = len(sys.argv) > 6 and sys.argv[6] == "1"
     logging.getLogger("racecar_sim").addHandler(back)
     hand_overs: queue.Queue[tuple[bytes, list[bytearray]] | None] = queue.Queue(DEPTH)
     reader = threading.Thread(target=_read_hand_overs, args=(int(sys.argv[1]), hand_overs), daemon=True)
     reader.start()  # reads on while the main thread encodes: the parent's hand-over waits on no encoder
-    workers = _Workers(hand_overs, _Files(back, ring, fds))
+    workers = _Workers(hand_overs, _Files(back, ring, fds, colour))
     urgent = threading.Thread(target=workers.work, args=(True,), name="urgent writer", daemon=True)
     urgent.start()  # before this thread gives way: it keeps the simulation's priority
-    if _give_way():
+    relaxed = _give_way()
+    # after giving way: the imports run at the relaxed worker's priority, behind the parent's own start-up
+    threading.Thread(target=_import_encoders, args=(colour,), name="imports", daemon=True).start()
+    if relaxed:
         workers.work(urgent=False)
     else:  # a nice value for the whole process: one worker, at the simulation's priority
         with workers.turn:
@@ -580,10 +588,10 @@ def serve() -> None:
     back.send("closed", workers.files.results())
 
 
-def _import_encoders() -> None:
-    """Import what the operations use (the MCAP writer, PyAV, simplejpeg, serialization) while the parent starts,
-    rather than with the first operation of each kind, in the middle of a run (an import the first operation meets
-    half-done waits for it)."""
+def _import_encoders(colour: bool) -> None:
+    """Import what the operations use (the MCAP writer, PyAV, simplejpeg, serialization; with `colour`, the compiled
+    colour conversion) while the parent starts, rather than with the first operation of each kind, in the middle of
+    a run (an import the first operation meets half-done waits for it)."""
     with contextlib.suppress(Exception):  # an encoder missing: the operation that needs it says so, as before
         import av  # noqa: F401
         import simplejpeg  # noqa: F401
@@ -592,6 +600,10 @@ def _import_encoders() -> None:
         import racecar_sim.recording.video  # noqa: F401
         from racecar_sim.msgs import serialize  # noqa: F401
         from racecar_sim.recording.mcap_recorder import McapRecorder  # noqa: F401
+    if colour:
+        from racecar_sim.recording.colour import load_kernel
+
+        load_kernel()
 
 
 def _read_hand_overs(fd: int, hand_overs: queue.Queue[tuple[bytes, list[bytearray]] | None]) -> None:
@@ -644,8 +656,11 @@ class _Reports(logging.Handler):
 class _Files:
     """The child's files: the MCAP recorder and the video writer, opened by operations."""
 
-    def __init__(self, reports: _Reports, ring_fd: int = -1, fds: socket.socket | None = None) -> None:
+    def __init__(
+        self, reports: _Reports, ring_fd: int = -1, fds: socket.socket | None = None, colour: bool = False
+    ) -> None:
         self.reports = reports
+        self.colour = colour  # an MP4 takes its frames from the compiled colour conversion (WriterProcess's)
         self.fds = fds  # the parent's pass_fds() arrive here
         self.passed: dict[int, int] = {}  # the parent's number of a file passed -> the child's
         self.recorder: Any = None
@@ -741,12 +756,14 @@ class _Files:
 
             self.video = VideoWriter(*op[1:])
             self.video_path = str(self.video.path)
-            if self.video.takes_yuv420p:
+            if self.colour and self.video.takes_yuv420p:
                 # one conversion for the JPEG and the video: it pays only where it saves libswscale's (~0.4 ms of
-                # the 1.3 ms the encoders spent converting a 640x480 frame), against ~0.5 s to load numba
+                # the 1.3 ms the encoders spent converting a 640x480 frame), and where numba's load (~0.45 s) was
+                # done beside the parent's start. Waited for if still loading: every frame of the video then comes
+                # the same way, so that a run's camera.mp4 is the same bytes every time.
                 from racecar_sim.recording.colour import CameraPlanes
 
-                self.planes = CameraPlanes(background=True)
+                self.planes = CameraPlanes()
         elif kind == CLOSE_VIDEO:
             self.close_video()
             self.reports.send("reply", self.video_path)
