@@ -85,7 +85,7 @@ def test_a_process_started_early_records_the_same_bytes_and_one_left_unused_exit
     unused = writer_process._early
     assert unused is not None
     writer_process.close_early()
-    assert writer_process._early is None and unused.closed and unused._process.returncode == 0
+    assert writer_process._early is None and unused.closed and unused._process.returncode is not None
 
 
 def test_recorded_jpegs_decode_to_the_published_frames_in_publication_order(tmp_path):

@@ -345,6 +345,20 @@ class WriterProcess:
             os.close(self._ring_fd)
             self._ring_fd = None
 
+    def abandon(self) -> None:
+        """End a process that was handed no operation: its child killed and waited for, the pipes closed."""
+        if self._closed:
+            return
+        self._closed = True
+        self._interrupt.uninstall()
+        self._process.kill()
+        self._process.wait()
+        for fd in (self._data, self._back, self._ring_fd):
+            if fd is not None:
+                os.close(fd)
+        self._data = self._back = self._ring_fd = None
+        self._fds.close()
+
     @property
     def closed(self) -> bool:
         """Whether close() has run."""
@@ -386,11 +400,12 @@ def start_early(colour: bool = False) -> None:
 
 
 def close_early() -> None:
-    """Close the process start_early() started, if nothing took it (its child exits without writing a file)."""
+    """End the process start_early() started, if nothing took it: it was given no file, so its child is killed
+    rather than waited for (it may still be importing: a run whose build failed exits at once)."""
     global _early
     process, _early = _early, None
     if process is not None:
-        process.close()
+        process.abandon()
 
 
 class _FrameRing:
