@@ -585,10 +585,10 @@ def serve() -> None:
     workers = _Workers(hand_overs, _Files(back, ring, fds, colour))
     urgent = threading.Thread(target=workers.work, args=(True,), name="urgent writer", daemon=True)
     urgent.start()  # before this thread gives way: it keeps the simulation's priority
-    relaxed = _give_way()
-    # after giving way: the imports run at the relaxed worker's priority, behind the parent's own start-up
+    # so do the imports: on a busy machine, at the relaxed worker's priority, they were still going on (and numba's
+    # load with them) when the run began
     threading.Thread(target=_import_encoders, args=(colour,), name="imports", daemon=True).start()
-    if relaxed:
+    if _give_way():
         workers.work(urgent=False)
     else:  # a nice value for the whole process: one worker, at the simulation's priority
         with workers.turn:
