@@ -73,6 +73,47 @@ def test_process_writes_the_bytes_the_thread_writes(tmp_path):
     assert (tmp_path / "raw_True.mcap").read_bytes() == (tmp_path / "raw_False.mcap").read_bytes()
 
 
+def test_a_process_started_early_records_the_same_bytes_and_one_left_unused_exits(tmp_path):
+    record(tmp_path / "fresh.mcap", process=True)
+    writer_process.start_early()
+    early = writer_process._early
+    assert early is not None and early._process.poll() is None  # its child starts before any file is opened
+    rec = record(tmp_path / "early.mcap", process=True)
+    assert rec.process is early and writer_process._early is None  # taken, the recording's file passed to it later
+    assert (tmp_path / "early.mcap").read_bytes() == (tmp_path / "fresh.mcap").read_bytes()
+    writer_process.start_early()
+    unused = writer_process._early
+    assert unused is not None
+    writer_process.close_early()
+    assert writer_process._early is None and unused.closed and unused._process.returncode is not None
+
+
+@pytest.mark.parametrize(
+    ("options", "record", "out", "started"),
+    [
+        ({}, True, True, [True]),  # the main job: records and films, the colour kernel loaded as the child starts
+        ({"no_video": True}, True, True, [False]),
+        ({"no_camera": True}, False, True, []),
+        ({"no_video": True}, False, True, []),
+        ({}, False, False, []),
+    ],
+)
+def test_the_cli_starts_its_writer_process_before_the_build_where_the_run_writes_files(
+    monkeypatch, tmp_path, options, record, out, started
+):
+    from argparse import Namespace
+
+    from racecar_sim.cli.run_folder import early_writer
+
+    calls: list[bool] = []
+    monkeypatch.setattr(writer_process, "start_early", lambda colour=False: calls.append(colour))
+    monkeypatch.setattr(writer_process, "close_early", lambda: calls.append(None))  # type: ignore[arg-type]
+    args = Namespace(**{"no_video": False, "no_camera": False} | options)
+    with early_writer(args, tmp_path if out else None, tmp_path / "run.mcap" if record else None):
+        assert calls == started
+    assert calls == (started + [None] if started else [])
+
+
 def test_recorded_jpegs_decode_to_the_published_frames_in_publication_order(tmp_path):
     record(tmp_path / "run.mcap", process=True)
     with open(tmp_path / "run.mcap", "rb") as f:
@@ -153,6 +194,25 @@ def test_camera_frames_cross_in_shared_memory_and_the_files_are_the_in_place_one
         with av.open(str(path)) as container:
             decoded.append([f.to_ndarray(format="bgr24") for f in container.decode(video=0)])
     assert len(decoded[0]) == 12 and all(np.array_equal(a, b) for a, b in zip(*decoded))
+
+
+def test_a_process_started_to_film_converts_each_frame_once_for_the_same_jpegs_and_a_video_within_2_levels(
+    tmp_path, monkeypatch
+):
+    monkeypatch.setattr(writer_process, "RING_SLOTS", 3)
+    images = [big_image(i) for i in range(6)]
+    in_place = record_and_film(tmp_path, False, images)
+    writer_process.start_early(colour=True)  # as `racecar-sim run` does: the colour kernel loaded as it starts
+    assert record_and_film(tmp_path, True, images) == in_place  # the JPEGs from the kernel's planes: the same bytes
+    decoded = []
+    for path in (tmp_path / "camera.mp4", tmp_path / "in_place.mp4"):
+        with av.open(str(path)) as container:
+            decoded.append([f.to_ndarray(format="yuv420p").astype(int) for f in container.decode(video=0)])
+    assert len(decoded[0]) == 6
+    luma = np.array([np.abs(a[:480] - b[:480]).mean() for a, b in zip(*decoded)])
+    chroma = np.array([np.abs(a[480:] - b[480:]).mean() for a, b in zip(*decoded)])
+    assert chroma.max() > 0  # not libswscale's planes: the kernel's
+    assert luma.max() < 0.5 and chroma.max() <= 2.0
 
 
 def test_a_video_without_a_recording_owns_its_process_and_falls_back_to_gif(tmp_path, monkeypatch, caplog):

@@ -46,6 +46,7 @@ from racecar_sim.cli.ros_env import PAUSED_WAIT, check_ros, start_ros_bridge
 from racecar_sim.cli.run_folder import (
     RunFolder,
     driver_label,
+    early_writer,
     interrupted_note,
     node_failure_fields,
     node_failure_note,
@@ -289,7 +290,7 @@ def main(args: argparse.Namespace, attach: Callable[[argparse.Namespace, Simulat
     else:
         drivers, settings = [args.driver] * len(names), [{} for _ in names]
     out, record = output_paths(args, Path("runs") / datetime.now().strftime("%Y%m%d-%H%M%S"))
-    with _simulator(args) as sim:
+    with early_writer(args, out, record), _simulator(args) as sim:
         driven = [sim_drives(args, index, driver_given) for index in range(len(sim.cars))]
         for index, (car, drive) in enumerate(zip(sim.cars, driven)):
             if not drive:

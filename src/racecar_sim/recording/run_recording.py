@@ -72,9 +72,9 @@ class RunRecording:
         self._closed = False
         self._batch: list[tuple[str, str | None, Any, int]] = []
         if process:
-            fd = stream.fileno()  # the child's copy has the same number
+            fd = stream.fileno()  # the child's copy is named by this number
             try:
-                self.process = WriterProcess(f"record {self._path}", pass_fds=[fd])
+                self.process = WriterProcess.open(f"record {self._path}", pass_fds=[fd])
             except OSError as exc:
                 log.warning("no writer process (%s): recording on a writer thread", exc)
             else:

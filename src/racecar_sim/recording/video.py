@@ -82,6 +82,35 @@ class VideoWriter:
             self._thread.submit(functools.partial(self._encoder.write, frame, self.frames))
         self.frames += 1
 
+    @property
+    def takes_yuv420p(self) -> bool:
+        """Whether write_yuv420p() can be used: not for the GIF preview, an odd width or height, a background
+        encoder."""
+        encoder = self._encoder
+        return (
+            self._thread is None
+            and isinstance(encoder, _Mp4Encoder)
+            and encoder.width == self.width
+            and (encoder.height == self.height)
+        )
+
+    def yuv420p_frame(self) -> Any:
+        """A new frame for write_yuv420p() to fill (PyAV's yuv420p VideoFrame of the video's size), or None where
+        the video takes BGR frames only (takes_yuv420p)."""
+        if not self.takes_yuv420p:
+            return None
+        assert isinstance(self._encoder, _Mp4Encoder)
+        return self._encoder.frame_type(self.width, self.height, PIX_FMT)
+
+    def write_yuv420p(self, frame: Any) -> None:
+        """Append one frame made by yuv420p_frame() and filled with limited-range BT.601 planes (what write()
+        would have converted its BGR frame to): the encoder takes it without a conversion."""
+        if self._closed:
+            raise ValueError(f"write() after close() of {self.path}")
+        assert isinstance(self._encoder, _Mp4Encoder) and self._thread is None
+        self._encoder.encode(frame, self.frames)
+        self.frames += 1
+
     def close(self) -> Path:
         """Flush the encoder and finish the file (the MP4 index, the GIF trailer); returns the path written."""
         if not self._closed:
@@ -134,7 +163,7 @@ class _Mp4Encoder:
         except BaseException:
             self.container.close()
             raise
-        self._frame_type = av.VideoFrame
+        self.frame_type = av.VideoFrame
         # one converter for the whole file, on this thread: frame.reformat() makes a new one per frame, and with it
         # FFmpeg's scaler threads (started and joined per frame: ~2 ms of a frame's wall time for a 0.2 ms job)
         self._reformatter = av.video.reformatter.VideoReformatter()
@@ -142,13 +171,17 @@ class _Mp4Encoder:
 
     def write(self, frame: np.ndarray, index: int) -> None:
         frame = np.ascontiguousarray(frame[: self.height, : self.width])
-        video_frame = self._frame_type.from_numpy_buffer(frame, format="bgr24")  # wraps the pixels, no copy
+        video_frame = self.frame_type.from_numpy_buffer(frame, format="bgr24")  # wraps the pixels, no copy
         try:
             video_frame = self._reformatter.reformat(video_frame, **self._convert)
         except TypeError:  # a PyAV without reformat(threads=)
             if self._convert.pop("threads", None) is None:
                 raise
             video_frame = self._reformatter.reformat(video_frame, **self._convert)
+        self.encode(video_frame, index)
+
+    def encode(self, video_frame: Any, index: int) -> None:
+        """A yuv420p frame of the stream's size to the file."""
         video_frame.pts = index
         video_frame.time_base = self.time_base
         for packet in self.stream.encode(video_frame):

@@ -20,6 +20,7 @@ import pickle
 import queue
 import select
 import signal
+import socket
 import struct
 import subprocess
 import sys
@@ -77,11 +78,14 @@ class WriterProcess:
     until then, so an interrupted run still finishes its files. The child ignores SIGINT and SIGTERM: a Ctrl-C
     reaches the whole process group, and the parent's close() is what ends it.
 
-    `pass_fds`: the parent's open files the child uses by the same number (a recording opened here, so that a path
-    that cannot be written raises at once in the caller); the caller closes its own copies afterwards.
+    `pass_fds`: the parent's open files the child uses, named in operations by their numbers here (pass_fds()).
+    `colour`: the child loads the compiled colour conversion (recording/colour.py: numba, ~0.45 s of CPU) as it
+    starts, and an MP4 it writes takes its frames from it (one conversion for the JPEG and the video); for a process
+    started before the run, where the load is free (start_early()). open() takes the process start_early() started,
+    if one waits.
     """
 
-    def __init__(self, name: str, pass_fds: Sequence[int] = ()) -> None:
+    def __init__(self, name: str, pass_fds: Sequence[int] = (), colour: bool = False) -> None:
         self.name = name
         self.results: dict[str, Any] = {}
         self._ops: list[tuple[Any, ...]] = []
@@ -98,6 +102,7 @@ class WriterProcess:
         self._ring_fd = _shared_memory()  # sized with the first camera frame
         self._ring: _FrameRing | None = None
         ring_fds = () if self._ring_fd is None else (self._ring_fd,)
+        self._fds, fds_child = socket.socketpair(socket.AF_UNIX, socket.SOCK_DGRAM)  # pass_fds: files sent later
         # a SIGKILL of the run ends its writer too (on Linux): the file is cut where it was, as without a process
         # (racecar-sim recover mends it), never finished behind the back of whoever reads it next. Only when the
         # main thread starts it: the signal comes when the starting thread ends.
@@ -112,27 +117,51 @@ class WriterProcess:
             str(back_write),
             str(linked),
             str(-1 if self._ring_fd is None else self._ring_fd),
+            str(fds_child.fileno()),
+            str(int(colour)),
         ]
         # the child starts with SIGINT and SIGTERM blocked, so none arrives before it ignores them
         blocked = signal.pthread_sigmask(signal.SIG_BLOCK, _SIGNALS)
         try:
             self._process = subprocess.Popen(
                 command,
-                pass_fds=(data_read, back_write, *ring_fds, *pass_fds),
+                pass_fds=(data_read, back_write, *ring_fds, fds_child.fileno()),
                 stdin=subprocess.DEVNULL,
                 env=_child_environment(),
             )
         except BaseException:
             for fd in (data_write, back_read, *ring_fds):
                 os.close(fd)
+            self._fds.close()
             raise
         finally:
             signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
             os.close(data_read)
             os.close(back_write)
+            fds_child.close()
         self._back: int | None = back_read
         self._pending: list[memoryview] = []  # the rest of a hand-over a signal cut short
         self._interrupt = DeferredInterrupt(_SIGNALS)
+        self.pass_fds(pass_fds)
+
+    @classmethod
+    def open(cls, name: str, pass_fds: Sequence[int] = ()) -> WriterProcess:
+        """A writer process for `name`: the one start_early() started, if it waits unused, else a new one."""
+        global _early
+        process, _early = _early, None
+        if process is None or process.closed:
+            return cls(name, pass_fds)
+        process.name = name
+        process.pass_fds(pass_fds)
+        return process
+
+    def pass_fds(self, fds: Sequence[int]) -> None:
+        """Send the child copies of the parent's open files `fds`, which operations name by the parent's numbers (a
+        recording opened here, so that a path that cannot be written raises at once in the caller); the caller
+        closes its own copies afterwards. A child already running gets them too: they cross the socket with the
+        numbers they have here."""
+        if fds:
+            socket.send_fds(self._fds, [_SIZE.pack(len(fds)) + b"".join(_SIZE.pack(fd) for fd in fds)], list(fds))
 
     def message(self, topic: str, msgtype: str, data: bytes, log_time_ns: int) -> None:
         """Record a serialized message (CDR bytes of type `msgtype`, `pkg/msg/Name`) at `log_time_ns`."""
@@ -309,11 +338,26 @@ class WriterProcess:
         if self._back is not None:
             os.close(self._back)
             self._back = None
+        self._fds.close()
         if self._ring is not None:
             self._ring.close()
         if self._ring_fd is not None:
             os.close(self._ring_fd)
             self._ring_fd = None
+
+    def abandon(self) -> None:
+        """End a process that was handed no operation: its child killed and waited for, the pipes closed."""
+        if self._closed:
+            return
+        self._closed = True
+        self._interrupt.uninstall()
+        self._process.kill()
+        self._process.wait()
+        for fd in (self._data, self._back, self._ring_fd):
+            if fd is not None:
+                os.close(fd)
+        self._data = self._back = self._ring_fd = None
+        self._fds.close()
 
     @property
     def closed(self) -> bool:
@@ -339,6 +383,29 @@ def _shared_memory() -> int | None:
         return os.memfd_create("racecar-sim frames")
     except (AttributeError, OSError):
         return None
+
+
+_early: WriterProcess | None = None  # start_early()'s process, until WriterProcess.open() takes it
+
+
+def start_early(colour: bool = False) -> None:
+    """Start a writer process now, for the next WriterProcess.open() to take: its child's interpreter and imports
+    (its modules and the encoders': ~0.3 s of CPU; with `colour`, the compiled colour conversion too: ~0.45 s more)
+    then run beside the caller's own start (building a simulation, on one core), not beside the run that the files
+    record. The process is closed by close_early() if none takes it."""
+    global _early
+    if _early is None:
+        with contextlib.suppress(OSError):  # no process: WriterProcess.open() tries again, and falls back as before
+            _early = WriterProcess("writer process started early", colour=colour)
+
+
+def close_early() -> None:
+    """End the process start_early() started, if nothing took it: it was given no file, so its child is killed
+    rather than waited for (it may still be importing: a run whose build failed exits at once)."""
+    global _early
+    process, _early = _early, None
+    if process is not None:
+        process.abandon()
 
 
 class _FrameRing:
@@ -509,13 +576,18 @@ def serve() -> None:
     _batch_scheduling()
     back = _Reports(int(sys.argv[2]))
     ring = int(sys.argv[4]) if len(sys.argv) > 4 else -1
+    fds = socket.socket(fileno=int(sys.argv[5])) if len(sys.argv) > 5 else None
+    colour = len(sys.argv) > 6 and sys.argv[6] == "1"
     logging.getLogger("racecar_sim").addHandler(back)
     hand_overs: queue.Queue[tuple[bytes, list[bytearray]] | None] = queue.Queue(DEPTH)
     reader = threading.Thread(target=_read_hand_overs, args=(int(sys.argv[1]), hand_overs), daemon=True)
     reader.start()  # reads on while the main thread encodes: the parent's hand-over waits on no encoder
-    workers = _Workers(hand_overs, _Files(back, ring))
+    workers = _Workers(hand_overs, _Files(back, ring, fds, colour))
     urgent = threading.Thread(target=workers.work, args=(True,), name="urgent writer", daemon=True)
     urgent.start()  # before this thread gives way: it keeps the simulation's priority
+    # so do the imports: on a busy machine, at the relaxed worker's priority, they were still going on (and numba's
+    # load with them) when the run began
+    threading.Thread(target=_import_encoders, args=(colour,), name="imports", daemon=True).start()
     if _give_way():
         workers.work(urgent=False)
     else:  # a nice value for the whole process: one worker, at the simulation's priority
@@ -529,6 +601,24 @@ def serve() -> None:
         if workers.error is None:
             back.send("error", exc)
     back.send("closed", workers.files.results())
+
+
+def _import_encoders(colour: bool) -> None:
+    """Import what the operations use (the MCAP writer, PyAV, simplejpeg, serialization; with `colour`, the compiled
+    colour conversion) while the parent starts, rather than with the first operation of each kind, in the middle of
+    a run (an import the first operation meets half-done waits for it)."""
+    with contextlib.suppress(Exception):  # an encoder missing: the operation that needs it says so, as before
+        import av  # noqa: F401
+        import simplejpeg  # noqa: F401
+
+        import racecar_sim.recording.images
+        import racecar_sim.recording.video  # noqa: F401
+        from racecar_sim.msgs import serialize  # noqa: F401
+        from racecar_sim.recording.mcap_recorder import McapRecorder  # noqa: F401
+    if colour:
+        from racecar_sim.recording.colour import load_kernel
+
+        load_kernel()
 
 
 def _read_hand_overs(fd: int, hand_overs: queue.Queue[tuple[bytes, list[bytearray]] | None]) -> None:
@@ -581,8 +671,13 @@ class _Reports(logging.Handler):
 class _Files:
     """The child's files: the MCAP recorder and the video writer, opened by operations."""
 
-    def __init__(self, reports: _Reports, ring_fd: int = -1) -> None:
+    def __init__(
+        self, reports: _Reports, ring_fd: int = -1, fds: socket.socket | None = None, colour: bool = False
+    ) -> None:
         self.reports = reports
+        self.colour = colour  # an MP4 takes its frames from the compiled colour conversion (WriterProcess's)
+        self.fds = fds  # the parent's pass_fds() arrive here
+        self.passed: dict[int, int] = {}  # the parent's number of a file passed -> the child's
         self.recorder: Any = None
         self.video: Any = None
         self.video_path: str | None = None
@@ -591,6 +686,7 @@ class _Files:
         self.ring: mmap.mmap | None = None  # the shared memory, mapped with the first frame in it
         self.held: np.ndarray | None = None  # its head's count: the parent's _FrameRing.held
         self.holding: int | None = None  # the frame of the shared memory last_image is
+        self.planes: Any = None  # colour.CameraPlanes while an MP4 is written: a frame converted once for both
 
     def image(self, pixels: tuple[Any, ...] | None) -> Image:
         if pixels is not _SAME:
@@ -614,6 +710,17 @@ class _Files:
         start = _RING_HEAD + (frame % slots) * slot_size
         return memoryview(self.ring)[start : start + nbytes]
 
+    def passed_fd(self, fd: int) -> int:
+        """The child's copy of the parent's file `fd` (WriterProcess.pass_fds), which the parent sent before the
+        operation that names it."""
+        while fd not in self.passed:
+            if self.fds is None:
+                return fd  # a parent of the same code always sends them; a child started without the socket inherits
+            data, fds, _, _ = socket.recv_fds(self.fds, _SIZE.size * 64, 64)
+            numbers = [number for (number,) in _SIZE.iter_unpack(data[_SIZE.size :])]
+            self.passed.update(zip(numbers, fds))
+        return self.passed.pop(fd)
+
     def do_all(self, ops: list[tuple[Any, ...]]) -> None:
         """do() each op in turn; a run of messages goes to the recorder at once (McapRecorder.write_many)."""
         start = 0
@@ -632,15 +739,24 @@ class _Files:
             self.recorder.write_serialized(op[1], op[2], op[3], op[4])
         elif kind == JPEG:
             from racecar_sim.msgs import serialize
-            from racecar_sim.recording.images import compress_image
 
             _, topic, msgtype, pixels, log_time, quality = op
-            self.recorder.write_serialized(
-                topic, msgtype, serialize(compress_image(self.image(pixels), quality)), log_time
-            )
+            image = self.image(pixels)
+            if self.planes is None:
+                from racecar_sim.recording.images import compress_image
+
+                compressed = compress_image(image, quality)
+            else:
+                compressed = self.planes.compressed(image, self.video, quality)
+            self.recorder.write_serialized(topic, msgtype, serialize(compressed), log_time)
         elif kind == FRAME:
             try:
-                self.video.write(self.image(op[1]).bgr_pixels())
+                image = self.image(op[1])
+                frame = None if self.planes is None else self.planes.video_frame(image, self.video)
+                if frame is None:
+                    self.video.write(image.bgr_pixels())
+                else:
+                    self.video.write_yuv420p(frame)
             except OSError as exc:  # a full disk, a file size limit: one line, not the encoder's traceback
                 raise RecordingError(
                     f"{self.video_path}: the video stopped: cannot write the file ({exc.strerror or exc})"
@@ -649,19 +765,27 @@ class _Files:
             from racecar_sim.recording.mcap_recorder import McapRecorder
 
             _, fd, path, compression = op
-            self.recorder = McapRecorder(path, compression=compression, stream=open(fd, "wb"))
+            self.recorder = McapRecorder(path, compression=compression, stream=open(self.passed_fd(fd), "wb"))
         elif kind == OPEN_VIDEO:
             from racecar_sim.recording.video import VideoWriter
 
             self.video = VideoWriter(*op[1:])
             self.video_path = str(self.video.path)
+            if self.colour and self.video.takes_yuv420p:
+                # one conversion for the JPEG and the video: it pays only where it saves libswscale's (~0.4 ms of
+                # the 1.3 ms the encoders spent converting a 640x480 frame), and where numba's load (~0.45 s) was
+                # done beside the parent's start. Waited for if still loading: every frame of the video then comes
+                # the same way, so that a run's camera.mp4 is the same bytes every time.
+                from racecar_sim.recording.colour import CameraPlanes
+
+                self.planes = CameraPlanes()
         elif kind == CLOSE_VIDEO:
             self.close_video()
             self.reports.send("reply", self.video_path)
 
     def close_video(self) -> None:
         if self.video is not None:
-            video, self.video = self.video, None
+            video, self.video, self.planes = self.video, None, None
             if video.frames:
                 video.close()
             else:  # no frame, no file: nothing was muxed
