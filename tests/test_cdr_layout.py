@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import pickle
+
 import numpy as np
 import pytest
 
@@ -84,3 +86,13 @@ def test_pack_doubles_gives_pack_bytes_for_float64_layouts() -> None:
 def test_no_layout_for_byte_arrays() -> None:
     image = msgs.Image(msgs.Header.at(0, "camera"), 2, 2, "rgb8", 0, 6, np.zeros(12, np.uint8))
     assert CdrLayout.of(image) is None
+
+
+@pytest.mark.parametrize("make", MAKERS)
+def test_a_pickled_layout_packs_the_same_bytes(make) -> None:
+    """A writer process packs rows with the layout it was handed (pickled as what makes it): the same bytes."""
+    layout, numbers = CdrLayout.of(make(1.25))
+    _, other = CdrLayout.of(make(2.5))
+    copy = pickle.loads(pickle.dumps(layout))
+    assert copy is not layout and copy.msgtype == layout.msgtype
+    assert copy.pack_many([numbers, other]) == [msgs.serialize(make(1.25)), msgs.serialize(make(2.5))]

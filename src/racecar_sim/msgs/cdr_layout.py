@@ -103,6 +103,7 @@ class CdrLayout:
         self.msgtype = msgtype
         self.count = count  # how many numbers a message has
         self._struct = struct.Struct(fmt)
+        self._recipe = (msgtype, fmt, literals, count)
         self.pack: Callable[[Sequence[Any]], bytes]
         self.pack_many: Callable[[Sequence[Sequence[Any]]], list[bytes]]  # pack() of each, in one call
         self.pack, self.pack_many = self._packer(literals, count)
@@ -130,6 +131,10 @@ class CdrLayout:
         source = f"def pack(v):\n    return {call}\ndef pack_many(rows):\n    return [{call} for v in rows]"
         exec(compile(source, f"<cdr layout of {self.msgtype}>", "exec"), names)  # made from the field model
         return names["pack"], names["pack_many"]
+
+    def __reduce__(self) -> tuple[type[CdrLayout], tuple[str, str, list[tuple[int, bytes]], int]]:
+        """Pickled as what makes it (its packing functions are made again): a writer process packs with it."""
+        return CdrLayout, self._recipe
 
     def pack_doubles(self, numbers: np.ndarray) -> bytes:
         """pack() of a float64 array, its runs copied as they are: for a layout whose numbers are all float64
