@@ -32,7 +32,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Protocol, cast
+from typing import Protocol, cast
 
 import mujoco
 import numpy as np
@@ -269,7 +269,9 @@ class GazeboApi(NodeBase):
         # the CDR layouts of the state messages (bytes for a recorder alone), with the names they were read off and
         # a message's numbers (the static links' and models' never change): made at the first such message
         self._link_shape: tuple[list[str], CdrLayout, np.ndarray] | None = None
-        self._model_shape: tuple[tuple[str, ...], CdrLayout, list[Any]] | None = None
+        # (the model names, the layout, a message's numbers, the cars filled in from link_arrays() rows: _car_rows())
+        self._model_shape: tuple[tuple[str, ...], CdrLayout, np.ndarray, tuple[np.ndarray, np.ndarray]] | None = None
+        self._cars_from_rows: frozenset[int] = frozenset()
 
     def _link(self, name: str, body: int, static_pose: PoseArrays = _IDENTITY) -> _Link:
         model = self.sim.model
@@ -393,22 +395,21 @@ class GazeboApi(NodeBase):
             made = CdrLayout.of(msg)
             if made is None:
                 return serialize(msg)
-            self._model_shape = shape = (models, made[0], made[1])
+            self._model_shape = (models, made[0], np.array(made[1], float), self._car_rows())
             return made[0].pack(made[1])
-        _, layout, template = shape
-        numbers = template.copy()
-        twist_at = 7 * len(models)
-        poses, twists = ([], []) if arrays is None else (arrays[0].tolist(), arrays[1].tolist())
-        base_rows = self._base_rows if arrays is not None else {}
+        _, layout, template, (car_models, car_rows) = shape
+        numbers = template.copy()  # every model's pose (7 numbers), then every model's twist (6)
+        count = len(models)
+        done: frozenset[int] = frozenset()
+        if arrays is not None and len(car_models):  # the cars' base links' rows: x y z qx qy qz qw, vx vy vz wx wy wz
+            numbers[: 7 * count].reshape(count, 7)[car_models] = arrays[0][car_rows]
+            numbers[7 * count :].reshape(count, 6)[car_models] = arrays[1][car_rows]
+            done = self._cars_from_rows
+        twist_at = 7 * count
         for i, m in enumerate(self.models.values()):
-            if m.name in self._static_models:
+            if i in done or m.name in self._static_models:
                 continue
             if m.car is not None:
-                row = base_rows.get(m.name)
-                if row is not None:  # its base link's row: x y z qx qy qz qw, vx vy vz wx wy wz
-                    numbers[7 * i : 7 * i + 7] = poses[row]
-                    numbers[twist_at + 6 * i : twist_at + 6 * i + 6] = twists[row]
-                    continue
                 x, y, z, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = m.car.state.base_odometry()
                 numbers[7 * i : 7 * i + 7] = x, y, z, qx, qy, qz, qw
                 numbers[twist_at + 6 * i : twist_at + 6 * i + 6] = vx, vy, vz, wx, wy, wz
@@ -420,7 +421,14 @@ class GazeboApi(NodeBase):
                     *(float(v) for v in linear),
                     *(float(v) for v in angular),
                 )
-        return layout.pack(numbers)
+        return layout.pack_doubles(numbers)
+
+    def _car_rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """The cars whose state is their base link's row of link_arrays(): their indices among the models, and the
+        rows (kept as `_cars_from_rows` too, for the models the rows fill in)."""
+        pairs = [(i, self._base_rows[m.name]) for i, m in enumerate(self.models.values()) if m.name in self._base_rows]
+        self._cars_from_rows = frozenset(i for i, _ in pairs)
+        return np.array([i for i, _ in pairs], np.intp), np.array([row for _, row in pairs], np.intp)
 
     def model_states(self) -> ModelStates:
         """Every model's pose and twist now, as /gazebo/model_states carries them."""
