@@ -328,8 +328,9 @@ class Bus:
         """publish_cdr() of a message of class `msgtype` on each of `topics`, in order, published at one moment (a
         car's controller states), given as their numbers: `rows[k]` is the message on `topics[k]`, whose bytes are
         packer.pack_many(rows)[k]. cdr_only() holds for each topic. A tap that takes rows (cdr_rows) gets them in one
-        call, unpacked; any other gets the bytes, packed once. Each tap gets them in their order (taps are served one
-        after the other, not message by message)."""
+        call, unpacked (it may pack them later: the rows, tuples of numbers, are not to be changed after); any other
+        gets the bytes, packed once. Each tap gets them in their order (taps are served one after the other, not
+        message by message)."""
         self._count_cdr(topics, msgtype)
         packed: list[bytes] | None = None
         for e in self._cdr_entries:
