@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from racecar_sim import msgs
-from racecar_sim.msgs.cdr_layout import CdrLayout
+from racecar_sim.msgs.cdr_layout import CdrLayout, FilledLayout
 
 
 def _pose(k: float) -> msgs.Pose:
@@ -96,3 +96,19 @@ def test_a_pickled_layout_packs_the_same_bytes(make) -> None:
     copy = pickle.loads(pickle.dumps(layout))
     assert copy is not layout and copy.msgtype == layout.msgtype
     assert copy.pack_many([numbers, other]) == [msgs.serialize(make(1.25)), msgs.serialize(make(2.5))]
+
+
+def test_a_filled_layout_packs_the_template_with_the_arrays_in_place() -> None:
+    """FilledLayout (the state topics a writer packs from link_arrays()' bytes): the template's numbers with the rows'
+    arrays put where `fills` says, packed as pack() packs them, also after a pickle (a writer process's copy)."""
+    layout, template = CdrLayout.of(_link_states(0.3))
+    _, wanted = CdrLayout.of(_link_states(4.0))
+    poses = np.array([wanted[7:14], wanted[14:21]])  # the second and third links' poses (7 numbers each)
+    twists = np.array([wanted[21 + 6 : 21 + 12], wanted[21 + 12 : 21 + 18]])
+    fills = [(np.arange(7, 21), 0, np.arange(14)), (np.arange(27, 39), 1, np.arange(12))]
+    filled = FilledLayout(layout, np.array(template), fills)
+    expected = layout.pack([*template[:7], *wanted[7:21], *template[21:27], *wanted[27:39]])
+    row = (poses.tobytes(), twists.tobytes())
+    assert filled.pack_many([row, row]) == [expected, expected]
+    assert pickle.loads(pickle.dumps(filled)).pack_many([row]) == [expected]
+    assert expected != layout.pack(template) and expected != msgs.serialize(_link_states(4.0))  # mixed: both change
