@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from racecar_sim.bus import RowPacker
 from racecar_sim.core.errors import RecordingError
 from racecar_sim.msgs import Image
 from racecar_sim.recording.mcap_recorder import DeferredInterrupt
@@ -142,11 +143,11 @@ class WriterProcess:
             self.flush()
 
     def rows(
-        self, msgtype: str, packer: Any, topics: tuple[str, ...], rows: list[tuple[Any, ...]], log_time_ns: int
+        self, msgtype: str, packer: RowPacker, topics: tuple[str, ...], rows: list[tuple[Any, ...]], log_time_ns: int
     ) -> None:
         """message() of each of `topics`, in order, all of type `msgtype` at `log_time_ns`, the k-th message's bytes
-        being packer.pack_many(rows)[k]: the child packs them. `packer` (a msgs.CdrLayout: it pickles as what makes
-        it) is handed over once; it must keep packing the same bytes for the same numbers."""
+        being packer.pack_many(rows)[k]: the child packs them. `packer` (a msgs.CdrLayout or FilledLayout, which
+        pickle as what makes them) is handed over once; it must keep packing the same bytes for the same numbers."""
         number = self._packers.get(packer)
         ops = self._ops
         if number is None:
