@@ -93,27 +93,46 @@ def test_publish_cdr_counts_tallies_feeds_and_refuses_what_publish_would() -> No
         bus.publish_cdr("/latched", Float64, b"")
 
 
-def test_publish_cdr_many_is_publish_cdr_of_each_in_turn() -> None:
-    """Each tap gets the messages a publish_cdr() of each would give it, in their order: a tap that takes batches in
-    one call, one with `wants` only those it wants; every topic is counted."""
+class _Packer:
+    """Packs a row (a number) as its decimal digits; counts its calls."""
+
+    def __init__(self) -> None:
+        self.calls = 0
+
+    def pack_many(self, rows: list[tuple[int, ...]]) -> list[bytes]:
+        self.calls += 1
+        return [str(row[0]).encode() for row in rows]
+
+
+def test_publish_cdr_rows_is_publish_cdr_of_each_in_turn() -> None:
+    """Each tap gets the messages a publish_cdr() of each would give it, in their order: a tap that takes rows gets
+    them in one call, unpacked (one with `wants` only those it wants), the others their bytes, packed once for all;
+    every topic is counted."""
     bus = Bus()
     singles: list[tuple[str, type, bytes]] = []
-    batches: list[tuple[type, list[tuple[str, bytes]]]] = []
+    batches: list[tuple[object, ...]] = []
     wanted: list[tuple[str, type, bytes]] = []
+    wanted_rows: list[tuple[object, ...]] = []
+    packer = _Packer()
     bus.tap(lambda topic, msg: None, cdr=lambda *item: singles.append(item))
-    bus.tap(lambda topic, msg: None, cdr=lambda *item: None, cdr_batch=lambda *batch: batches.append(batch))
+    bus.tap(lambda topic, msg: None, cdr=lambda *item: None, cdr_rows=lambda *batch: batches.append(batch))
     bus.tap(lambda topic, msg: None, wants=lambda topic: topic != "/b", cdr=lambda *item: wanted.append(item))
-    messages = [("/a", b"1"), ("/b", b"2"), ("/a", b"3")]
-    bus.publish_cdr_many(Float64, messages)
+    bus.tap(
+        lambda topic, msg: None, wants=lambda topic: topic != "/a", cdr=print, cdr_rows=lambda *b: wanted_rows.append(b)
+    )
+    topics, rows = ("/a", "/b", "/a"), [(1,), (2,), (3,)]
+    bus.publish_cdr_rows(Float64, packer, topics, rows)
     assert singles == [("/a", Float64, b"1"), ("/b", Float64, b"2"), ("/a", Float64, b"3")]
-    assert batches == [(Float64, messages)]
+    assert batches == [(Float64, packer, topics, rows)]
     assert wanted == [("/a", Float64, b"1"), ("/a", Float64, b"3")]
+    assert wanted_rows == [(Float64, packer, ("/b",), [(2,)])]
+    assert packer.calls == 1
     assert bus.count("/a") == 2 and bus.count("/b") == 1 and bus.topics()["/b"] is Float64
     with pytest.raises(TypeError, match="carries Float64"):
-        bus.publish_cdr_many(AckermannDriveStamped, [("/a", b"")])
+        bus.publish_cdr_rows(AckermannDriveStamped, packer, ("/a",), [(0,)])
     bus.latch("/latched")
     with pytest.raises(ValueError, match="latched"):
-        bus.publish_cdr_many(Float64, [("/latched", b"")])
+        bus.publish_cdr_rows(Float64, packer, ("/latched",), [(0,)])
 
 
 def test_listeners_epoch_changes_whenever_who_listens_changes() -> None:

@@ -3,11 +3,13 @@
 
 from __future__ import annotations
 
+import pickle
+
 import numpy as np
 import pytest
 
 from racecar_sim import msgs
-from racecar_sim.msgs.cdr_layout import CdrLayout
+from racecar_sim.msgs.cdr_layout import CdrLayout, FilledLayout
 
 
 def _pose(k: float) -> msgs.Pose:
@@ -84,3 +86,29 @@ def test_pack_doubles_gives_pack_bytes_for_float64_layouts() -> None:
 def test_no_layout_for_byte_arrays() -> None:
     image = msgs.Image(msgs.Header.at(0, "camera"), 2, 2, "rgb8", 0, 6, np.zeros(12, np.uint8))
     assert CdrLayout.of(image) is None
+
+
+@pytest.mark.parametrize("make", MAKERS)
+def test_a_pickled_layout_packs_the_same_bytes(make) -> None:
+    """A writer process packs rows with the layout it was handed (pickled as what makes it): the same bytes."""
+    layout, numbers = CdrLayout.of(make(1.25))
+    _, other = CdrLayout.of(make(2.5))
+    copy = pickle.loads(pickle.dumps(layout))
+    assert copy is not layout and copy.msgtype == layout.msgtype
+    assert copy.pack_many([numbers, other]) == [msgs.serialize(make(1.25)), msgs.serialize(make(2.5))]
+
+
+def test_a_filled_layout_packs_the_template_with_the_arrays_in_place() -> None:
+    """FilledLayout (the state topics a writer packs from link_arrays()' bytes): the template's numbers with the rows'
+    arrays put where `fills` says, packed as pack() packs them, also after a pickle (a writer process's copy)."""
+    layout, template = CdrLayout.of(_link_states(0.3))
+    _, wanted = CdrLayout.of(_link_states(4.0))
+    poses = np.array([wanted[7:14], wanted[14:21]])  # the second and third links' poses (7 numbers each)
+    twists = np.array([wanted[21 + 6 : 21 + 12], wanted[21 + 12 : 21 + 18]])
+    fills = [(np.arange(7, 21), 0, np.arange(14)), (np.arange(27, 39), 1, np.arange(12))]
+    filled = FilledLayout(layout, np.array(template), fills)
+    expected = layout.pack([*template[:7], *wanted[7:21], *template[21:27], *wanted[27:39]])
+    row = (poses.tobytes(), twists.tobytes())
+    assert filled.pack_many([row, row]) == [expected, expected]
+    assert pickle.loads(pickle.dumps(filled)).pack_many([row]) == [expected]
+    assert expected != layout.pack(template) and expected != msgs.serialize(_link_states(4.0))  # mixed: both change

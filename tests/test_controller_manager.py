@@ -280,6 +280,30 @@ def test_unload_and_load(sim):
     assert actuator_forces(sim, [REAR[0]])[0] != 0.0
 
 
+def test_the_running_names_the_state_publisher_reads_follow_every_switch(sim):
+    """The state publisher asks whether all of a car's controllers run with one look-up in a set the manager keeps:
+    after every stop, unload, load, start and reset it holds exactly the controllers list_controllers says run."""
+    cm = sim.car.controller_manager
+    running = cm.state_publisher._running_names
+
+    def check() -> None:
+        assert running == {name for name, state in listed(sim).items() if state == "running"}
+
+    check()
+    assert running >= set(WHEELS)
+    assert cm.stop(REAR[0], "joint_state_controller")
+    check()
+    assert cm.unload_controller(REAR[0])
+    check()
+    assert sim.bus.call(f"{CM}/load_controller", LoadControllerRequest(REAR[0])).ok
+    check()
+    assert switch(sim, start=[REAR[0]], stop=[REAR[1]])
+    check()
+    sim.reset()
+    check()
+    assert running >= set(WHEELS)
+
+
 def test_stopping_the_joint_state_controller_stops_joint_states(sim):
     stamps = []
     sim.subscribe("/racecar/joint_states", lambda m: stamps.append(m.header.stamp.to_ns()))

@@ -5,41 +5,46 @@ are mj_objectVelocity's, bit for bit, and their poses those read one link at a t
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import mujoco
 import numpy as np
 import pytest
+from mcap.reader import make_reader
 
 from conftest import needs_gl
 from racecar_sim import Car, Simulator, Spawn
-from racecar_sim.bus import Bus
+from racecar_sim.bus import Bus, RowPacker
 from racecar_sim.cli.main import main
 from racecar_sim.drivers import ConstantCommand
 from racecar_sim.drivers.constant import NAVIGATION
+from racecar_sim.msgs import JointControllerState
 from racecar_sim.recording.run_recording import RunRecording
 
 RUN = ["run", "--world", "empty", "--cars", "3", "--driver", "constant", "--speed", "1", "--no-camera", "--no-video",
        "--no-summary", "--duration", "1.2"]  # fmt: skip
-DIRECT = {"/gazebo/link_states", "/gazebo/model_states", "/clock", "/tf",
-          "/car2/racecar/left_rear_wheel_velocity_controller/state"}  # fmt: skip
+DIRECT = {"/gazebo/link_states", "/gazebo/model_states", "/clock", "/tf"}
+ROWS = {"/gazebo/link_states (rows)", "/gazebo/model_states (rows)",
+        "/car2/racecar/left_rear_wheel_velocity_controller/state (rows)"}  # fmt: skip
 
 
 def _run(out: Path, monkeypatch: pytest.MonkeyPatch, objects: bool, command: list[str] = RUN) -> tuple[bytes, set[str]]:
-    """run.mcap of `command`, and the topics handed over as bytes; `objects`: every message made as an object."""
+    """run.mcap of `command`, and the topics handed over as bytes (those handed over as rows for a writer to pack
+    marked " (rows)"); `objects`: every message made as an object."""
     direct: set[str] = set()
-    publish_cdr, publish_cdr_many = Bus.publish_cdr, Bus.publish_cdr_many
+    publish_cdr, publish_cdr_rows = Bus.publish_cdr, Bus.publish_cdr_rows
 
     def counted(self: Bus, topic: str, msgtype: type, data: bytes) -> None:
         direct.add(topic)
         publish_cdr(self, topic, msgtype, data)
 
-    def counted_many(self: Bus, msgtype: type, messages: list[tuple[str, bytes]]) -> None:
-        direct.update(topic for topic, _ in messages)
-        publish_cdr_many(self, msgtype, messages)
+    def counted_rows(self: Bus, msgtype: type, packer: RowPacker, topics: tuple[str, ...], rows: list[Any]) -> None:
+        direct.update(f"{topic} (rows)" for topic in topics)
+        publish_cdr_rows(self, msgtype, packer, topics, rows)
 
     with monkeypatch.context() as patch:
         patch.setattr(Bus, "publish_cdr", counted)
-        patch.setattr(Bus, "publish_cdr_many", counted_many)
+        patch.setattr(Bus, "publish_cdr_rows", counted_rows)
         if objects:
             patch.setattr(Bus, "cdr_only", lambda self, topic: False)
         assert main([*command, "--out", str(out)]) == 0
@@ -51,6 +56,7 @@ def test_run_mcap_is_the_same_from_bytes_and_from_objects(tmp_path: Path, monkey
     from_bytes, direct = _run(tmp_path / "bytes", monkeypatch, objects=False)
     assert not none
     assert DIRECT <= direct  # the direct way was taken: the comparison compares something
+    assert ROWS <= direct  # and the writer packed the state topics
     assert len(from_bytes) > 100_000 and from_bytes == from_objects
 
 
@@ -77,13 +83,20 @@ def test_link_twists_are_mj_object_velocity_bit_for_bit() -> None:
     assert compared > 200
 
 
-def _one_car(path: Path, process: bool, listened: str | None = None) -> bytes:
-    """A constant-command car's 0.7 s recorded by RunRecording to `path`; `listened`: a topic a subscriber takes too."""
+def _one_car(path: Path, process: bool, listened: str | None = None, stopped: str | None = None) -> bytes:
+    """A constant-command car's 0.7 s recorded by RunRecording to `path`; `listened`: a topic a subscriber takes too;
+    `stopped`: a controller stopped from 0.3 s to 0.5 s."""
     sim = Simulator(world="empty", cars=[Car("car1", camera=False)])
     ConstantCommand(sim.bus, sim.scheduler, 1.5, 0.2, topic=sim.cars[0].topic(NAVIGATION))
     if listened is not None:
         sim.subscribe(listened, lambda msg: None)
     with RunRecording(sim.bus, lambda: sim.time_ns, path, process=process):
+        if stopped is not None:
+            manager = sim.cars[0].controller_manager
+            sim.run_until(0.3)
+            assert manager.stop(stopped)
+            sim.run_until(0.5)
+            assert manager.start(stopped)
         sim.run_until(0.7)
     sim.close()
     return path.read_bytes()
@@ -111,18 +124,38 @@ def test_controller_states_partly_taken_by_a_subscriber_keep_their_order(
         patch.setattr(Bus, "cdr_only", lambda self, topic: False)
         from_objects = _one_car(tmp_path / "objects.mcap", False, listened)
     batches: list[list[str]] = []
-    publish_cdr_many = Bus.publish_cdr_many
+    publish_cdr_rows = Bus.publish_cdr_rows
 
-    def seen(self: Bus, msgtype: type, messages: list[tuple[str, bytes]]) -> None:
-        batches.append([topic for topic, _ in messages])
-        publish_cdr_many(self, msgtype, messages)
+    def seen(self: Bus, msgtype: type, packer: RowPacker, topics: tuple[str, ...], rows: list[Any]) -> None:
+        if msgtype is JointControllerState:
+            batches.append(list(topics))
+        publish_cdr_rows(self, msgtype, packer, topics, rows)
 
     with monkeypatch.context() as patch:
-        patch.setattr(Bus, "publish_cdr_many", seen)
+        patch.setattr(Bus, "publish_cdr_rows", seen)
         from_bytes = _one_car(tmp_path / "bytes.mcap", False, listened)
     assert batches and all(listened not in batch for batch in batches)
     assert {len(batch) for batch in batches} == {2, 3}  # the six less the one, before it and after it
     assert from_bytes == from_objects
+
+
+def test_a_stopped_controller_state_is_left_out_of_the_bytes_as_of_the_objects(tmp_path: Path) -> None:
+    """A controller stopped for a while publishes no state (ros_control): the car's other states still go as bytes,
+    and the file is the one the objects give."""
+    stopped = "left_rear_wheel_velocity_controller"
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(Bus, "cdr_only", lambda self, topic: False)
+        from_objects = _one_car(tmp_path / "objects.mcap", False, stopped=stopped)
+    from_bytes = _one_car(tmp_path / "bytes.mcap", True, stopped=stopped)
+    assert from_bytes == from_objects
+    with open(tmp_path / "bytes.mcap", "rb") as stream:
+        counts = make_reader(stream).get_summary().statistics.channel_message_counts  # type: ignore[union-attr]
+        topics = {c.id: c.topic for c in make_reader(stream).get_summary().channels.values()}  # type: ignore[union-attr]
+    states = {topics[k]: n for k, n in counts.items() if topics[k].endswith("/state")}
+    assert (
+        states[f"/car1/racecar/{stopped}/state"]
+        == states["/car1/racecar/right_rear_wheel_velocity_controller/state"] - 20
+    )
 
 
 @needs_gl

@@ -20,7 +20,8 @@ from rosbags.typesys import Stores, get_typestore
 
 from racecar_sim.bus import Bus
 from racecar_sim.core.errors import RecordingError
-from racecar_sim.msgs import Float64, Header, Image
+from racecar_sim.msgs import Float64, Header, Image, JointControllerState
+from racecar_sim.msgs.cdr_layout import CdrLayout
 from racecar_sim.recording import writer_process
 from racecar_sim.recording.images import decompress_image
 from racecar_sim.recording.run_recording import RunRecording
@@ -463,3 +464,53 @@ def test_a_worker_that_dies_stops_the_other_instead_of_leaving_it_waiting_for_it
     assert not any(thread.is_alive() for thread in threads), "a worker still waits for its turn"
     assert [type(exc) for exc in escaped] == [BrokenPipeError]
     assert workers.finished
+
+
+def _states(tick: int) -> list[JointControllerState]:
+    """Two controller states of sim time `tick` * 10 ms, their numbers all different from tick to tick."""
+    return [
+        JointControllerState(
+            Header.at(tick * 10_000_000),
+            tick + k,
+            -tick / 3,
+            0.0,
+            k - tick / 7,
+            0.0025,
+            tick * 1e-3,
+            1.0,
+            0.5 * k,
+            0.0,
+            10.0,
+            False,
+        )  # fmt: skip
+        for k in range(2)
+    ]
+
+
+def _record_states(path: Path, process: bool, rows: bool) -> bytes:
+    """A command and two controller states every 10 ms, recorded; `rows`: the states handed over as their numbers and
+    layout (Bus.publish_cdr_rows: the writer packs them), else as message objects."""
+    bus, clock = Bus(), [0]
+    topics = ("/car1/a/state", "/car1/b/state")
+    layout = CdrLayout.read(_states(0)[0])
+    assert layout is not None
+    with RunRecording(bus, lambda: clock[0], path, process=process):
+        for tick in range(3 * writer_process.BATCH):  # several hand-overs: the layout goes over once, then by number
+            clock[0] = tick * 10_000_000
+            bus.publish("/command", Float64(tick * 0.5))
+            states = _states(tick)
+            if rows:
+                bus.publish_cdr_rows(JointControllerState, layout, topics, [CdrLayout.of(s)[1] for s in states])
+            else:
+                for topic, state in zip(topics, states):
+                    bus.publish(topic, state)
+    return path.read_bytes()
+
+
+@pytest.mark.parametrize("process", [True, False])
+def test_rows_packed_by_the_writer_are_the_bytes_of_the_messages(tmp_path, process):
+    """Controller states handed over as their numbers, packed by the writer process (or on the parent's side for a
+    writer thread): the file is byte for byte the one their message objects give, with every message in its place."""
+    from_objects = _record_states(tmp_path / "objects.mcap", process, rows=False)
+    from_rows = _record_states(tmp_path / "rows.mcap", process, rows=True)
+    assert len(from_rows) > 20_000 and from_rows == from_objects

@@ -1,6 +1,6 @@
 """The in-process topic bus: the spine every node publishes to and subscribes from, with ROS-style services."""
 
-from racecar_sim.bus.bus import Bus, ServiceError, Subscription, type_name
+from racecar_sim.bus.bus import Bus, RowPacker, ServiceError, Subscription, type_name
 from racecar_sim.bus.port import BusPort
 
-__all__ = ["Bus", "BusPort", "ServiceError", "Subscription", "type_name"]
+__all__ = ["Bus", "BusPort", "RowPacker", "ServiceError", "Subscription", "type_name"]

@@ -7,17 +7,27 @@ is a pure function of its inputs.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 Callback = Callable[[Any], None]
 Tap = Callable[[str, Any], None]
 CdrTap = Callable[[str, type, bytes], None]
 """``cdr_tap(topic, message class, CDR bytes)``: a tap that takes a message as its serialized bytes (a recorder)."""
-CdrBatchTap = Callable[[type, list[tuple[str, bytes]]], None]
-"""``cdr_batch(message class, [(topic, CDR bytes), ...])``: such a tap taking several messages of one class, published
-at one moment, in one call (in their order)."""
+
+
+class RowPacker(Protocol):
+    """What packs messages of one shape from their numbers (msgs.CdrLayout): ``pack_many(rows)``, the CDR bytes of
+    each row's message."""
+
+    def pack_many(self, rows: Sequence[Sequence[Any]], /) -> list[bytes]: ...
+
+
+CdrRowsTap = Callable[[type, RowPacker, tuple[str, ...], list[tuple[Any, ...]]], None]
+"""``cdr_rows(message class, packer, topics, rows)``: such a tap taking several messages of one class, published at
+one moment, as their numbers (one row per topic, in order) and what packs them: it packs them when it writes them (a
+writer process), in one call."""
 
 
 @dataclass
@@ -60,7 +70,7 @@ class _Tap:
     callback: Tap
     wants: Callable[[str], bool] | None
     cdr: CdrTap | None = None  # how it takes a message's CDR bytes instead of the message (None: it does not)
-    cdr_batch: CdrBatchTap | None = None  # how it takes several at once (None: one cdr() call each)
+    cdr_rows: CdrRowsTap | None = None  # how it takes several as their numbers (None: one cdr() call each)
 
 
 def type_name(msg_or_cls: object) -> str:
@@ -204,7 +214,7 @@ class Bus:
         callback: Tap,
         wants: Callable[[str], bool] | None = None,
         cdr: CdrTap | None = None,
-        cdr_batch: CdrBatchTap | None = None,
+        cdr_rows: CdrRowsTap | None = None,
     ) -> Callable[[], None]:
         """Call `callback(topic, msg)` for every message on every topic (recorders, bridges); returns a remover.
 
@@ -212,10 +222,10 @@ class Bus:
         subscribes); has_listeners() asks it, so a sensor nobody reads skips its work. Without it, every topic.
         `cdr(topic, message class, data)`: the tap also takes a message as its CDR bytes (a recorder). A publisher
         whose only takers are such taps (cdr_only()) hands them the bytes with publish_cdr(), made straight from
-        its numbers, and no message object is made. `cdr_batch(message class, [(topic, data), ...])`, beside `cdr`:
-        how it takes the messages of a publish_cdr_many() in one call.
+        its numbers, and no message object is made. `cdr_rows(message class, packer, topics, rows)`, beside `cdr`:
+        how it takes the messages of a publish_cdr_rows() in one call, unpacked.
         """
-        entry = _Tap(callback, wants, cdr, cdr_batch if cdr is not None else None)
+        entry = _Tap(callback, wants, cdr, cdr_rows if cdr is not None else None)
         self._taps.append(callback)
         self._tap_entries.append(entry)
         self._retap()
@@ -289,40 +299,55 @@ class Bus:
         cdr_only(topic) says its only takers are taps that take bytes: they get `data`, and the topic counts it as
         publish() would (what its subscribers would have published in turn is tallied, unheard). Not for a latched
         topic (a late subscriber would get its last message)."""
-        self._count_cdr(topic, msgtype)
+        self._count_cdr((topic,), msgtype)
         for e in self._cdr_entries:
             if e.wants is None or e.wants(topic):
                 e.cdr(topic, msgtype, data)  # type: ignore[misc]  # a _cdr_entries entry has one
 
-    def _count_cdr(self, topic: str, msgtype: type) -> None:
-        """Count a message of class `msgtype` published as bytes on `topic`, as publish() would (and tally what its
-        feeds would have published); a latched topic or another class on the topic is refused."""
-        t = self._topics.get(topic) or self._topic(topic)
-        if t.latched:
-            raise ValueError(f"topic {topic} is latched: publish its messages")
-        if msgtype is not t.msgtype:
-            if t.msgtype is not None:
-                raise TypeError(f"topic {topic} carries {t.msgtype.__name__}, got {msgtype.__name__}")
-            t.msgtype = msgtype
-        t.count += 1
-        for feed, feed_type in t.feeds:
-            self.tally(feed, feed_type)
+    def _count_cdr(self, topics: tuple[str, ...], msgtype: type) -> None:
+        """Count a message of class `msgtype` published as bytes on each of `topics`, as publish() would (and tally what
+        their feeds would have published); a latched topic or another class on a topic is refused."""
+        known = self._topics
+        for topic in topics:
+            t = known.get(topic)
+            if t is None or msgtype is not t.msgtype or t.latched or t.feeds:  # else the usual case: only a count
+                t = t or self._topic(topic)
+                if t.latched:
+                    raise ValueError(f"topic {topic} is latched: publish its messages")
+                if msgtype is not t.msgtype:
+                    if t.msgtype is not None:
+                        raise TypeError(f"topic {topic} carries {t.msgtype.__name__}, got {msgtype.__name__}")
+                    t.msgtype = msgtype
+                for feed, feed_type in t.feeds:
+                    self.tally(feed, feed_type)
+            t.count += 1
 
-    def publish_cdr_many(self, msgtype: type, messages: list[tuple[str, bytes]]) -> None:
-        """publish_cdr() of every (topic, data) of `messages`, in order, messages of class `msgtype` published at one
-        moment (a car's controller states): cdr_only() holds for each topic. A tap that takes batches gets them in
-        one call; each tap gets them in their order (taps are served one after the other, not message by message)."""
-        for topic, _ in messages:
-            self._count_cdr(topic, msgtype)
+    def publish_cdr_rows(
+        self, msgtype: type, packer: RowPacker, topics: tuple[str, ...], rows: list[tuple[Any, ...]]
+    ) -> None:
+        """publish_cdr() of a message of class `msgtype` on each of `topics`, in order, published at one moment (a
+        car's controller states), given as their numbers: `rows[k]` is the message on `topics[k]`, whose bytes are
+        packer.pack_many(rows)[k]. cdr_only() holds for each topic. A tap that takes rows (cdr_rows) gets them in one
+        call, unpacked (it may pack them later: the rows, tuples of numbers, are not to be changed after); any other
+        gets the bytes, packed once. Each tap gets them in their order (taps are served one after the other, not
+        message by message)."""
+        self._count_cdr(topics, msgtype)
+        packed: list[bytes] | None = None
         for e in self._cdr_entries:
             wants = e.wants
-            taken = messages if wants is None else [m for m in messages if wants(m[0])]
-            if e.cdr_batch is not None:
-                if taken:
-                    e.cdr_batch(msgtype, taken)
+            wanted = range(len(topics)) if wants is None else [k for k, topic in enumerate(topics) if wants(topic)]
+            if not wanted:
                 continue
-            for topic, data in taken:
-                e.cdr(topic, msgtype, data)  # type: ignore[misc]  # a _cdr_entries entry has one
+            if e.cdr_rows is not None:
+                if wants is None:
+                    e.cdr_rows(msgtype, packer, topics, rows)
+                else:
+                    e.cdr_rows(msgtype, packer, tuple(topics[k] for k in wanted), [rows[k] for k in wanted])
+                continue
+            if packed is None:
+                packed = packer.pack_many(rows)
+            for k in wanted:
+                e.cdr(topics[k], msgtype, packed[k])  # type: ignore[misc]  # a _cdr_entries entry has one
 
     def listened(self) -> dict[str, type | None]:
         """Every topic with a subscriber, and the message class a subscriber declared for it (None: none did)."""

@@ -5,6 +5,8 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from typing import Any, Protocol
 
+from racecar_sim.bus.bus import RowPacker
+
 
 class BusPort(Protocol):
     """Publish (message objects, or CDR bytes for a recorder alone), subscribe, count unheard messages, offer and call
@@ -30,7 +32,9 @@ class BusPort(Protocol):
 
     def publish_cdr(self, topic: str, msgtype: type, data: bytes) -> None: ...
 
-    def publish_cdr_many(self, msgtype: type, messages: list[tuple[str, bytes]]) -> None: ...
+    def publish_cdr_rows(
+        self, msgtype: type, packer: RowPacker, topics: tuple[str, ...], rows: list[tuple[Any, ...]]
+    ) -> None: ...
 
     def latch(self, topic: str) -> None: ...
 

@@ -113,8 +113,11 @@ class ControllerManager:
                 self._limits[c.name] = (joint.limit.lower, joint.limit.upper)  # enforceJointLimits() at starting()
             self._qpos[c.name] = state.joint_indices([c.joint])[0]
         self._loaded: dict[str, _Loaded] = {}
+        self._running: set[str] = set()  # the running controllers' names, kept by _apply (is_running of each, at once)
         self.reset()
-        self.state_publisher = ControllerStatePublisher(bus, scheduler, state, config, self.is_running, names)
+        self.state_publisher = ControllerStatePublisher(
+            bus, scheduler, state, config, self.is_running, names, running_names=self._running
+        )
         for service, handler in (
             ("list_controllers", self._list_srv),
             ("list_controller_types", self._types_srv),
@@ -171,6 +174,7 @@ class ControllerManager:
             log.error("Could not unload controller with name '%s' because it is still running", name)
             return False
         del self._loaded[name]
+        self._running.discard(name)
         return True
 
     def switch_controller(
@@ -247,6 +251,7 @@ class ControllerManager:
         """Back to what the spawner leaves: every controller of the YAML loaded, in its order, then all started in
         one STRICT switch (which fails, leaving them all stopped, if two of them claim the same joint)."""
         self._loaded = {}
+        self._running.clear()
         for name in self._params:
             self.load_controller(name)
         if not self.switch_controller(list(self._loaded), [], STRICT):
@@ -262,6 +267,10 @@ class ControllerManager:
     def _apply(self, c: _Loaded) -> None:
         """Make the hardware follow the controller's state: effort only from a running controller."""
         running = c.state == RUNNING
+        if running:
+            self._running.add(c.name)
+        else:
+            self._running.discard(c.name)
         if c.joint is None:
             self.joint_states.bus = self.bus if running else _Muted()
         else:

@@ -16,6 +16,7 @@ A stopped controller is not updated, so it publishes nothing; nothing is compute
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
 from typing import Literal
 
@@ -57,8 +58,10 @@ class ControllerStatePublisher:
         config: ControllerConfig,
         running: Callable[[str], bool],
         names: CarNames = CarNames(),
+        running_names: AbstractSet[str] | None = None,
     ) -> None:
         self.bus, self.state, self.running = bus, state, running
+        self._running_names = running_names  # the running controllers' names, kept up to date by their manager
         self.controllers = [
             _Controller(c, names.topic(f"{c.namespace}/{c.name}/state"), *state.joint_indices([c.joint]))
             for c in config.controllers
@@ -69,6 +72,10 @@ class ControllerStatePublisher:
         # per controller, whether its topic is listened to and whether only a recorder takes it (bytes), and the bus's
         # listeners epoch they were asked under (kept while it stays the same: twelve questions fewer per tick)
         self._heard: tuple[int | None, list[tuple[bool, bool]]] = (None, [])
+        self._all_direct = False  # every state topic is taken by a recorder alone (under the epoch of `_heard`)
+        self._topics = tuple(c.topic for c in self.controllers)
+        self._names = tuple(c.config.name for c in self.controllers)
+        self._name_set = frozenset(self._names)
         scheduler.every(STATE_RATE, self.publish, "controller_state", unheard=self._unheard)
 
     def _listening(self) -> list[tuple[bool, bool]]:
@@ -82,6 +89,7 @@ class ControllerStatePublisher:
             listened = bus.has_listeners(c.topic)  # asked first: the cheaper question, and mostly no
             heard.append((listened, listened and bus.cdr_only(c.topic)))
         self._heard = (epoch, heard)
+        self._all_direct = bool(heard) and all(alone for _, alone in heard)
         return heard
 
     def _unheard(self, _now_ns: int) -> bool:
@@ -91,6 +99,10 @@ class ControllerStatePublisher:
     def publish(self, now_ns: int) -> None:
         bus = self.bus
         heard = self._listening()
+        if self._all_direct and self._layout and self._all_running():
+            # the usual tick of a recorded run: every state, in one hand-over of their numbers
+            self._publish_bytes(self.controllers, now_ns, float(self.state.model.opt.timestep), self._topics)
+            return
         time_step = None
         direct: list[_Controller] = []  # those only a recorder takes (bytes), in a row: read and handed over together
         for index, c in enumerate(self.controllers):
@@ -112,12 +124,26 @@ class ControllerStatePublisher:
         if direct:
             self._publish_bytes(direct, now_ns, time_step)  # type: ignore[arg-type]  # set with the first one
 
-    def _publish_bytes(self, controllers: list[_Controller], now_ns: int, time_step: float) -> None:
-        """The states of `controllers`, which only a recorder takes, as their CDR bytes in one hand-over."""
+    def _all_running(self) -> bool:
+        """Whether every controller is running: one set look-up where the manager keeps their names."""
+        if self._running_names is not None:
+            return self._running_names >= self._name_set
+        return all(map(self.running, self._names))
+
+    def _publish_bytes(
+        self,
+        controllers: Sequence[_Controller],
+        now_ns: int,
+        time_step: float,
+        topics: tuple[str, ...] | None = None,
+    ) -> None:
+        """The states of `controllers` (on `topics`, their topics), which only a recorder takes, in one hand-over of
+        their numbers and their layout (the recorder packs them into their CDR bytes)."""
         assert self._layout, "bytes only once the first message gave the layout"
         rows = self._numbers_of(controllers, time_step, divmod(now_ns, NS_PER_S))
-        packed = self._layout.pack_many(rows)
-        self.bus.publish_cdr_many(JointControllerState, [(c.topic, data) for c, data in zip(controllers, packed)])
+        if topics is None:
+            topics = tuple(c.topic for c in controllers)
+        self.bus.publish_cdr_rows(JointControllerState, self._layout, topics, rows)
 
     def message(self, c: _Controller, now_ns: int) -> JointControllerState:
         """The state message of one controller now."""

@@ -312,8 +312,13 @@ def _numeric_array_op(msgtype: str, path: str, type_name: str, size: int | None)
     def op(msg: Any, out: list[Any], pos: int) -> int:
         array = _as_array(msgtype, path, get(msg), dtype)
         count = array.size
-        _check_size(msgtype, path, count, size)
-        prefix, pos = _length_prefix(pos, count, size)
+        if size is None:  # _length_prefix(), written out: a joint state or a scan has several of these per message
+            align = -pos & 3
+            prefix = _PAD[align] + _U32.pack(count)
+            pos += align + 4
+        else:
+            _check_size(msgtype, path, count, size)
+            prefix = b""
         pad = -pos % itemsize if count else 0  # rosbags does not align an empty sequence
         out.append(prefix + _PAD[pad])
         out.append(array)

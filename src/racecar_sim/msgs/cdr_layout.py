@@ -103,6 +103,7 @@ class CdrLayout:
         self.msgtype = msgtype
         self.count = count  # how many numbers a message has
         self._struct = struct.Struct(fmt)
+        self._recipe = (msgtype, fmt, literals, count)
         self.pack: Callable[[Sequence[Any]], bytes]
         self.pack_many: Callable[[Sequence[Sequence[Any]]], list[bytes]]  # pack() of each, in one call
         self.pack, self.pack_many = self._packer(literals, count)
@@ -130,6 +131,10 @@ class CdrLayout:
         source = f"def pack(v):\n    return {call}\ndef pack_many(rows):\n    return [{call} for v in rows]"
         exec(compile(source, f"<cdr layout of {self.msgtype}>", "exec"), names)  # made from the field model
         return names["pack"], names["pack_many"]
+
+    def __reduce__(self) -> tuple[type[CdrLayout], tuple[str, str, list[tuple[int, bytes]], int]]:
+        """Pickled as what makes it (its packing functions are made again): a writer process packs with it."""
+        return CdrLayout, self._recipe
 
     def pack_doubles(self, numbers: np.ndarray) -> bytes:
         """pack() of a float64 array, its runs copied as they are: for a layout whose numbers are all float64
@@ -163,3 +168,32 @@ class CdrLayout:
         except (struct.error, TypeError, ValueError, OverflowError):
             same = False
         return (layout, shape.numbers) if same else None
+
+
+class FilledLayout:
+    """Messages of one all-float64 layout whose numbers are a template's, some replaced from arrays: the poses and
+    twists of the moving links in /gazebo/link_states and model_states, where the rest never changes.
+
+    A row is a tuple of float64 arrays' bytes (C order); `fills` says, for each, which numbers it replaces:
+    ``(target, which, source)``, the template's numbers at the flat indices `target` become the flat elements `source`
+    of the row's array `which`. ``pack_many(rows)`` packs each row's numbers with ``layout.pack_doubles`` (the same
+    bytes as ``pack``). Pickles as what makes it: a writer process packs with it, so the main thread hands over two
+    arrays' bytes instead of packing the message.
+    """
+
+    def __init__(self, layout: CdrLayout, template: np.ndarray, fills: Sequence[tuple[np.ndarray, int, np.ndarray]]):
+        self.layout, self.template, self.fills = layout, np.asarray(template, "<f8"), tuple(fills)
+
+    def pack_many(self, rows: Sequence[Sequence[bytes]]) -> list[bytes]:
+        """The CDR bytes of each row's message."""
+        packed = []
+        for row in rows:
+            numbers = self.template.copy()
+            arrays = [np.frombuffer(data, "<f8") for data in row]
+            for target, which, source in self.fills:
+                numbers[target] = arrays[which][source]
+            packed.append(self.layout.pack_doubles(numbers))
+        return packed
+
+    def __reduce__(self) -> tuple[type[FilledLayout], tuple[CdrLayout, np.ndarray, tuple[Any, ...]]]:
+        return FilledLayout, (self.layout, self.template, self.fills)

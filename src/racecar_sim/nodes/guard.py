@@ -80,7 +80,7 @@ class GuardedBus:
         self.tally = bus.tally
         self.cdr_only = bus.cdr_only
         self.publish_cdr = bus.publish_cdr
-        self.publish_cdr_many = bus.publish_cdr_many
+        self.publish_cdr_rows = bus.publish_cdr_rows
         self.latch = bus.latch
         self.call = bus.call
 

@@ -22,7 +22,7 @@ class ScopedBus:
         self.tally = bus.tally
         self.cdr_only = bus.cdr_only
         self.publish_cdr = bus.publish_cdr
-        self.publish_cdr_many = bus.publish_cdr_many
+        self.publish_cdr_rows = bus.publish_cdr_rows
         self.latch = bus.latch
         self.call = bus.call
         self._subscriptions: list[Any] = []

@@ -9,7 +9,7 @@ from collections.abc import Callable, Iterable
 from types import TracebackType
 from typing import Any
 
-from racecar_sim.bus import Bus
+from racecar_sim.bus import Bus, RowPacker
 from racecar_sim.msgs import Image, msgtype_of, serialize
 from racecar_sim.recording.images import JPEG_QUALITY, compress_image, compressed_topic
 from racecar_sim.recording.mcap_recorder import McapRecorder, open_recording_file
@@ -90,7 +90,7 @@ class RunRecording:
         except BaseException:
             self.close()
             raise
-        self._untap = bus.tap(self._record, cdr=self._record_cdr, cdr_batch=self._record_cdr_batch)
+        self._untap = bus.tap(self._record, cdr=self._record_cdr, cdr_rows=self._record_cdr_rows)
 
     def _record(self, topic: str, msg: object) -> None:
         if self.process is not None:
@@ -126,15 +126,18 @@ class RunRecording:
         if len(self._batch) >= THREAD_BATCH:
             self._submit()
 
-    def _record_cdr_batch(self, cls: type, messages: list[tuple[str, bytes]]) -> None:
-        """Messages of one class published at one moment, as (topic, CDR bytes) (Bus.publish_cdr_many): one look-up of
-        their type and of the time, one hand-over call."""
+    def _record_cdr_rows(
+        self, cls: type, packer: RowPacker, topics: tuple[str, ...], rows: list[tuple[Any, ...]]
+    ) -> None:
+        """Messages of one class published at one moment, as their numbers and what packs them (Bus.publish_cdr_rows):
+        one look-up of their type and of the time, one hand-over; a writer process packs them, a thread's batch holds
+        them packed."""
         msgtype = self._msgtypes[cls]
         now = self.clock()
         if self.process is not None:
-            self.process.messages(msgtype, messages, now)
+            self.process.rows(msgtype, packer, topics, rows, now)
             return
-        self._batch.extend([(topic, msgtype, data, now) for topic, data in messages])
+        self._batch.extend([(topic, msgtype, data, now) for topic, data in zip(topics, packer.pack_many(rows))])
         if len(self._batch) >= THREAD_BATCH:
             self._submit()
 

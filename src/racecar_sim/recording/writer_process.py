@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from racecar_sim.bus import RowPacker
 from racecar_sim.core.errors import RecordingError
 from racecar_sim.msgs import Image
 from racecar_sim.recording.mcap_recorder import DeferredInterrupt
@@ -63,7 +64,7 @@ _SIGNALS = (signal.SIGINT, signal.SIGTERM)
 _PR_SET_PDEATHSIG = 1  # linux/prctl.h
 
 # operations, the first item of each tuple handed over
-MESSAGE, JPEG, FRAME, OPEN_MCAP, OPEN_VIDEO, CLOSE_VIDEO = range(6)
+MESSAGE, JPEG, FRAME, OPEN_MCAP, OPEN_VIDEO, CLOSE_VIDEO, PACKER, ROWS = range(8)
 _SAME = None  # an image op's pixels: those of the image before
 _RING = "ring"  # an image's pixels in the shared memory: (_RING, frame number, bytes, slot size, slots)
 
@@ -89,6 +90,7 @@ class WriterProcess:
         self.name = name
         self.results: dict[str, Any] = {}
         self._ops: list[tuple[Any, ...]] = []
+        self._packers: dict[object, int] = {}  # what packs rows() -> its number in the child (handed over once)
         self._last_image: object = None
         self._pixels_queued = False  # an op with an image's pixels waits: hand it over with the op that takes it
         self._error: BaseException | None = None
@@ -169,10 +171,18 @@ class WriterProcess:
         if len(self._ops) >= BATCH:
             self.flush()
 
-    def messages(self, msgtype: str, messages: list[tuple[str, bytes]], log_time_ns: int) -> None:
-        """message() of each (topic, CDR bytes) of `messages`, in order, all of type `msgtype` at `log_time_ns`."""
+    def rows(
+        self, msgtype: str, packer: RowPacker, topics: tuple[str, ...], rows: list[tuple[Any, ...]], log_time_ns: int
+    ) -> None:
+        """message() of each of `topics`, in order, all of type `msgtype` at `log_time_ns`, the k-th message's bytes
+        being packer.pack_many(rows)[k]: the child packs them. `packer` (a msgs.CdrLayout or FilledLayout, which
+        pickle as what makes them) is handed over once; it must keep packing the same bytes for the same numbers."""
+        number = self._packers.get(packer)
         ops = self._ops
-        ops.extend([(MESSAGE, topic, msgtype, data, log_time_ns) for topic, data in messages])
+        if number is None:
+            number = self._packers[packer] = len(self._packers)
+            ops.append((PACKER, number, packer))
+        ops.append((ROWS, number, msgtype, topics, rows, log_time_ns))
         if len(ops) >= BATCH:
             self.flush()
 
@@ -687,6 +697,7 @@ class _Files:
         self.held: np.ndarray | None = None  # its head's count: the parent's _FrameRing.held
         self.holding: int | None = None  # the frame of the shared memory last_image is
         self.planes: Any = None  # colour.CameraPlanes while an MP4 is written: a frame converted once for both
+        self.packers: dict[int, Any] = {}  # what packs ROWS ops' messages, by the number the parent gave it
 
     def image(self, pixels: tuple[Any, ...] | None) -> Image:
         if pixels is not _SAME:
@@ -722,21 +733,36 @@ class _Files:
         return self.passed.pop(fd)
 
     def do_all(self, ops: list[tuple[Any, ...]]) -> None:
-        """do() each op in turn; a run of messages goes to the recorder at once (McapRecorder.write_many)."""
-        start = 0
-        for end, op in enumerate(ops):
-            if op[0] != MESSAGE:
-                if start < end:
-                    self.recorder.write_many([message[1:] for message in ops[start:end]])
+        """do() each op in turn; a run of messages (rows packed here) goes to the recorder at once
+        (McapRecorder.write_many)."""
+        run: list[tuple[Any, ...]] = []
+        for op in ops:
+            kind = op[0]
+            if kind == MESSAGE:
+                run.append(op[1:])
+            elif kind == ROWS:
+                run.extend(self.packed(op))
+            else:
+                if run:
+                    self.recorder.write_many(run)
+                    run = []
                 self.do(op)
-                start = end + 1
-        if start < len(ops):
-            self.recorder.write_many([message[1:] for message in ops[start:]])
+        if run:
+            self.recorder.write_many(run)
+
+    def packed(self, op: tuple[Any, ...]) -> list[tuple[str, str, bytes, int]]:
+        """A ROWS op's messages, (topic, msgtype, CDR bytes, log time) each, packed by the packer it names."""
+        _, number, msgtype, topics, rows, log_time = op
+        return [(topic, msgtype, data, log_time) for topic, data in zip(topics, self.packers[number].pack_many(rows))]
 
     def do(self, op: tuple[Any, ...]) -> None:
         kind = op[0]
         if kind == MESSAGE:
             self.recorder.write_serialized(op[1], op[2], op[3], op[4])
+        elif kind == ROWS:
+            self.recorder.write_many(self.packed(op))
+        elif kind == PACKER:
+            self.packers[op[1]] = op[2]
         elif kind == JPEG:
             from racecar_sim.msgs import serialize
 

@@ -32,7 +32,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Protocol, cast
+from typing import Protocol, cast
 
 import mujoco
 import numpy as np
@@ -43,7 +43,7 @@ from racecar_sim.core.names import CarNames
 from racecar_sim.core.throttle import ThrottledWarning
 from racecar_sim.core.transforms import compose, quat_mul, quat_rotate, quat_to_matrix, yaw_of
 from racecar_sim.msgs import Header, Point, Pose, Quaternion, Twist, Vector3, serialize
-from racecar_sim.msgs.cdr_layout import CdrLayout
+from racecar_sim.msgs.cdr_layout import CdrLayout, FilledLayout
 from racecar_sim.msgs.gazebo_msgs import (
     DeleteModelRequest,
     DeleteModelResponse,
@@ -269,7 +269,11 @@ class GazeboApi(NodeBase):
         # the CDR layouts of the state messages (bytes for a recorder alone), with the names they were read off and
         # a message's numbers (the static links' and models' never change): made at the first such message
         self._link_shape: tuple[list[str], CdrLayout, np.ndarray] | None = None
-        self._model_shape: tuple[tuple[str, ...], CdrLayout, list[Any]] | None = None
+        # (the model names, the layout, a message's numbers, the cars filled in from link_arrays() rows: _car_rows())
+        self._model_shape: tuple[tuple[str, ...], CdrLayout, np.ndarray, tuple[np.ndarray, np.ndarray]] | None = None
+        self._cars_from_rows: frozenset[int] = frozenset()
+        # (the link names and models they were made for, what packs the link states, the model states): _tick
+        self._packers: tuple[list[str], tuple[str, ...], FilledLayout, FilledLayout] | None = None
 
     def _link(self, name: str, body: int, static_pose: PoseArrays = _IDENTITY) -> _Link:
         model = self.sim.model
@@ -325,6 +329,55 @@ class GazeboApi(NodeBase):
         return not (self.bus.has_listeners(LINK_STATES) or self.bus.has_listeners(MODEL_STATES))
 
     def _tick(self, now_ns: int) -> None:
+        bus = self.bus
+        packers = self._packers
+        if (
+            packers is not None
+            and packers[0] is self._link_names
+            and packers[1] == tuple(self.models)
+            and bus.cdr_only(LINK_STATES)
+            and bus.cdr_only(MODEL_STATES)
+        ):  # only a recorder takes both: the moving links' arrays, once, and the writer packs both messages of them
+            poses, twists = self.link_arrays()
+            row = [(poses.tobytes(), twists.tobytes())]
+            bus.publish_cdr_rows(LinkStates, packers[2], (LINK_STATES,), row)
+            bus.publish_cdr_rows(ModelStates, packers[3], (MODEL_STATES,), row)
+            return
+        self._publish_states()
+        if bus.cdr_only(LINK_STATES) and bus.cdr_only(MODEL_STATES):
+            self._packers = self._filled_layouts()
+
+    def _filled_layouts(self) -> tuple[list[str], tuple[str, ...], FilledLayout, FilledLayout] | None:
+        """What packs the link and model states of link_arrays()' bytes (FilledLayout), once both layouts are read
+        (and while the links and models they were read for stay); None where a model that is not a car moves (its
+        state is not a row of link_arrays())."""
+        link, model, models = self._link_shape, self._model_shape, tuple(self.models)
+        if link is None or link[0] is not self._link_names or model is None or model[0] != models:
+            return None
+        car_models, car_rows = model[3]
+        moving = {i for i, m in enumerate(self.models.values()) if m.name not in self._static_models}
+        if moving != set(car_models.tolist()):
+            return None
+        pose, twist = np.arange(7), np.arange(6)
+        rows, count, moving_links = self._moving_rows, len(self._link_names), len(self._moving_rows)
+        link_fills = [
+            ((7 * rows[:, None] + pose).ravel(), 0, np.arange(7 * moving_links)),
+            (7 * count + (6 * rows[:, None] + twist).ravel(), 1, np.arange(6 * moving_links)),
+        ]
+        at = 7 * len(models)
+        model_fills = [
+            ((7 * car_models[:, None] + pose).ravel(), 0, (7 * car_rows[:, None] + pose).ravel()),
+            (at + (6 * car_models[:, None] + twist).ravel(), 1, (6 * car_rows[:, None] + twist).ravel()),
+        ]
+        return (
+            self._link_names,
+            models,
+            FilledLayout(link[1], link[2], link_fills),
+            FilledLayout(model[1], model[2], model_fills),
+        )
+
+    def _publish_states(self) -> None:
+        """Both state topics, each as a message object or (a recorder its only taker) its bytes packed here."""
         bus = self.bus
         arrays = None  # link_arrays() of now, when the link states' bytes were made of them (the cars' rows: models)
         if bus.has_listeners(LINK_STATES):
@@ -393,22 +446,21 @@ class GazeboApi(NodeBase):
             made = CdrLayout.of(msg)
             if made is None:
                 return serialize(msg)
-            self._model_shape = shape = (models, made[0], made[1])
+            self._model_shape = (models, made[0], np.array(made[1], float), self._car_rows())
             return made[0].pack(made[1])
-        _, layout, template = shape
-        numbers = template.copy()
-        twist_at = 7 * len(models)
-        poses, twists = ([], []) if arrays is None else (arrays[0].tolist(), arrays[1].tolist())
-        base_rows = self._base_rows if arrays is not None else {}
+        _, layout, template, (car_models, car_rows) = shape
+        numbers = template.copy()  # every model's pose (7 numbers), then every model's twist (6)
+        count = len(models)
+        done: frozenset[int] = frozenset()
+        if arrays is not None and len(car_models):  # the cars' base links' rows: x y z qx qy qz qw, vx vy vz wx wy wz
+            numbers[: 7 * count].reshape(count, 7)[car_models] = arrays[0][car_rows]
+            numbers[7 * count :].reshape(count, 6)[car_models] = arrays[1][car_rows]
+            done = self._cars_from_rows
+        twist_at = 7 * count
         for i, m in enumerate(self.models.values()):
-            if m.name in self._static_models:
+            if i in done or m.name in self._static_models:
                 continue
             if m.car is not None:
-                row = base_rows.get(m.name)
-                if row is not None:  # its base link's row: x y z qx qy qz qw, vx vy vz wx wy wz
-                    numbers[7 * i : 7 * i + 7] = poses[row]
-                    numbers[twist_at + 6 * i : twist_at + 6 * i + 6] = twists[row]
-                    continue
                 x, y, z, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = m.car.state.base_odometry()
                 numbers[7 * i : 7 * i + 7] = x, y, z, qx, qy, qz, qw
                 numbers[twist_at + 6 * i : twist_at + 6 * i + 6] = vx, vy, vz, wx, wy, wz
@@ -420,7 +472,14 @@ class GazeboApi(NodeBase):
                     *(float(v) for v in linear),
                     *(float(v) for v in angular),
                 )
-        return layout.pack(numbers)
+        return layout.pack_doubles(numbers)
+
+    def _car_rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """The cars whose state is their base link's row of link_arrays(): their indices among the models, and the
+        rows (kept as `_cars_from_rows` too, for the models the rows fill in)."""
+        pairs = [(i, self._base_rows[m.name]) for i, m in enumerate(self.models.values()) if m.name in self._base_rows]
+        self._cars_from_rows = frozenset(i for i, _ in pairs)
+        return np.array([i for i, _ in pairs], np.intp), np.array([row for _, row in pairs], np.intp)
 
     def model_states(self) -> ModelStates:
         """Every model's pose and twist now, as /gazebo/model_states carries them."""
