@@ -88,3 +88,29 @@ def test_a_car_moved_between_two_ticks_of_one_time_is_scanned_where_it_is_now():
     np.testing.assert_array_equal(third[-1].ranges, lidars[2].scan(stamp))
     sim.data.qpos[adr + 1] -= 0.3
     assert not np.array_equal(third[-1].ranges, lidars[2].scan(stamp))  # the batch's scan was of the old place
+
+
+def test_when_the_first_lidar_is_not_listened_to_the_next_casts_the_batch_for_the_others():
+    """Nobody listens to the first car's scan: it casts nothing, and the second lidar's tick casts the batch of the
+    second and third (the same scans as cast one by one); the noise tables are stacked once per set of lidars."""
+    sim = row("tunnel", 3)
+    lidars = [car.lidar for car in sim.cars]
+    published: dict[int, list] = {1: [], 2: []}
+    first = sim.subscribe(lidars[0].topic, lambda msg: None)
+    for k in (1, 2):
+        sim.subscribe(lidars[k].topic, published[k].append)
+    sim.run_until(0.1)
+    fleet = lidars[0]._fleet
+    assert len(fleet._stacks) == 1
+    first.unsubscribe()
+    cast = lidars[0].scans_cast
+    sim.run_until(0.2)
+    assert lidars[0].scans_cast == cast  # not listened to: no scan
+    assert len(fleet._stacks) == 1 and len(next(iter(fleet._stacks.values())).members) == 2
+    taken = fleet.taken
+    stamp = 3_000_000_000
+    for lidar in lidars:
+        lidar._tick(stamp)
+    assert fleet.taken == taken + 2
+    for k in (1, 2):
+        np.testing.assert_array_equal(published[k][-1].ranges, lidars[k].scan(stamp))
