@@ -70,8 +70,12 @@ def test_the_same_contacts_again_are_looked_at_again_where_a_wheel_tilts(
                  or contacts._wheel_list[int(data.contact.geom[i, 1])])  # fmt: skip
     ga, gb = (int(g) for g in data.contact.geom[wheel])
     floor = gb if contacts._owner_list[gb] < 0 else ga
+    data.contact.frame[wheel, 2] = -1.0  # its normal vertical, pointing down (the pair the other way round): resting
+    assert contacts.touching(data) == set()
     data.contact.frame[wheel, 2] = 0.0  # its normal horizontal: driving into what it touches
     assert contacts.touching(data) == {(0, -1, floor)}
     data.contact.frame[wheel, 2] = 1.0
     assert contacts.touching(data) == set()
+    data.contact.frame[wheel, 2] = -0.5  # tipped past 45 degrees, pointing down: a crash on the remembered look too
+    assert contacts.touching(data) == {(0, -1, floor)}
     sim.close()

@@ -118,3 +118,37 @@ def test_nan_and_infinite_beams_read_as_before():
         raw.append(ranges)
         clean.append(np.nan_to_num(ranges, nan=0.0, posinf=RANGE_MAX, neginf=RANGE_MAX))
     assert commands_for(raw) == commands_for(clean)
+
+
+@pytest.mark.parametrize("side", ["left", "right"])
+@pytest.mark.parametrize("range_max", [RANGE_MAX, 5.6])
+def test_the_compiled_readings_equal_numpys_on_random_scans(side, range_max):
+    """The readings of a lidar's scan in one compiled call (wall_fit.read_scan: the wall fit, the free distance ahead)
+    are the numpy path's to the bit: on random float32 scans, beams at range_max (5.6 m is above its float32, which
+    numpy's float32 comparison does not count as an echo), +inf beams and nearly empty sectors; a scan with a NaN or
+    -inf is left to the numpy path."""
+    import racecar_sim.drivers.wall_fit  # noqa: F401  (numba loaded: the driver takes the compiled path)
+
+    rng = np.random.default_rng(21)
+    follower = WallFollower(Bus(), wall_follow_config(side=side))
+    follower._range_max = range_max
+    angles = ANGLE_MIN + INCREMENT * np.arange(BEAMS)
+    sector, _, _ = follower._beams(angles)
+    compiled = 0
+    for k in range(300):
+        ranges = np.minimum(random_scan(rng), range_max).astype(np.float32)
+        if k % 3 == 0:  # beams clamped to range_max, as the lidar clamps them
+            ranges[rng.random(BEAMS) < 0.3] = np.float32(range_max)
+        if k % 5 == 0:  # a side sector with one echo, the rest at range_max or without echo
+            ranges[sector] = rng.choice([np.float32(range_max), np.inf], ranges[sector].shape)
+            ranges[sector.start + rng.integers(0, sector.stop - sector.start)] = 1.0
+        want = follower._readings(ranges, angles)
+        got = follower._read(ranges, angles)
+        assert got is not None
+        compiled += 1
+        assert got == want, k
+    assert compiled == 300
+    ranges = random_scan(rng).astype(np.float32)
+    for bad in (np.nan, -np.inf):
+        ranges[7] = bad
+        assert follower._read(ranges, angles) is None

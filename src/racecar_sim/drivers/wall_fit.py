@@ -1,4 +1,5 @@
-"""The wall-follow driver's wall fit, compiled (numba): one call per scan instead of ~25 numpy calls.
+"""The wall-follow driver's wall fit, compiled (numba): one call per scan instead of ~25 numpy calls (read_scan: with
+the scan's other readings, the NaN check and the free distance ahead, in the same call).
 
 Loaded by the first scan that has two echoes on the followed side (a world with walls; numba is already loaded
 there by the lidar's wall cast).
@@ -8,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 TIE = 1.0 + 1e-12  # ranges closer than this ratio may order differently by x^2 + y^2 (rounding)
@@ -66,3 +68,31 @@ def fit_wall(ranges, cos, sin, range_max, patch, side):
     t = 0.5 * math.atan2(sxy, sxx_yy)
     cx, cy = nx + mx, ny + my
     return -side * t, abs(cx * math.sin(t) - cy * math.cos(t))
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def read_scan(ranges, sector_start, sector_stop, cos, sin, front_start, front_stop, range_max, patch, side):
+    """WallFollower._on_scan's readings of a float32 scan in one call: (clean, approach, distance, front). `clean`
+    False (the rest unset) when a beam is NaN or -inf (the caller's nan_to_num path decides); else fit_wall of the
+    side sector ranges[sector_start:sector_stop] (none when fewer than two of its beams are below range_max, compared
+    in float32 as numpy compares a float32 array with a float) and the free distance in the front cone
+    ranges[front_start:front_stop] (range_max where it is empty or farther)."""
+    for j in range(len(ranges)):
+        r = ranges[j]
+        if math.isnan(r) or r == -math.inf:
+            return False, 0.0, 0.0, 0.0
+    limit = np.float32(range_max)
+    hits = 0
+    for j in range(sector_start, sector_stop):
+        if ranges[j] < limit:
+            hits += 1
+    approach, distance = 0.0, range_max
+    if hits >= 2:
+        approach, distance = fit_wall(ranges[sector_start:sector_stop], cos, sin, range_max, patch, side)
+    front = range_max
+    if front_stop > front_start:
+        lowest = ranges[front_start]
+        for j in range(front_start + 1, front_stop):
+            lowest = min(lowest, ranges[j])
+        front = min(float(lowest), range_max)
+    return True, approach, distance, front

@@ -68,13 +68,53 @@ class WallFollower(NodeBase):
         self._layout: Layout = (slice(0, 0), np.empty((2, 0)), slice(0, 0))
         bus.subscribe(odom_topic, self._on_odom)
         bus.subscribe(scan_topic, self._on_scan)
-        if "numba" in sys.modules:  # loaded for the world's walls (runtime/compiled.py): the fit's kernel now, at the
-            from racecar_sim.drivers.wall_fit import fit_wall  # start, not at the first scan that echoes twice
+        if "numba" in sys.modules:  # loaded for the world's walls (runtime/compiled.py): the fit's kernels now, at the
+            from racecar_sim.drivers.wall_fit import fit_wall, read_scan  # start, not at the first scans
 
             fit_wall(np.ones(2, np.float32), np.ones(2), np.zeros(2), 10.0, self.config.patch, self.side)
+            read_scan(
+                np.ones(2, np.float32), 0, 2, np.ones(2), np.zeros(2), 0, 2, 10.0, float(self.config.patch), self.side
+            )
 
     def _on_odom(self, msg: Odometry) -> None:
         self.speed = planar_pose(msg).speed
+
+    def _read(self, ranges: np.ndarray, angles: np.ndarray) -> tuple[float, float, float] | None:
+        """_readings of a float32 scan without NaN or -inf (a lidar's), in one compiled call (wall_fit.read_scan), where
+        numba is loaded already (a world with walls) and the sector and cone are runs of beams; None otherwise."""
+        if "numba" not in sys.modules or ranges.dtype != np.float32 or ranges.ndim != 1:
+            return None
+        if not ranges.flags.c_contiguous:
+            return None
+        sector, beams, front = self._beams(angles)
+        if type(sector) is not slice or type(front) is not slice:
+            return None
+        from racecar_sim.drivers.wall_fit import read_scan
+
+        clean, approach, wall, ahead = read_scan(
+            ranges,
+            sector.start,
+            sector.stop,
+            beams[0],
+            beams[1],
+            front.start,
+            front.stop,
+            float(self._range_max),
+            float(self.config.patch),
+            float(self.side),
+        )
+        return (approach, wall, ahead) if clean else None
+
+    def _readings(self, ranges: np.ndarray, angles: np.ndarray) -> tuple[float, float, float]:
+        """The wall's approach angle and distance (_wall) and the free distance ahead (the front cone's shortest
+        range, range_max where it is empty or farther) of a scan's ranges; NaN reads as 0 m, -inf as range_max."""
+        lowest = float(ranges.min()) if len(ranges) else 0.0
+        if math.isnan(lowest) or lowest == -math.inf:  # as nan_to_num reads them: 0 and range_max
+            ranges = np.nan_to_num(np.asarray(ranges, np.float64), posinf=self._range_max, neginf=self._range_max)
+        approach, wall = self._wall(ranges, angles)
+        front_ranges = ranges[self._layout[2]]  # +inf (no echo) reads as range_max
+        front = min(float(front_ranges.min()), self._range_max) if len(front_ranges) else self._range_max
+        return approach, wall, front
 
     def _wall(self, ranges: np.ndarray, angles: np.ndarray) -> tuple[float, float]:
         """The approach angle (rad, > 0 heading into it) and distance (m) of the wall on the followed side.
@@ -126,11 +166,12 @@ class WallFollower(NodeBase):
         cfg = self.config
         self._range_max = scan.range_max
         ranges = np.asarray(scan.ranges)
-        lowest = float(ranges.min()) if len(ranges) else 0.0
-        if math.isnan(lowest) or lowest == -math.inf:  # as nan_to_num reads them: 0 and range_max
-            ranges = np.nan_to_num(np.asarray(ranges, np.float64), posinf=scan.range_max, neginf=scan.range_max)
         angles = self._scan_angles(scan, len(ranges))
-        approach, wall = self._wall(ranges, angles)
+        read = self._read(ranges, angles)
+        if read is not None:  # a lidar's scan: its readings in one compiled call
+            approach, wall, front = read
+        else:
+            approach, wall, front = self._readings(ranges, angles)
         ahead = cfg.lookahead + cfg.lookahead_time * max(self.speed, 0.0)
         distance = wall - ahead * math.sin(approach)
         error = distance - cfg.distance  # > 0: too far from the wall
@@ -144,8 +185,6 @@ class WallFollower(NodeBase):
         wanted = _clip(cfg.kp * error + cfg.ki * self._integral, -cfg.max_approach, cfg.max_approach)
         steer_away = cfg.kd * (approach - wanted)
 
-        front_ranges = ranges[self._layout[2]]  # +inf (no echo) reads as range_max
-        front = min(float(front_ranges.min()), scan.range_max) if len(front_ranges) else scan.range_max
         if front < cfg.stuck or now < self._reverse_until:
             # boxed in (an acute pocket, a dead end too tight to turn in): back out, swinging the nose away
             if now >= self._reverse_until:

@@ -37,7 +37,7 @@ class CrashContacts:
         self._wheel_list: list[bool] = self._wheel_geom.tolist()
         # the last contacts that were no crash (their geom pairs' bytes), and which of them are a wheel on a surface:
         # the same pairs again are no crash as long as those wheels' normals stay within 45 degrees of vertical
-        self._quiet: tuple[bytes, npt.NDArray[np.intp]] | None = None
+        self._quiet: tuple[bytes, npt.NDArray[np.intp] | slice | None] | None = None
 
     def touching(self, data: mujoco.MjData) -> set[tuple[int, int, int]]:
         """(car, other car or -1, geom of the other side) for every crash contact now; a car-car contact once, with
@@ -51,11 +51,15 @@ class CrashContacts:
         quiet = self._quiet
         if quiet is not None and quiet[0] == key:  # most looks: the wheels on the floor as at the last one
             rows = quiet[1]
-            if not len(rows) or (np.abs(contact.frame[rows, 2]) > SUPPORT_NORMAL_Z).all():
+            if rows is None:
+                return set()
+            normal_z = contact.frame[rows, 2]
+            # every resting wheel's normal within 45 degrees of vertical: most often all point up, seen in one reduction
+            if normal_z.min() > SUPPORT_NORMAL_Z or (np.abs(normal_z) > SUPPORT_NORMAL_Z).all():
                 return set()
         resting: list[int] = []  # the wheels on a surface among them (their normals decide)
         found = self._touching_few(contact, n, resting) if n <= _FEW else self._touching_many(contact, pairs, resting)
-        self._quiet = None if found else (key, np.array(resting, np.intp))
+        self._quiet = None if found else (key, _rows(resting, n))
         return found
 
     def _touching_many(
@@ -99,6 +103,16 @@ class CrashContacts:
                     continue
             found.add(_crash(a, b, ga, gb))
         return found
+
+
+def _rows(resting: list[int], n: int) -> npt.NDArray[np.intp] | slice | None:
+    """The resting wheels' contact rows as the next look reads their normals: None for none, a slice for all n (a view,
+    not a copy), else their indices."""
+    if not resting:
+        return None
+    if len(resting) == n:  # the rows are increasing and distinct: all of 0..n-1
+        return slice(0, n)
+    return np.array(resting, np.intp)
 
 
 def _crash(a: int, b: int, ga: int, gb: int) -> tuple[int, int, int]:

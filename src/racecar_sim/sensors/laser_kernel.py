@@ -156,3 +156,87 @@ def _cell(origin: Floats, size: float, x0: int, y0: int, ids: NDArray[np.int64],
     if ix < 0 or iy < 0 or ix >= ids.shape[0] or iy >= ids.shape[1]:
         return outside
     return int(ids[ix, iy])
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def level_scans(
+    qpos: Floats,
+    adrs: Indices,
+    local_origins: Floats,
+    local_axes: Floats,
+    size: float,
+    x0: int,
+    y0: int,
+    ids: NDArray[np.int64],
+    outside: int,
+    starts: NDArray[np.int64],
+    table: Floats,
+    floors: Floats,
+    max_tilt_cos: float,
+    angle_min: float,
+    inverse_step: float,
+    count: int,
+    turn: float,
+    range_min: float,
+    range_max: float,
+    dirs: Floats,
+    values: Noise,
+    firsts: Indices,
+    seconds: Indices,
+    stddevs: Floats,
+    means: Floats,
+    noisy: NDArray[np.bool_],
+    ranges: Floats,
+    out: NDArray[np.float32],
+    xpos: Floats,
+    xmat: Floats,
+    solid_starts: Indices,
+    solid_ids: Indices,
+    solid_types: Indices,
+    solid_sizes: Floats,
+    solid_rbound: Floats,
+    cast: NDArray[np.bool_],
+) -> None:
+    """level_scan for the lasers i = 0..n-1 of one world's walls and fan, in one call (a fleet's scans of one tick):
+    laser i on the free body at qpos[adrs[i]:], its mount local_origins[i], local_axes[i], its noise table values[i]
+    (rows: the tables, stacked) with the windows firsts[i], seconds[i], its noise stddevs[i], means[i], noisy[i], its
+    scratch ranges[i] and scan out[i], the solids it sees solid_ids[solid_starts[i]:solid_starts[i + 1]] (and their
+    types, sizes, bounds). cast[i]: level_scan's answer (False: out[i] untouched, the scan needs the general path)."""
+    for i in range(adrs.shape[0]):
+        a, b = solid_starts[i], solid_starts[i + 1]
+        cast[i] = level_scan(
+            qpos,
+            adrs[i],
+            local_origins[i],
+            local_axes[i],
+            size,
+            x0,
+            y0,
+            ids,
+            outside,
+            starts,
+            table,
+            floors,
+            max_tilt_cos,
+            angle_min,
+            inverse_step,
+            count,
+            turn,
+            range_min,
+            range_max,
+            dirs,
+            values[i],
+            firsts[i],
+            seconds[i],
+            stddevs[i],
+            means[i],
+            noisy[i],
+            ranges[i],
+            out[i],
+            xpos,
+            xmat,
+            solid_ids[a:b],
+            solid_types[a:b],
+            solid_sizes[a:b],
+            solid_rbound[a:b],
+        )

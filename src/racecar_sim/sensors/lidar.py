@@ -22,6 +22,7 @@ from racecar_sim.description.urdf import Sensor
 from racecar_sim.msgs import Header, LaserScan
 from racecar_sim.nodes import NodeBase, NodeContext, Parts
 from racecar_sim.physics import COLLISION_GROUP
+from racecar_sim.sensors.fleet_scans import FleetScans
 from racecar_sim.sensors.laser_mount import LaserMount
 from racecar_sim.sensors.laser_spec import LaserSpec
 from racecar_sim.sensors.raycast import Fan, RayCaster
@@ -101,7 +102,9 @@ class LidarPublisher(NodeBase):
         self.scans_cast = 0
         self.one_call_scans = 0  # scans answered by the one compiled call (laser_kernel.level_scan)
         self.beams_3d = 0  # beams cast in 3-D by MuJoCo, over every scan
-        self._task = ctx.timers.every(spec.update_rate, self._tick, "hokuyo")
+        self.task = ctx.timers.every(spec.update_rate, self._tick, "hokuyo")
+        self._fleet = FleetScans.of(self._shared, data)  # the scans of one tick cast in one call for every lidar
+        self._fleet.join(self)
 
     def _own_parts(self) -> Parts:
         return Parts.sites(f"ray sensor '{self.spec.name}'", site=self.spec.link)
@@ -117,11 +120,21 @@ class LidarPublisher(NodeBase):
         self._pose = self._shared.pose
         self.mount = LaserMount.of(model, self._site, self._offset, self._turn)
         self.caster.rebind(model, self._pose, model.body(self._root).id)
+        self._fleet.leave(self)
+        self._fleet = FleetScans.of(self._shared, data)
+        self._fleet.join(self)
 
     def _tick(self, now_ns: int) -> None:
         if not self.bus.has_listeners(self.topic):
             return
         spec = self.spec
+        ranges = self._fleet.take(self, now_ns) if self.mode == "auto" else None
+        if ranges is None:
+            ranges = self.scan(now_ns)
+        else:  # cast in one call with the fleet's other scans of this tick
+            self.scans_cast += 1
+            self.one_call_scans += 1
+            self.caster.last_3d_beams = 0
         self.bus.publish(
             self.topic,
             LaserScan(
@@ -133,7 +146,7 @@ class LidarPublisher(NodeBase):
                 0.0,
                 spec.range_min,
                 spec.range_max,
-                self.scan(now_ns),
+                ranges,
                 self._no_intensities,
             ),
         )
@@ -184,6 +197,24 @@ class LidarPublisher(NodeBase):
             ranges += self.scan_noise(self.noise_table.sample(self.seed, stamp_ns))
         ranges = np.where(hit, np.clip(ranges, spec.range_min, spec.range_max), np.inf)
         return ranges.astype(np.float32)
+
+    def ticks_with(self, task: object) -> bool:
+        """Whether this lidar's ticks fall when those of `task` (another lidar's) do: the same period from the same
+        start."""
+        mine = self.task
+        return mine is task or (
+            not getattr(mine, "cancelled", True)
+            and getattr(mine, "period_ns", None) is not None
+            and getattr(mine, "period_ns", None) == getattr(task, "period_ns", None)
+            and getattr(mine, "start_ns", None) == getattr(task, "start_ns", None)
+        )
+
+    def one_call_args(self) -> list[Any] | None:
+        """The arguments of the one compiled call (laser_kernel.level_scan; its scan's own ones unset), or None where
+        no scan of this lidar takes that path now (a mount without a free body, mode 3d, a world that is not walls)."""
+        if self.mount is None or self.mode != "auto" or (walls := self.caster.level_walls()) is None:
+            return None
+        return self._one_call(walls, self.caster.solids or _NO_SOLIDS, self.mount)
 
     def _one_call(self, walls: FlatWalls, solids: Solids, mount: LaserMount) -> list[Any]:
         """level_scan's arguments but the scan's own (the noise windows, `out`: set by the caller), made again only
@@ -240,6 +271,7 @@ class LidarPublisher(NodeBase):
         not of the first tick)."""
         counts = self.scans_cast, self.one_call_scans, self.beams_3d, self.caster.last_3d_beams
         self.scan(0)
+        self._fleet.warm(self)  # and the fleet's one call for the scans of a tick
         if self.caster.compiled:  # and the general path's kernels, for a scan the one call refuses (a tilted car)
             self._published(self.true_ranges(), 0)
         self.scans_cast, self.one_call_scans, self.beams_3d, self.caster.last_3d_beams = counts
@@ -310,4 +342,5 @@ class LidarPublisher(NodeBase):
 
     def close(self) -> None:
         """Stop publishing."""
-        self._task.cancel()
+        self.task.cancel()
+        self._fleet.leave(self)
