@@ -678,3 +678,25 @@ def test_a_context_begun_early_is_the_one_the_cameras_take_and_an_untaken_one_is
     )
     first, second = failed.strip().splitlines()
     assert first == second and "MUJOCO_GL=off" in first
+
+
+@needs_gl
+def test_a_process_that_exits_while_its_context_is_being_made_waits_for_it():
+    """A build that fails at once (a bad world) exits while start_shared_context()'s thread is still setting the
+    driver up: the exit waits for the context and frees it, rather than tearing the driver down under that thread
+    (glibc aborted such exits with "double free or corruption" in about a third of `racecar-sim run` calls)."""
+    result = _run_python(
+        "import sys, time\n"
+        "from racecar_sim.render import gl\n"
+        "real = gl.create_context\n"
+        "def slow(width, height):\n"
+        "    time.sleep(0.3)\n"
+        "    made = real(width, height)\n"
+        "    print('made', flush=True)\n"
+        "    return made\n"
+        "gl.create_context = slow\n"
+        "gl.start_shared_context()\n"
+        "sys.exit(0)\n",
+        {},
+    )
+    assert result.stdout == "made\n" and result.stderr == ""

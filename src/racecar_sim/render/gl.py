@@ -17,6 +17,7 @@ and the CLI imports its subcommand inside `mujoco_gl_disabled`.
 from __future__ import annotations
 
 import atexit
+import contextlib
 import ctypes
 import importlib
 import os
@@ -155,6 +156,9 @@ def mujoco_gl_disabled() -> Iterator[None]:
             os.environ["MUJOCO_GL"] = previous
 
 
+_START_WAIT_S = 30.0  # the longest an exit waits for a context being made (it takes 0.1-1 s)
+
+
 def start_shared_context(width: int = 640, height: int = 480) -> None:
     """Begin making the process's headless context (shared_context's) now, on a thread of its own, so that the
     driver's loading and EGL's set-up (C, without the GIL) overlap what the caller does meanwhile; shared_context()
@@ -171,12 +175,22 @@ def start_shared_context(width: int = 640, height: int = 480) -> None:
             starting.set_exception(exc)
             return
         global _unclaimed
-        _unclaimed = made
-        atexit.register(_free_unclaimed)  # a build that failed before its camera took it
+        _unclaimed = made  # freed at exit by _settle_start where a build failed before its camera took it
         starting.set_result(made)
 
     _starting = starting
+    # a process that exits while the driver is still being set up (a build that failed at once) would tear the
+    # driver's globals down under the thread making the context: glibc then aborts ("double free")
+    atexit.register(_settle_start, starting)
     threading.Thread(target=make, name="racecar-sim GL start", daemon=True).start()
+
+
+def _settle_start(starting: Future[HeadlessGL]) -> None:
+    """At exit: wait for start_shared_context()'s thread to finish making the context, then free it if no camera
+    took it."""
+    with contextlib.suppress(TimeoutError):
+        starting.exception(timeout=_START_WAIT_S)
+    _free_unclaimed()
 
 
 def when_shared_context(fn: Callable[[HeadlessGL], object]) -> None:
