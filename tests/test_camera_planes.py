@@ -5,7 +5,6 @@ Frames the fast path does not cover, and a writer without the kernel, give compr
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import av
@@ -95,16 +94,6 @@ def test_frames_the_fast_path_does_not_cover_are_compressed_as_before(msg):
     planes = CameraPlanes()
     assert planes.jpeg(msg, None) is None
     assert planes.compressed(msg, None).data == compress_image(msg).data
-
-
-def test_loading_in_the_background_converts_once_loaded():
-    planes = CameraPlanes(background=True)  # as the writer process makes it when it opens an MP4
-    msg = image(random_frame(48, 64))
-    for _ in range(200):
-        if planes.jpeg(msg, None) is not None:
-            break
-        time.sleep(0.05)
-    assert planes.jpeg(msg, None) == expected_jpeg(random_frame(48, 64))
 
 
 def test_without_the_kernel_images_are_compressed_as_before(monkeypatch):

@@ -8,8 +8,7 @@ so simplejpeg.encode_jpeg_yuv_planes gives encode_jpeg's bytes, and the video's 
 of swscale's); the video frame is filled in place and swscale is not run.
 
 Frames the kernel does not cover (odd sizes, and for the JPEG widths not a multiple of 16; rgb8, padded rows, a
-GIF video) and machines where the kernel does
-not load (no numba) go the encoders' own way, as before.
+GIF video) and machines where the kernel does not load (no numba) go the encoders' own way, as before.
 """
 
 from __future__ import annotations
@@ -66,14 +65,11 @@ class CameraPlanes:
 
     jpeg(msg) and video_frame(msg) convert `msg` at the first of the two calls for it (the same Image object) and
     reuse the result at the second. Both return None where the fast path does not cover the image (or the kernel
-    is not loaded: `background` loads it on a thread of its own): the caller then encodes it as before."""
+    could not load): the caller then encodes it as before. Made, the kernel is loaded (load_kernel: waited for where
+    the writer's start is still loading it)."""
 
-    def __init__(self, background: bool = False) -> None:
-        self._kernel: Callable[..., None] | None = None
-        if background:  # the encoders convert until the kernel is loaded (numba's import: ~0.4 s)
-            threading.Thread(target=self._load, name="colour kernel", daemon=True).start()
-        else:
-            self._load()
+    def __init__(self) -> None:
+        self._kernel = load_kernel()
         self._image: Image | None = None
         self._jpeg_planes: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._frame: Any = None  # the video's yuv420p frame of _image, until the video takes it
@@ -102,16 +98,13 @@ class CameraPlanes:
         frame, self._frame = self._frame, None
         return frame
 
-    def _load(self) -> None:
-        self._kernel = load_kernel()
-
     def _convert(self, msg: Image, video: Any) -> bool:
         if msg is self._image:
             return True
         self._image, self._frame = None, None
         if msg.encoding != "bgr8" or msg.height % 2 or msg.width % 2 or msg.step != 3 * msg.width:
             return False
-        if self._kernel is None:  # not loaded (yet)
+        if self._kernel is None:  # no numba here
             return False
         height, width = msg.height, msg.width
         rows = np.frombuffer(msg.data, np.uint8, height * msg.step).reshape(height, msg.step)

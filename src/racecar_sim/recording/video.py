@@ -91,7 +91,7 @@ class VideoWriter:
             self._thread is None
             and isinstance(encoder, _Mp4Encoder)
             and encoder.width == self.width
-            and (encoder.height == self.height)
+            and encoder.height == self.height
         )
 
     def yuv420p_frame(self) -> Any:
