@@ -78,6 +78,8 @@ class LidarPublisher(NodeBase):
         self.noise_table = NoiseTable.shared(self.noise_stream, spec.samples)
         self._no_intensities = np.zeros(spec.samples, np.float32)
         self._no_intensities.flags.writeable = False  # one array shared by every scan message
+        # a scan message's fields from angle_min to range_max, the same in every scan
+        self._fields = (spec.min_angle, spec.max_angle, spec.angle_increment, 0.0, 0.0, spec.range_min, spec.range_max)
         self._ranges = np.empty(spec.samples)  # level_scan's true ranges (scratch)
         self._misses = np.full(spec.samples, np.inf, np.float32)  # a scan that hits nothing
         self._root = names.mj(robot.root)
@@ -137,19 +139,7 @@ class LidarPublisher(NodeBase):
             self.one_call_scans += 1
             self.caster.last_3d_beams = 0
         self.bus.publish(
-            self.topic,
-            LaserScan(
-                Header.at(now_ns, spec.frame_id),
-                spec.min_angle,
-                spec.max_angle,
-                spec.angle_increment,
-                0.0,
-                0.0,
-                spec.range_min,
-                spec.range_max,
-                ranges,
-                self._no_intensities,
-            ),
+            self.topic, LaserScan(Header.at(now_ns, spec.frame_id), *self._fields, ranges, self._no_intensities)
         )
 
     def ray_origin(self) -> tuple[np.ndarray, np.ndarray]:
