@@ -228,6 +228,34 @@ def test_fast_caster_equals_mujoco_3d_casts(world, box):
     assert fast_beams > 20 * SAMPLES, "most beams took the 2-D path"
 
 
+def test_a_lone_car_in_an_empty_world_casts_only_the_scans_that_can_reach_the_floor(monkeypatch):
+    """Level enough, a lone car's scan in `empty` can hit nothing (every beam stays above the ground plane within
+    range_max): it is published as all inf without a cast. Pitched or rolled so that the ground is within reach, it
+    is cast. Either way the published scan is MuJoCo's 3-D cast under Gazebo's rule, to the bit."""
+    sim = lidar_sim(world="empty", noise=False)
+    lidar = sim.car.lidar
+    assert lidar.caster.floors_only == (0.0,)
+    casts: list[int] = []
+    cast = lidar.caster.cast
+    monkeypatch.setattr(lidar.caster, "cast", lambda *a, **k: casts.append(1) or cast(*a, **k))
+    rng = np.random.default_rng(3)
+    cast_poses = hits = 0
+    for k in range(40):
+        tilt = (0.0, 1e-3, 0.05, 0.3)[k % 4]  # level, sway, a tilt that reaches the ground within 10 m, a steep one
+        _place(sim, *rng.uniform(-5, 5, 2), rng.uniform(0.0, 0.1), (rng.normal(0, tilt), rng.normal(0, tilt), 0.3 * k))
+        before = len(casts)
+        published = lidar.scan(k * 25_000_000)
+        reference = cast(*lidar.ray_origin(), mode="3d")
+        hit = np.isfinite(reference)
+        expected = np.where(hit, np.clip(reference, lidar.spec.range_min, lidar.spec.range_max), np.inf)
+        np.testing.assert_array_equal(published, expected.astype(np.float32), err_msg=f"pose {k}")
+        if tilt <= 1e-3:  # nothing within reach: no cast
+            assert len(casts) == before and not hit.any(), f"pose {k}"
+        cast_poses += len(casts) > before
+        hits += bool(hit.any())
+    assert cast_poses >= 10 and hits >= 10, "the steep poses (ground within reach) were cast, and saw the ground"
+
+
 def test_a_tilted_scan_of_walls_stays_two_dimensional_and_exact():
     """Rolled and pitched by ~0.6 degrees the beams climb or dip up to 13 cm over 10 m - still inside the
     tunnel's 2.5 m walls and above the floor, so every beam takes the 2-D path, exact to float precision."""

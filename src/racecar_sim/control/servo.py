@@ -89,12 +89,17 @@ class ServoCommands(NodeBase):
     def _on_drive(self, msg: AckermannDriveStamped) -> None:
         if not accept_command(self.input_topic, msg, self.warn):
             return
+        drive = msg.drive
         publish = self.bus.publish
-        for topic, value in self.commands(msg.drive.speed, msg.drive.steering_angle):
+        for topic, value in zip(self.topics, self._values(drive.speed, drive.steering_angle)):
             publish(topic, Float64(value))
 
     def commands(self, speed: float, steer: float) -> list[tuple[str, float]]:
         """The controller commands for one drive command, (topic, rad or rad/s) in the order they are published."""
+        return list(zip(self.topics, self._values(speed, steer)))
+
+    def _values(self, speed: float, steer: float) -> list[float]:
+        """The law's values for one drive command (warning once where a hinge would pass its limit)."""
         values, clamped = self.law.command(speed, steer)
         if clamped and not self._warned:
             self._warned = True
@@ -103,7 +108,7 @@ class ServoCommands(NodeBase):
                 "turning as tight as the limits allow",
                 steer,
             )
-        return list(zip(self.topics, values))
+        return values
 
 
 def _range(low: float | None, high: float | None) -> tuple[float, float] | None:

@@ -24,6 +24,7 @@ if TYPE_CHECKING:
     from racecar_sim.sensors.camera import CameraPublisher
 
 TRAJECTORY_ROWS = 1 << 14  # the most path rows kept per car (819 s at 20 Hz, 384 KB); then every other one is dropped
+_MINIMUM = np.minimum.reduce  # what ndarray.min() calls (NaN propagates the same)
 ODOMETRY_RATE = 20.0  # Hz, the rows of `trajectory` until it is thinned out
 
 
@@ -93,7 +94,7 @@ class RunLog:
         ranges = np.asarray(msg.ranges)
         # the shortest finite range: the plain minimum (inf, no echo, is above every range), unless a NaN or -inf is
         # in the scan; a third of the time of picking the finite ones out first (every scan of every car)
-        lowest = float(ranges.min()) if len(ranges) else math.inf
+        lowest = float(_MINIMUM(ranges)) if len(ranges) else math.inf  # ranges.min() without its Python wrapper
         if math.isnan(lowest) or lowest == -math.inf:
             finite = ranges[np.isfinite(ranges)]
             lowest = float(finite.min()) if len(finite) else math.inf

@@ -93,6 +93,7 @@ class FleetScans:
 
     def __init__(self, shared: SharedPose, data: mujoco.MjData) -> None:
         self.shared, self.data = shared, data
+        self._mocap = len(data.mocap_pos) > 0
         self.lidars: list[LidarPublisher] = []
         self._ready: dict[LidarPublisher, Entry] = {}  # scans cast for lidars that have not ticked yet
         # the batch each lidar casts when it ticks first (None: none), for the bus's listeners epoch it was made in
@@ -130,6 +131,8 @@ class FleetScans:
 
     def _state(self) -> bytes:
         data = self.data
+        if not self._mocap:  # no mocap body: qpos is the whole state a scan reads
+            return data.qpos.tobytes()
         return data.qpos.tobytes() + data.mocap_pos.tobytes() + data.mocap_quat.tobytes()
 
     def take(self, lidar: LidarPublisher, stamp_ns: int) -> np.ndarray | None:

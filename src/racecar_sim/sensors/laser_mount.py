@@ -48,13 +48,27 @@ class LaserMount:
 
     def pose(self, qpos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Ray origin (3,) and sensor axes (3, 3; world from sensor) at `qpos`."""
+        origin, axes = self.pose_lists(qpos)
+        return np.array(origin), np.array(axes)
+
+    def pose_lists(self, qpos: np.ndarray) -> tuple[list[float], list[list[float]]]:
+        """pose() as Python floats: the ray origin [x, y, z] and the sensor axes' rows (the same numbers)."""
         a = self.qpos_adr
         px, py, pz, w, x, y, z = qpos[a : a + 7].tolist()
-        r = _rotation(w, x, y, z)
-        lo = self._origin
-        origin = [r[i][0] * lo[0] + r[i][1] * lo[1] + r[i][2] * lo[2] for i in range(3)]
-        axes = [[r[i][0] * c[0] + r[i][1] * c[1] + r[i][2] * c[2] for c in zip(*self._axes)] for i in range(3)]
-        return np.array([px + origin[0], py + origin[1], pz + origin[2]]), np.array(axes)
+        (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = _rotation(w, x, y, z)
+        o0, o1, o2 = self._origin
+        (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = self._axes
+        origin = [
+            px + (r00 * o0 + r01 * o1 + r02 * o2),
+            py + (r10 * o0 + r11 * o1 + r12 * o2),
+            pz + (r20 * o0 + r21 * o1 + r22 * o2),
+        ]
+        axes = [
+            [r00 * a00 + r01 * a10 + r02 * a20, r00 * a01 + r01 * a11 + r02 * a21, r00 * a02 + r01 * a12 + r02 * a22],
+            [r10 * a00 + r11 * a10 + r12 * a20, r10 * a01 + r11 * a11 + r12 * a21, r10 * a02 + r11 * a12 + r12 * a22],
+            [r20 * a00 + r21 * a10 + r22 * a20, r20 * a01 + r21 * a11 + r22 * a21, r20 * a02 + r21 * a12 + r22 * a22],
+        ]
+        return origin, axes
 
     def poses(self, qpos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """pose() for every row of `qpos` (N, nq): origins (N, 3) and axes (N, 3, 3)."""

@@ -78,7 +78,10 @@ class LidarPublisher(NodeBase):
         self.noise_table = NoiseTable.shared(self.noise_stream, spec.samples)
         self._no_intensities = np.zeros(spec.samples, np.float32)
         self._no_intensities.flags.writeable = False  # one array shared by every scan message
+        # a scan message's fields from angle_min to range_max, the same in every scan
+        self._fields = (spec.min_angle, spec.max_angle, spec.angle_increment, 0.0, 0.0, spec.range_min, spec.range_max)
         self._ranges = np.empty(spec.samples)  # level_scan's true ranges (scratch)
+        self._misses = np.full(spec.samples, np.inf, np.float32)  # a scan that hits nothing
         self._root = names.mj(robot.root)
         # the site of its link, bound by the car (or here, for a laser built on its own)
         self.parts = ctx.parts if ctx.parts.declares("site") else self._own_parts().bind(model)
@@ -136,19 +139,7 @@ class LidarPublisher(NodeBase):
             self.one_call_scans += 1
             self.caster.last_3d_beams = 0
         self.bus.publish(
-            self.topic,
-            LaserScan(
-                Header.at(now_ns, spec.frame_id),
-                spec.min_angle,
-                spec.max_angle,
-                spec.angle_increment,
-                0.0,
-                0.0,
-                spec.range_min,
-                spec.range_max,
-                ranges,
-                self._no_intensities,
-            ),
+            self.topic, LaserScan(Header.at(now_ns, spec.frame_id), *self._fields, ranges, self._no_intensities)
         )
 
     def ray_origin(self) -> tuple[np.ndarray, np.ndarray]:
@@ -176,6 +167,12 @@ class LidarPublisher(NodeBase):
         """The ranges (float32) of a scan taken now and stamped `stamp_ns`, with that stamp's noise."""
         spec = self.spec
         mount = self.mount
+        if mount is not None and self.caster.floors_only is not None and self.mode == "auto":
+            origin, axes = mount.pose_lists(self.data.qpos)
+            if self.caster.misses_everything(origin[2], axes):  # nothing to see (a lone car in an empty world)
+                self.scans_cast += 1
+                self.caster.last_3d_beams = 0
+                return self._misses.copy()  # no echo, with noise or without: inf
         # the common case in one compiled call (laser_kernel.level_scan), else the steps below
         if mount is not None and self.mode == "auto" and (walls := self.caster.level_walls()) is not None:
             solids = self.caster.solids or _NO_SOLIDS

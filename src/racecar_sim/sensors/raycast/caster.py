@@ -17,7 +17,7 @@ import mujoco
 import numpy as np
 
 from racecar_sim.physics.near_walls import WallBoxes
-from racecar_sim.sensors.raycast.fan import MAX_TILT_COS, Fan, ScanFrame
+from racecar_sim.sensors.raycast.fan import MAX_TILT_COS, Fan, ScanFrame, plane_band
 from racecar_sim.sensors.raycast.grid import FlatWalls, Grid, split_by_band
 from racecar_sim.sensors.raycast.mujoco3d import MujocoRays
 from racecar_sim.sensors.raycast.planar import (
@@ -86,6 +86,10 @@ class RayCaster:
         self.compiled = self.grid.has_items or bool(self.solids)
         self.rays3d = MujocoRays(model, data, group, geoms[own], walls)
         self.last_3d_beams = 0
+        # the heights of the floors where they are all this world holds for a scan (an empty world, one car): a level
+        # scan whose band holds none of them hits nothing (misses_everything); None where the world holds more
+        bare = not (self._has_moving or self.grid.has_items or self.static.not_prism_like)
+        self.floors_only: tuple[float, ...] | None = tuple(self.static.floors.tolist()) if bare else None
 
     def cast(self, origin: np.ndarray, rotation: np.ndarray, mode: str = "auto") -> np.ndarray:
         """Range (m) of every beam from `origin` (world, 3) along the sensor axes `rotation` (world from
@@ -147,6 +151,16 @@ class RayCaster:
                 self._pose_bodies()
             ranges[beams] = self.rays3d.cast(frame, beams)
         return ranges
+
+    def misses_everything(self, z: float, rotation: list[list[float]]) -> bool:
+        """Whether cast() in mode auto, from height `z` along the sensor axes `rotation` (rows), gives inf for every
+        beam without casting one: a world of floors alone (floors_only), a scan plane tilted by less than 60 degrees
+        and no floor within its band (otherwise cast() goes 3-D, or there is something to see)."""
+        floors = self.floors_only
+        if floors is None:
+            return False
+        level_cos, lo, hi = plane_band(z, rotation, self.fan.range_max)
+        return not level_cos < MAX_TILT_COS and not any(lo <= floor <= hi for floor in floors)
 
     def level_walls(self) -> FlatWalls | None:
         """What a compiled caller needs to cast cast()'s common case itself (level.cast_level on the walls of the

@@ -47,6 +47,14 @@ class Fan:
         object.__setattr__(self, "kernel_args", (*kernel_args, self.directions))
 
 
+def plane_band(z: float, rotation: list[list[float]], range_max: float) -> tuple[float, float, float]:
+    """The cos of a scan plane's tilt and the height band (lo, hi) its beams stay within up to `range_max`, for the ray
+    origin at height `z` and the sensor axes `rotation` (rows; world from sensor): ScanFrame's level_cos and band."""
+    (e1x, e2x, _), (e1y, e2y, _), (e1z, e2z, _) = rotation
+    half = range_max * math.hypot(e1z, e2z) * (1.0 + 1e-12) + 1e-12
+    return e1x * e2y - e2x * e1y, z - half, z + half  # the cos of the tilt: z of the scan plane's normal
+
+
 class ScanFrame:
     """Where one scan is cast from: the ray origin and the sensor axes in the world, and what follows.
 
@@ -59,11 +67,10 @@ class ScanFrame:
         self.origin = np.asarray(origin, dtype=float)
         self.rotation = np.asarray(rotation, dtype=float).reshape(3, 3)
         self.fan = fan
-        (e1x, e2x, _), (e1y, e2y, _), (e1z, e2z, _) = self.rotation.tolist()
-        self.level_cos = e1x * e2y - e2x * e1y  # cos of the tilt: z of the scan plane's normal
-        half = fan.range_max * math.hypot(e1z, e2z) * (1.0 + 1e-12) + 1e-12
-        z = float(self.origin[2])
-        self.band = (z - half, z + half)
+        rows = self.rotation.tolist()
+        (e1x, e2x, _), (e1y, e2y, _), _ = rows
+        self.level_cos, lo, hi = plane_band(float(self.origin[2]), rows, fan.range_max)
+        self.band = (lo, hi)
         self.projection = np.array([[e1x, e2x], [e1y, e2y]])
         self.steep = self.level_cos < MAX_TILT_COS
         if self.steep:
