@@ -4,6 +4,7 @@ are mj_objectVelocity's, bit for bit, and their poses those read one link at a t
 
 from __future__ import annotations
 
+import pickle
 from pathlib import Path
 from typing import Any
 
@@ -81,6 +82,28 @@ def test_link_twists_are_mj_object_velocity_bit_for_bit() -> None:
     assert np.abs(twists).max() > 0.5  # the cars move
     sim.close()
     assert compared > 200
+
+
+def test_a_writer_derives_the_links_arrays_from_the_ticks_bytes_bit_for_bit() -> None:
+    """What a recorded tick hands over (MuJoCo's arrays' bytes) gives a writer process's copy of LinkArrays the
+    numbers link_arrays() gives in the simulation, bit for bit (the wheels posed by kinematics, the bases read from qpos)."""
+    cars = [Car("car1", spawn=Spawn(0.0, 0.0, 0.05, 0.0), camera=False),
+            Car("car2", spawn=Spawn(-1.5, 0.0, 0.05, 0.3), camera=False)]  # fmt: skip
+    sim = Simulator(world="tunnel", cars=cars)
+    for k, car in enumerate(sim.cars):
+        ConstantCommand(sim.bus, sim.scheduler, 2.0 + k, 0.3 - 0.5 * k, topic=car.topic(NAVIGATION))
+    api = sim.gazebo
+    writers = pickle.loads(pickle.dumps(api._arrays))  # as a writer process unpickles it
+    assert len(api._posed_links) > 0 and len(api._free_links) == 2  # both ways of reading a pose are compared
+    for step in range(1, 12):
+        sim.run_until(0.05 * step)
+        row = api._state_arrays()
+        derived = writers.derive(row)
+        assert writers.derive(row) is derived  # the link and the model states of a tick derive them once
+        for mine, theirs in zip(api.link_arrays(), derived):
+            assert mine.tobytes() == theirs.tobytes()
+    assert np.abs(derived[1]).max() > 0.5  # the cars move
+    sim.close()
 
 
 def _one_car(path: Path, process: bool, listened: str | None = None, stopped: str | None = None) -> bytes:
