@@ -23,6 +23,7 @@ from typing import Literal
 import numpy as np
 
 from racecar_sim.bus import BusPort
+from racecar_sim.control.controller_rows import ControllerRows, Spec, state_numbers
 from racecar_sim.control.controllers import VELOCITY, ControllerConfig, JointController
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.time import NS_PER_S
@@ -73,6 +74,7 @@ class ControllerStatePublisher:
         # listeners epoch they were asked under (kept while it stays the same: twelve questions fewer per tick)
         self._heard: tuple[int | None, list[tuple[bool, bool]]] = (None, [])
         self._all_direct = False  # every state topic is taken by a recorder alone (under the epoch of `_heard`)
+        self._rows: tuple[object, ControllerRows] | None = None  # the model it was made for, what packs the rows
         self._topics = tuple(c.topic for c in self.controllers)
         self._names = tuple(c.config.name for c in self.controllers)
         self._name_set = frozenset(self._names)
@@ -100,8 +102,11 @@ class ControllerStatePublisher:
         bus = self.bus
         heard = self._listening()
         if self._all_direct and self._layout and self._all_running():
-            # the usual tick of a recorded run: every state, in one hand-over of their numbers
-            self._publish_bytes(self.controllers, now_ns, float(self.state.model.opt.timestep), self._topics)
+            # the usual tick of a recorded run: every state, in one hand-over of MuJoCo's arrays (the writer reads
+            # the numbers off them), or of their numbers
+            self._publish_arrays(now_ns) or self._publish_bytes(
+                self.controllers, now_ns, float(self.state.model.opt.timestep), self._topics
+            )
             return
         time_step = None
         direct: list[_Controller] = []  # those only a recorder takes (bytes), in a row: read and handed over together
@@ -145,6 +150,34 @@ class ControllerStatePublisher:
             topics = tuple(c.topic for c in controllers)
         self.bus.publish_cdr_rows(JointControllerState, self._layout, topics, rows)
 
+    def _publish_arrays(self, now_ns: int) -> bool:
+        """Every controller's state, which only a recorder takes, as one row each of MjData's qpos, qvel, ctrl and act
+        bytes (shared) for a ControllerRows to pack (made again when the model is); False before the first message
+        gave the layout (then _publish_bytes)."""
+        state, layout = self.state, self._layout
+        if not layout:
+            return False
+        rows_packer = self._rows
+        if rows_packer is None or rows_packer[0] is not state.model:
+            specs = [self._spec(c) for c in self.controllers]
+            rows_packer = self._rows = (state.model, ControllerRows(layout, specs))
+        data = state.data
+        sec, nanosec = divmod(now_ns, NS_PER_S)
+        head = (sec, nanosec, float(state.model.opt.timestep), data.qpos.tobytes(), data.qvel.tobytes(),
+                data.ctrl.tobytes(), data.act.tobytes())  # fmt: skip
+        rows = [(index, *head) for index in range(len(self.controllers))]
+        self.bus.publish_cdr_rows(JointControllerState, rows_packer[1], self._topics, rows)
+        return True
+
+    def _spec(self, c: _Controller) -> Spec:
+        """What state_numbers() reads of a controller in the current model."""
+        g = c.config.gains
+        qpos, dof, ctrl, act = self._addresses(c) if c.model is not self.state.model else c.addresses
+        if g.i and act < 0:  # the gain was 0 when the addresses were looked up
+            c.model = None
+            qpos, dof, ctrl, act = self._addresses(c)
+        return (qpos, dof, ctrl, act, c.config.type == VELOCITY, g.p, g.i, g.d, g.i_clamp)
+
     def message(self, c: _Controller, now_ns: int) -> JointControllerState:
         """The state message of one controller now."""
         return self._message(c, now_ns, float(self.state.model.opt.timestep))
@@ -182,28 +215,4 @@ class ControllerStatePublisher:
         if data is not state.data:
             data = state.data
             self._views = data, qpos_, qvel, ctrl_, act_ = data, data.qpos, data.qvel, data.ctrl, data.act
-        rows: list[tuple[int | float | bool, ...]] = []
-        for c in controllers:
-            g = c.config.gains
-            qpos, dof, ctrl, act = self._addresses(c) if c.model is not state.model else c.addresses
-            q, w, set_point = qpos_.item(qpos), qvel.item(dof), ctrl_.item(ctrl)
-            i_term = 0.0
-            velocity = c.config.type == VELOCITY
-            if g.i:
-                if act < 0:  # the gain was 0 when the addresses were looked up
-                    c.model = None
-                    qpos, dof, ctrl, act = self._addresses(c)
-                integral = act_.item(act)
-                i_term = g.i * (integral - q) if velocity else g.i * integral
-                if velocity and g.i_clamp:
-                    i_term = min(max(i_term, -g.i_clamp), g.i_clamp)
-            if velocity:
-                value, value_dot, error = w, 0.0, set_point - w  # ros_control leaves process_value_dot at 0 here
-                command = g.p * error + i_term
-            else:
-                value, value_dot, error = q, w, set_point - q
-                command = g.p * error - g.d * w + i_term
-            rows.append(
-                (*head, set_point, value, value_dot, error, time_step, command, g.p, g.i, g.d, g.i_clamp, False)
-            )
-        return rows
+        return [(*head, *state_numbers(self._spec(c), qpos_, qvel, ctrl_, act_, time_step)) for c in controllers]

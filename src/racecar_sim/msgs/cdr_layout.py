@@ -177,9 +177,10 @@ class FilledLayout:
     A row is a tuple of float64 arrays' bytes (C order); `fills` says, for each, which numbers it replaces:
     ``(target, which, source)``, the template's numbers at the flat indices `target` become the flat elements `source`
     of the row's array `which`. `derive` (None: the row's own arrays): what makes those arrays of a row, e.g.
-    LinkArrays.derive (the links' poses and twists from MuJoCo's state arrays, handed over as they are). ``pack_many(rows)``
-    packs each row's numbers with ``layout.pack_doubles`` (the same bytes as ``pack``). Pickles as what makes it: a
-    writer process packs with it, so the main thread hands over a few arrays' bytes instead of packing the message.
+    LinkArrays.derive (the links' poses and twists from MuJoCo's state arrays, handed over as they are).
+    ``pack_many(rows)`` packs each row's numbers with ``layout.pack_doubles`` (the same bytes as ``pack``). Pickles as
+    what makes it: a writer process packs with it, so the main thread hands over a few arrays' bytes instead of
+    packing the message.
     """
 
     def __init__(

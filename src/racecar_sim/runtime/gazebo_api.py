@@ -44,7 +44,6 @@ from racecar_sim.core.throttle import ThrottledWarning
 from racecar_sim.core.transforms import compose, quat_mul, quat_rotate, quat_to_matrix, yaw_of
 from racecar_sim.msgs import Header, Point, Pose, Quaternion, Twist, Vector3, serialize
 from racecar_sim.msgs.cdr_layout import CdrLayout, FilledLayout
-from racecar_sim.msgs.link_arrays import LinkArrays
 from racecar_sim.msgs.gazebo_msgs import (
     DeleteModelRequest,
     DeleteModelResponse,
@@ -60,6 +59,7 @@ from racecar_sim.msgs.gazebo_msgs import (
     SpawnModelRequest,
     SpawnModelResponse,
 )
+from racecar_sim.msgs.link_arrays import LinkArrays
 from racecar_sim.msgs.std_srvs import EmptyRequest, EmptyResponse
 from racecar_sim.nodes import NodeBase, Timers
 from racecar_sim.runtime.car import Car
