@@ -102,11 +102,9 @@ class ControllerStatePublisher:
         bus = self.bus
         heard = self._listening()
         if self._all_direct and self._layout and self._all_running():
-            # the usual tick of a recorded run: every state, in one hand-over of MuJoCo's arrays (the writer reads
-            # the numbers off them), or of their numbers
-            self._publish_arrays(now_ns) or self._publish_bytes(
-                self.controllers, now_ns, float(self.state.model.opt.timestep), self._topics
-            )
+            # the usual tick of a recorded run: every state, in one hand-over of MuJoCo's arrays (the writer reads the
+            # numbers off them)
+            self._publish_arrays(self._layout, now_ns)
             return
         time_step = None
         direct: list[_Controller] = []  # those only a recorder takes (bytes), in a row: read and handed over together
@@ -150,24 +148,19 @@ class ControllerStatePublisher:
             topics = tuple(c.topic for c in controllers)
         self.bus.publish_cdr_rows(JointControllerState, self._layout, topics, rows)
 
-    def _publish_arrays(self, now_ns: int) -> bool:
+    def _publish_arrays(self, layout: CdrLayout, now_ns: int) -> None:
         """Every controller's state, which only a recorder takes, as one row each of MjData's qpos, qvel, ctrl and act
-        bytes (shared) for a ControllerRows to pack (made again when the model is); False before the first message
-        gave the layout (then _publish_bytes)."""
-        state, layout = self.state, self._layout
-        if not layout:
-            return False
+        bytes (shared) for a ControllerRows to pack (made again when the model is)."""
+        state = self.state
         rows_packer = self._rows
         if rows_packer is None or rows_packer[0] is not state.model:
-            specs = [self._spec(c) for c in self.controllers]
-            rows_packer = self._rows = (state.model, ControllerRows(layout, specs))
+            rows_packer = self._rows = (state.model, ControllerRows(layout, [self._spec(c) for c in self.controllers]))
         data = state.data
         sec, nanosec = divmod(now_ns, NS_PER_S)
         head = (sec, nanosec, float(state.model.opt.timestep), data.qpos.tobytes(), data.qvel.tobytes(),
                 data.ctrl.tobytes(), data.act.tobytes())  # fmt: skip
         rows = [(index, *head) for index in range(len(self.controllers))]
         self.bus.publish_cdr_rows(JointControllerState, rows_packer[1], self._topics, rows)
-        return True
 
     def _spec(self, c: _Controller) -> Spec:
         """What state_numbers() reads of a controller in the current model."""
