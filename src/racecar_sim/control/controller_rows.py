@@ -48,16 +48,17 @@ class ControllerRows:
 
     def __init__(self, layout: CdrLayout, specs: Sequence[Spec]) -> None:
         self.layout, self.specs = layout, tuple(specs)
-        self._last: tuple[list[Any], tuple[memoryview, ...]] | None = None  # the last tick's arrays, and views
+        self._last: tuple[list[Any], tuple[Any, ...]] | None = None  # the last tick's arrays, and views of them
 
-    def pack_many(self, rows: Sequence[tuple[Any, ...]]) -> list[bytes]:
+    def pack_many(self, rows: Sequence[Sequence[Any]]) -> list[bytes]:
         """The CDR bytes of each row's message."""
         pack, specs, packed = self.layout.pack, self.specs, []
         for index, sec, nanosec, time_step, *arrays in rows:
             last = self._last
             if last is None or any(mine is not theirs for mine, theirs in zip(last[0], arrays)):
                 last = self._last = (arrays, tuple(memoryview(data).cast("d") for data in arrays))  # a tick's: once
-            packed.append(pack((sec, nanosec, *state_numbers(specs[index], *last[1], time_step))))
+            qpos, qvel, ctrl, act = last[1]
+            packed.append(pack((sec, nanosec, *state_numbers(specs[index], qpos, qvel, ctrl, act, time_step))))
         return packed
 
     def __reduce__(self) -> tuple[type[ControllerRows], tuple[CdrLayout, tuple[Spec, ...]]]:
