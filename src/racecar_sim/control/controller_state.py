@@ -74,7 +74,8 @@ class ControllerStatePublisher:
         # listeners epoch they were asked under (kept while it stays the same: twelve questions fewer per tick)
         self._heard: tuple[int | None, list[tuple[bool, bool]]] = (None, [])
         self._all_direct = False  # every state topic is taken by a recorder alone (under the epoch of `_heard`)
-        self._rows: tuple[object, ControllerRows] | None = None  # the model it was made for, what packs the rows
+        # the model it was made for, what packs the rows and the spans of MjData's arrays they carry (_rows_packer)
+        self._rows: tuple[object, ControllerRows, tuple[tuple[int, int], ...]] | None = None
         self._topics = tuple(c.topic for c in self.controllers)
         self._names = tuple(c.config.name for c in self.controllers)
         self._name_set = frozenset(self._names)
@@ -149,18 +150,35 @@ class ControllerStatePublisher:
         self.bus.publish_cdr_rows(JointControllerState, self._layout, topics, rows)
 
     def _publish_arrays(self, layout: CdrLayout, now_ns: int) -> None:
-        """Every controller's state, which only a recorder takes, as one row each of MjData's qpos, qvel, ctrl and act
-        bytes (shared) for a ControllerRows to pack (made again when the model is)."""
+        """Every controller's state, which only a recorder takes, as one row each of the car's part of MjData's qpos,
+        qvel, ctrl and act (their bytes, shared) for a ControllerRows to pack (made again when the model is)."""
         state = self.state
-        rows_packer = self._rows
-        if rows_packer is None or rows_packer[0] is not state.model:
-            rows_packer = self._rows = (state.model, ControllerRows(layout, [self._spec(c) for c in self.controllers]))
+        made = self._rows
+        if made is None or made[0] is not state.model:
+            made = self._rows = (state.model, *self._rows_packer(layout))
+        _, packer, ((q0, q1), (v0, v1), (c0, c1), (a0, a1)) = made
         data = state.data
         sec, nanosec = divmod(now_ns, NS_PER_S)
-        head = (sec, nanosec, float(state.model.opt.timestep), data.qpos.tobytes(), data.qvel.tobytes(),
-                data.ctrl.tobytes(), data.act.tobytes())  # fmt: skip
+        head = (sec, nanosec, float(state.model.opt.timestep), data.qpos[q0:q1].tobytes(), data.qvel[v0:v1].tobytes(),
+                data.ctrl[c0:c1].tobytes(), data.act[a0:a1].tobytes())  # fmt: skip
         rows = [(index, *head) for index in range(len(self.controllers))]
-        self.bus.publish_cdr_rows(JointControllerState, rows_packer[1], self._topics, rows)
+        self.bus.publish_cdr_rows(JointControllerState, packer, self._topics, rows)
+
+    def _rows_packer(self, layout: CdrLayout) -> tuple[ControllerRows, tuple[tuple[int, int], ...]]:
+        """What packs the controllers' rows, and the spans of qpos, qvel, ctrl and act their addresses lie in (a row
+        carries only those: a fleet's car hands over its own part); the packer's addresses count from each span's
+        start."""
+        specs = [self._spec(c) for c in self.controllers]
+        spans: list[tuple[int, int]] = []
+        for column in range(4):
+            used = [int(spec[column]) for spec in specs if spec[column] >= 0]  # act: -1 where no integral is read
+            spans.append((min(used), max(used) + 1) if used else (0, 0))
+        (q0, _), (v0, _), (c0, _), (a0, _) = spans
+        relative: list[Spec] = [
+            (q - q0, v - v0, c - c0, a - a0 if a >= 0 else -1, velocity, p, i, d, clamp)
+            for q, v, c, a, velocity, p, i, d, clamp in specs
+        ]
+        return ControllerRows(layout, relative), tuple(spans)
 
     def _spec(self, c: _Controller) -> Spec:
         """What state_numbers() reads of a controller in the current model."""
