@@ -4,6 +4,7 @@ are mj_objectVelocity's, bit for bit, and their poses those read one link at a t
 
 from __future__ import annotations
 
+import pickle
 from pathlib import Path
 from typing import Any
 
@@ -18,7 +19,7 @@ from racecar_sim.bus import Bus, RowPacker
 from racecar_sim.cli.main import main
 from racecar_sim.drivers import ConstantCommand
 from racecar_sim.drivers.constant import NAVIGATION
-from racecar_sim.msgs import JointControllerState
+from racecar_sim.msgs import JointControllerState, deserialize, serialize
 from racecar_sim.recording.run_recording import RunRecording
 
 RUN = ["run", "--world", "empty", "--cars", "3", "--driver", "constant", "--speed", "1", "--no-camera", "--no-video",
@@ -81,6 +82,53 @@ def test_link_twists_are_mj_object_velocity_bit_for_bit() -> None:
     assert np.abs(twists).max() > 0.5  # the cars move
     sim.close()
     assert compared > 200
+
+
+def test_a_writer_derives_the_links_arrays_from_the_ticks_bytes_bit_for_bit() -> None:
+    """What a recorded tick hands over (MuJoCo's arrays' bytes) gives a writer process's copy of LinkArrays the
+    numbers link_arrays() gives in the simulation, bit for bit (the wheels posed by kinematics, the bases read from
+    qpos)."""
+    cars = [Car("car1", spawn=Spawn(0.0, 0.0, 0.05, 0.0), camera=False),
+            Car("car2", spawn=Spawn(-1.5, 0.0, 0.05, 0.3), camera=False)]  # fmt: skip
+    sim = Simulator(world="tunnel", cars=cars)
+    for k, car in enumerate(sim.cars):
+        ConstantCommand(sim.bus, sim.scheduler, 2.0 + k, 0.3 - 0.5 * k, topic=car.topic(NAVIGATION))
+    api = sim.gazebo
+    writers = pickle.loads(pickle.dumps(api._arrays))  # as a writer process unpickles it
+    assert len(api._posed_links) > 0 and len(api._free_links) == 2  # both ways of reading a pose are compared
+    for step in range(1, 12):
+        sim.run_until(0.05 * step)
+        row = api._state_arrays()
+        derived = writers.derive(row)
+        assert writers.derive(row) is derived  # the link and the model states of a tick derive them once
+        for mine, theirs in zip(api.link_arrays(), derived):
+            assert mine.tobytes() == theirs.tobytes()
+    assert np.abs(derived[1]).max() > 0.5  # the cars move
+    sim.close()
+
+
+def test_a_writers_controller_rows_pack_the_states_messages_bytes() -> None:
+    """A recorded tick's controller states, handed over as MuJoCo's arrays' bytes, packed by a writer process's copy
+    of ControllerRows: each the bytes of the message the publisher makes of the same state (velocity controllers with
+    their I-term, position controllers with their PID integral), while the car speeds up and steers."""
+    sim = Simulator(world="empty", cars=[Car("car1", camera=False)])
+    ConstantCommand(sim.bus, sim.scheduler, 2.0, 0.3, topic=sim.cars[0].topic(NAVIGATION))
+    publisher = sim.cars[0].controller_manager.state_publisher
+    got: list[tuple[type, RowPacker, tuple[str, ...], list[Any]]] = []
+    sim.bus.tap(lambda topic, msg: None, cdr=lambda topic, cls, data: None, cdr_rows=lambda *rows: got.append(rows))
+    commands = set()
+    for step in range(1, 8):
+        sim.run_until(0.1 * step)
+        got.clear()
+        publisher.publish(sim.time_ns)
+        ((cls, packer, topics, rows),) = got
+        assert cls is JointControllerState and topics == tuple(c.topic for c in publisher.controllers)
+        writers = pickle.loads(pickle.dumps(packer))  # as a writer process unpickles it
+        expected = [serialize(publisher.message(c, sim.time_ns)) for c in publisher.controllers]
+        assert writers.pack_many(rows) == expected
+        commands.update(deserialize(data, "control_msgs/msg/JointControllerState").command for data in expected)
+    assert len(commands) > 20  # every controller's command changes as the car speeds up: real numbers compared
+    sim.close()
 
 
 def _one_car(path: Path, process: bool, listened: str | None = None, stopped: str | None = None) -> bytes:

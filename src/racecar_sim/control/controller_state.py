@@ -23,6 +23,7 @@ from typing import Literal
 import numpy as np
 
 from racecar_sim.bus import BusPort
+from racecar_sim.control.controller_rows import ControllerRows, Spec, state_numbers
 from racecar_sim.control.controllers import VELOCITY, ControllerConfig, JointController
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.time import NS_PER_S
@@ -73,6 +74,8 @@ class ControllerStatePublisher:
         # listeners epoch they were asked under (kept while it stays the same: twelve questions fewer per tick)
         self._heard: tuple[int | None, list[tuple[bool, bool]]] = (None, [])
         self._all_direct = False  # every state topic is taken by a recorder alone (under the epoch of `_heard`)
+        # the model it was made for, what packs the rows and the spans of MjData's arrays they carry (_rows_packer)
+        self._rows: tuple[object, ControllerRows, tuple[tuple[int, int], ...]] | None = None
         self._topics = tuple(c.topic for c in self.controllers)
         self._names = tuple(c.config.name for c in self.controllers)
         self._name_set = frozenset(self._names)
@@ -100,8 +103,9 @@ class ControllerStatePublisher:
         bus = self.bus
         heard = self._listening()
         if self._all_direct and self._layout and self._all_running():
-            # the usual tick of a recorded run: every state, in one hand-over of their numbers
-            self._publish_bytes(self.controllers, now_ns, float(self.state.model.opt.timestep), self._topics)
+            # the usual tick of a recorded run: every state, in one hand-over of MuJoCo's arrays (the writer reads the
+            # numbers off them)
+            self._publish_arrays(self._layout, now_ns)
             return
         time_step = None
         direct: list[_Controller] = []  # those only a recorder takes (bytes), in a row: read and handed over together
@@ -145,6 +149,46 @@ class ControllerStatePublisher:
             topics = tuple(c.topic for c in controllers)
         self.bus.publish_cdr_rows(JointControllerState, self._layout, topics, rows)
 
+    def _publish_arrays(self, layout: CdrLayout, now_ns: int) -> None:
+        """Every controller's state, which only a recorder takes, as one row each of the car's part of MjData's qpos,
+        qvel, ctrl and act (their bytes, shared) for a ControllerRows to pack (made again when the model is)."""
+        state = self.state
+        made = self._rows
+        if made is None or made[0] is not state.model:
+            made = self._rows = (state.model, *self._rows_packer(layout))
+        _, packer, ((q0, q1), (v0, v1), (c0, c1), (a0, a1)) = made
+        data = state.data
+        sec, nanosec = divmod(now_ns, NS_PER_S)
+        head = (sec, nanosec, float(state.model.opt.timestep), data.qpos[q0:q1].tobytes(), data.qvel[v0:v1].tobytes(),
+                data.ctrl[c0:c1].tobytes(), data.act[a0:a1].tobytes())  # fmt: skip
+        rows = [(index, *head) for index in range(len(self.controllers))]
+        self.bus.publish_cdr_rows(JointControllerState, packer, self._topics, rows)
+
+    def _rows_packer(self, layout: CdrLayout) -> tuple[ControllerRows, tuple[tuple[int, int], ...]]:
+        """What packs the controllers' rows, and the spans of qpos, qvel, ctrl and act their addresses lie in (a row
+        carries only those: a fleet's car hands over its own part); the packer's addresses count from each span's
+        start."""
+        specs = [self._spec(c) for c in self.controllers]
+        spans: list[tuple[int, int]] = []
+        for column in range(4):
+            used = [int(spec[column]) for spec in specs if spec[column] >= 0]  # act: -1 where no integral is read
+            spans.append((min(used), max(used) + 1) if used else (0, 0))
+        (q0, _), (v0, _), (c0, _), (a0, _) = spans
+        relative: list[Spec] = [
+            (q - q0, v - v0, c - c0, a - a0 if a >= 0 else -1, velocity, p, i, d, clamp)
+            for q, v, c, a, velocity, p, i, d, clamp in specs
+        ]
+        return ControllerRows(layout, relative), tuple(spans)
+
+    def _spec(self, c: _Controller) -> Spec:
+        """What state_numbers() reads of a controller in the current model."""
+        g = c.config.gains
+        qpos, dof, ctrl, act = self._addresses(c) if c.model is not self.state.model else c.addresses
+        if g.i and act < 0:  # the gain was 0 when the addresses were looked up
+            c.model = None
+            qpos, dof, ctrl, act = self._addresses(c)
+        return (qpos, dof, ctrl, act, c.config.type == VELOCITY, g.p, g.i, g.d, g.i_clamp)
+
     def message(self, c: _Controller, now_ns: int) -> JointControllerState:
         """The state message of one controller now."""
         return self._message(c, now_ns, float(self.state.model.opt.timestep))
@@ -182,28 +226,4 @@ class ControllerStatePublisher:
         if data is not state.data:
             data = state.data
             self._views = data, qpos_, qvel, ctrl_, act_ = data, data.qpos, data.qvel, data.ctrl, data.act
-        rows: list[tuple[int | float | bool, ...]] = []
-        for c in controllers:
-            g = c.config.gains
-            qpos, dof, ctrl, act = self._addresses(c) if c.model is not state.model else c.addresses
-            q, w, set_point = qpos_.item(qpos), qvel.item(dof), ctrl_.item(ctrl)
-            i_term = 0.0
-            velocity = c.config.type == VELOCITY
-            if g.i:
-                if act < 0:  # the gain was 0 when the addresses were looked up
-                    c.model = None
-                    qpos, dof, ctrl, act = self._addresses(c)
-                integral = act_.item(act)
-                i_term = g.i * (integral - q) if velocity else g.i * integral
-                if velocity and g.i_clamp:
-                    i_term = min(max(i_term, -g.i_clamp), g.i_clamp)
-            if velocity:
-                value, value_dot, error = w, 0.0, set_point - w  # ros_control leaves process_value_dot at 0 here
-                command = g.p * error + i_term
-            else:
-                value, value_dot, error = q, w, set_point - q
-                command = g.p * error - g.d * w + i_term
-            rows.append(
-                (*head, set_point, value, value_dot, error, time_step, command, g.p, g.i, g.d, g.i_clamp, False)
-            )
-        return rows
+        return [(*head, *state_numbers(self._spec(c), qpos_, qvel, ctrl_, act_, time_step)) for c in controllers]

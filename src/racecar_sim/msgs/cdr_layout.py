@@ -176,24 +176,37 @@ class FilledLayout:
 
     A row is a tuple of float64 arrays' bytes (C order); `fills` says, for each, which numbers it replaces:
     ``(target, which, source)``, the template's numbers at the flat indices `target` become the flat elements `source`
-    of the row's array `which`. ``pack_many(rows)`` packs each row's numbers with ``layout.pack_doubles`` (the same
-    bytes as ``pack``). Pickles as what makes it: a writer process packs with it, so the main thread hands over two
-    arrays' bytes instead of packing the message.
+    of the row's array `which`. `derive` (None: the row's own arrays): what makes those arrays of a row, e.g.
+    LinkArrays.derive (the links' poses and twists from MuJoCo's state arrays, handed over as they are).
+    ``pack_many(rows)`` packs each row's numbers with ``layout.pack_doubles`` (the same bytes as ``pack``). Pickles as
+    what makes it: a writer process packs with it, so the main thread hands over a few arrays' bytes instead of
+    packing the message.
     """
 
-    def __init__(self, layout: CdrLayout, template: np.ndarray, fills: Sequence[tuple[np.ndarray, int, np.ndarray]]):
+    def __init__(
+        self,
+        layout: CdrLayout,
+        template: np.ndarray,
+        fills: Sequence[tuple[np.ndarray, int, np.ndarray]],
+        derive: Callable[[Sequence[bytes]], Sequence[np.ndarray]] | None = None,
+    ) -> None:
         self.layout, self.template, self.fills = layout, np.asarray(template, "<f8"), tuple(fills)
+        self.derive = derive
 
     def pack_many(self, rows: Sequence[Sequence[bytes]]) -> list[bytes]:
         """The CDR bytes of each row's message."""
         packed = []
+        derive = self.derive
         for row in rows:
             numbers = self.template.copy()
-            arrays = [np.frombuffer(data, "<f8") for data in row]
+            if derive is None:
+                arrays: Sequence[np.ndarray] = [np.frombuffer(data, "<f8") for data in row]
+            else:
+                arrays = [np.ravel(array) for array in derive(row)]
             for target, which, source in self.fills:
                 numbers[target] = arrays[which][source]
             packed.append(self.layout.pack_doubles(numbers))
         return packed
 
-    def __reduce__(self) -> tuple[type[FilledLayout], tuple[CdrLayout, np.ndarray, tuple[Any, ...]]]:
-        return FilledLayout, (self.layout, self.template, self.fills)
+    def __reduce__(self) -> tuple[type[FilledLayout], tuple[Any, ...]]:
+        return FilledLayout, (self.layout, self.template, self.fills, self.derive)

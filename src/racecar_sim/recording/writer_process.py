@@ -54,6 +54,8 @@ GIVE_WAY = 5
 BEHIND, CAUGHT_UP = 24, 8
 """Hand-overs waiting at which the urgent worker takes over from the relaxed one, and at which it hands back: about
 24 and 8 frames (a frame is about one hand-over), inside the frame ring's RING_SLOTS."""
+OUT_OF_BAND = 4096
+"""bytes: a message at least this long (a scan) crosses the pipe beside the hand-over's pickle, not copied into it."""
 RING_MIN = 1 << 16  # bytes: smaller images cross in the pipe (they cost little there), and so do the first's larger
 RING_WAIT = 0.0005  # s
 _RING_HEAD = 64  # bytes before the slots: the first 8, the number of the first frame the child still holds
@@ -167,7 +169,9 @@ class WriterProcess:
 
     def message(self, topic: str, msgtype: str, data: bytes, log_time_ns: int) -> None:
         """Record a serialized message (CDR bytes of type `msgtype`, `pkg/msg/Name`) at `log_time_ns`."""
-        self._ops.append((MESSAGE, topic, msgtype, data, log_time_ns))
+        # a long one is written to the pipe from where it is: the child gets a view of it (bytes again in do_all)
+        payload = data if len(data) < OUT_OF_BAND else pickle.PickleBuffer(data)
+        self._ops.append((MESSAGE, topic, msgtype, payload, log_time_ns))
         if len(self._ops) >= BATCH:
             self.flush()
 
@@ -739,6 +743,8 @@ class _Files:
         for op in ops:
             kind = op[0]
             if kind == MESSAGE:
+                if type(op[3]) is not bytes:  # a long message's bytes, read beside the pickle (OUT_OF_BAND)
+                    op = (kind, op[1], op[2], bytes(op[3]), op[4])
                 run.append(op[1:])
             elif kind == ROWS:
                 run.extend(self.packed(op))
@@ -758,7 +764,7 @@ class _Files:
     def do(self, op: tuple[Any, ...]) -> None:
         kind = op[0]
         if kind == MESSAGE:
-            self.recorder.write_serialized(op[1], op[2], op[3], op[4])
+            self.recorder.write_serialized(op[1], op[2], bytes(op[3]), op[4])
         elif kind == ROWS:
             self.recorder.write_many(self.packed(op))
         elif kind == PACKER:

@@ -59,6 +59,7 @@ from racecar_sim.msgs.gazebo_msgs import (
     SpawnModelRequest,
     SpawnModelResponse,
 )
+from racecar_sim.msgs.link_arrays import LinkArrays
 from racecar_sim.msgs.std_srvs import EmptyRequest, EmptyResponse
 from racecar_sim.nodes import NodeBase, Timers
 from racecar_sim.runtime.car import Car
@@ -78,8 +79,6 @@ WORLD_FRAMES = ("", "world", "map", "/map")  # what gazebo_ros takes for the ine
 _IDENTITY = (np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]))
 _ZERO_TWIST = (np.zeros(3), np.zeros(3))
 _FREE_POSE_ROS = np.array([0, 1, 2, 4, 5, 6, 3])  # a free joint's qpos (x y z, qw qx qy qz) as a ROS pose's order
-_XYZW = np.array([1, 2, 3, 0])  # MuJoCo's quaternion (w x y z) in ROS's order
-_NEXT, _AFTER = np.array([1, 2, 0]), np.array([2, 0, 1])  # a cross product's components: a[next] b[after] - ...
 _XBODY = int(mujoco.mjtObj.mjOBJ_XBODY)  # as a plain int: MuJoCo's functions take it, and convert it faster
 
 PoseArrays = tuple[np.ndarray, np.ndarray]  # position (3,), quaternion (w, x, y, z)
@@ -259,6 +258,7 @@ class GazeboApi(NodeBase):
         self._moving_bodies = np.array([link.body for _, link in moving], np.intp)
         self._moving_roots = model.body_rootid[self._moving_bodies]
         self._free_qpos = np.array([link.qpos for _, link in self._free_links], np.intp)[:, None] + _FREE_POSE_ROS
+        self._arrays = LinkArrays(self._free_qpos, self._posed_bodies, self._moving_bodies, self._moving_roots)
         # each car's row in link_arrays(): its base link (a free joint's body), whose state is the car model's
         free_rows = {link.body: row for row, (_, link) in enumerate(self._free_links)}
         self._base_rows = {
@@ -337,9 +337,8 @@ class GazeboApi(NodeBase):
             and packers[1] == tuple(self.models)
             and bus.cdr_only(LINK_STATES)
             and bus.cdr_only(MODEL_STATES)
-        ):  # only a recorder takes both: the moving links' arrays, once, and the writer packs both messages of them
-            poses, twists = self.link_arrays()
-            row = [(poses.tobytes(), twists.tobytes())]
+        ):  # only a recorder takes both: MuJoCo's arrays, as they are, and the writer packs both messages of them
+            row = [self._state_arrays()]
             bus.publish_cdr_rows(LinkStates, packers[2], (LINK_STATES,), row)
             bus.publish_cdr_rows(ModelStates, packers[3], (MODEL_STATES,), row)
             return
@@ -360,7 +359,7 @@ class GazeboApi(NodeBase):
             return None
         pose, twist = np.arange(7), np.arange(6)
         rows, count, moving_links = self._moving_rows, len(self._link_names), len(self._moving_rows)
-        link_fills = [
+        link_fills = [  # LinkArrays.derive(): the moving links' poses (7 numbers each), then their twists (6)
             ((7 * rows[:, None] + pose).ravel(), 0, np.arange(7 * moving_links)),
             (7 * count + (6 * rows[:, None] + twist).ravel(), 1, np.arange(6 * moving_links)),
         ]
@@ -372,8 +371,8 @@ class GazeboApi(NodeBase):
         return (
             self._link_names,
             models,
-            FilledLayout(link[1], link[2], link_fills),
-            FilledLayout(model[1], model[2], model_fills),
+            FilledLayout(link[1], link[2], link_fills, self._arrays.derive),
+            FilledLayout(model[1], model[2], model_fills, self._arrays.derive),
         )
 
     def _publish_states(self) -> None:
@@ -415,25 +414,21 @@ class GazeboApi(NodeBase):
 
     def link_arrays(self) -> tuple[np.ndarray, np.ndarray]:
         """The moving links' poses (x, y, z, qx, qy, qz, qw) and twists (vx, vy, vz, wx, wy, wz) now, one row each in
-        `_moving_rows` order: free-joint links from qpos, the others from the posed data, and the twists as
-        mj_objectVelocity(mjOBJ_XBODY, world frame) gives them, with its arithmetic (mju_transformSpatial: the body's
-        cvel moved from its subtree's centre of mass to its frame's origin) for every link at once: the same bits
-        (tests/test_recording_direct.py)."""
-        data, bodies = self.sim.data, self._moving_bodies
-        poses = np.empty((len(bodies), 7))
-        free = len(self._free_links)
-        poses[:free] = data.qpos[self._free_qpos]
+        `_moving_rows` order (msgs.link_arrays.LinkArrays.of: free-joint links from qpos, the others from the posed
+        data, the twists mj_objectVelocity's, bit for bit)."""
+        data = self.sim.data
+        kin = self._posed() if self._posed_links else data  # (without posed links, its xpos and xquat go unread)
+        return self._arrays.of(data.qpos, kin.xpos, kin.xquat, data.xpos, data.subtree_com, data.cvel)
+
+    def _state_arrays(self) -> tuple[bytes, ...]:
+        """What link_arrays() reads, as bytes (LinkArrays.derive's row: msgs.link_arrays.STATE_ARRAYS)."""
+        data = self.sim.data
         if self._posed_links:
-            kin, posed = self._posed(), self._posed_bodies
-            poses[free:, :3] = kin.xpos[posed]
-            poses[free:, 3:] = kin.xquat[posed[:, None], _XYZW]
-        cvel = data.cvel[bodies]
-        offset, angular = data.xpos[bodies] - data.subtree_com[self._moving_roots], cvel[:, :3]
-        twists = np.empty((len(bodies), 6))
-        twists[:, 3:] = angular
-        # the linear velocity at the frame's origin: minus offset x angular, component by component as mju_cross
-        twists[:, :3] = cvel[:, 3:] - (offset[:, _NEXT] * angular[:, _AFTER] - offset[:, _AFTER] * angular[:, _NEXT])
-        return poses, twists
+            kin = self._posed()
+            posed = kin.xpos.tobytes(), kin.xquat.tobytes()
+        else:
+            posed = b"", b""
+        return (data.qpos.tobytes(), *posed, data.xpos.tobytes(), data.subtree_com.tobytes(), data.cvel.tobytes())
 
     def _model_states_cdr(self, arrays: tuple[np.ndarray, np.ndarray] | None = None) -> bytes:
         """model_states() serialized, packed from its numbers (as _link_states_cdr): the cars' from base_odometry(), or
