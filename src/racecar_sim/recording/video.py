@@ -23,10 +23,13 @@ log = logging.getLogger("racecar_sim")
 
 CODEC: Final = "libx264"
 PIX_FMT = "yuv420p"  # what every player decodes; needs even width and height
-# ultrafast: ~2 ms of CPU a 640x480 sim frame, colour conversion included, 2-5 MB a minute at x264's default
-# quality (crf 23); veryfast halves the size for three times the CPU. One thread: the encoder runs beside the
-# simulation and the camera, where x264's own threads only add synchronisation (~10 % of its CPU).
-X264_OPTIONS = {"preset": "ultrafast", "crf": "23", "threads": "1"}
+# ultrafast: ~1.3 ms of CPU a 640x480 sim frame, 1-3 MB a minute; veryfast halves the size for three times the CPU.
+# A constant quantiser (qp 23), not x264's default crf 23: crf rates each frame's complexity on a half-size copy
+# first (x264's lowres lookahead), 0.6-0.9 ms of the 2-2.3 ms a frame took. On the main job's noisy frames qp 23
+# decodes as close to the source as crf 23 did (luma PSNR 43.5 dB) in 8 % fewer bytes; on noise-free frames it
+# gives 54.6 dB where crf 23 spent more bits for 60.6 dB (docs/recordings.md). One thread: the encoder runs beside
+# the simulation and the camera, where x264's own threads only add synchronisation (~10 % of its CPU).
+X264_OPTIONS = {"preset": "ultrafast", "qp": "23", "threads": "1"}
 KEYFRAME_INTERVAL = 2.0  # s, so a player seeks within a 60 s run without decoding far
 GIF_MAX_SIZE = (320, 240)  # px; the preview is downscaled to fit
 GIF_MAX_FPS = 10.0
