@@ -209,35 +209,71 @@ def _floats(values: np.ndarray | Sequence[float]) -> list[float]:
 
 
 def _revolute_numbers(plan: list[_Step]) -> Callable[[list[float], int, int], list[Any]] | None:
-    """One function that gives the /tf numbers of `plan`'s frames, all of moving joints, from the joint positions:
-    the operations of RobotStatePublisher._stepped_numbers in the same order, each joint's constants written in (the
-    exact floats: repr() reads back to the same bits), in one list display, so that no step is unpacked or looped
-    over (this runs for every joint state, 50 a second a car). None where a frame is a prismatic joint's."""
+    """One function that gives the /tf numbers of `plan`'s frames, all of moving joints, from the joint positions,
+    bit for bit those of RobotStatePublisher._stepped_numbers: each joint's constants written in (repr() reads back to
+    the same float), the numbers in one list display, and each rotation component that has one product left once
+    the constant zeros' products are dropped computed as that product alone (see _rotation). None where a frame is a
+    prismatic joint's (this runs for every joint state, 50 a second a car)."""
     if not plan or any(len(step) != _REVOLUTE for step in plan):
         return None
     lines, items = [], []
     for k, (index, _, _, *constants) in enumerate(plan):
         if not all(math.isfinite(value) for value in constants):
             return None
-        px, py, pz, aw, ax, ay, az, ux, uy, uz = (f"({value!r})" for value in constants)
         lines += [
             f"    h = 0.5 * p[{index}]",
-            "    s = sin(h)",
-            f"    w{k}, x{k}, y{k}, z{k} = cos(h), {ux} * s, {uy} * s, {uz} * s",
+            "    s, c = sin(h), cos(h)",
+            *_rotation(k, constants[3:7], constants[7:10]),
         ]
-        w, x, y, z = f"w{k}", f"x{k}", f"y{k}", f"z{k}"
-        items += [
-            "sec",
-            "nanosec",
-            px,
-            py,
-            pz,
-            f"{aw} * {x} + {ax} * {w} + {ay} * {z} - {az} * {y}",
-            f"{aw} * {y} - {ax} * {z} + {ay} * {w} + {az} * {x}",
-            f"{aw} * {z} + {ax} * {y} - {ay} * {x} + {az} * {w}",
-            f"{aw} * {w} - {ax} * {x} - {ay} * {y} - {az} * {z}",
-        ]
+        items += ["sec", "nanosec", *(f"({value!r})" for value in constants[:3]), f"qx{k}, qy{k}, qz{k}, qw{k}"]
     source = "\n".join(["def numbers(p, sec, nanosec):", *lines, f"    return [{', '.join(items)}]"])
     names: dict[str, Any] = {"sin": math.sin, "cos": math.cos}
     exec(compile(source, "<robot_state /tf numbers>", "exec"), names)  # made from the joints' constants alone
     return names["numbers"]
+
+
+# origin (a) * axis-angle (b): each rotation component x y z w as its four signed products, as quat_mul sums them
+_PRODUCTS = (
+    (("+", "w", "x"), ("+", "x", "w"), ("+", "y", "z"), ("-", "z", "y")),
+    (("+", "w", "y"), ("-", "x", "z"), ("+", "y", "w"), ("+", "z", "x")),
+    (("+", "w", "z"), ("+", "x", "y"), ("-", "y", "x"), ("+", "z", "w")),
+    (("+", "w", "w"), ("-", "x", "x"), ("-", "y", "y"), ("-", "z", "z")),
+)
+_SMALLEST = 1e-50  # the least magnitude of a constant a short form multiplies (with |sin| >= 1e-150: no underflow)
+
+
+def _rotation(k: int, origin: list[float], axis: list[float]) -> list[str]:
+    """Lines that set joint k's rotation qx{k} qy{k} qz{k} qw{k} from s = sin(h) and c = cos(h) (h, half its
+    angle): the origin rotation `origin` (w x y z) times the axis-angle (c, `axis` * s), summed in quat_mul's order.
+    A product with a zero constant (an origin or axis component) is a zero, and adding a zero to a number that is not
+    zero gives that number: where one product of a component is left and it cannot be zero (s not zero: then nor is
+    any product of constants of at least _SMALLEST, and a cosine never is), the component is that product (negated
+    if it is subtracted), the same float. Where s is zero (or NaN), each component is the whole sum (its zero's
+    sign, the NaN's bits)."""
+    a = dict(zip("wxyz", origin))
+    u = {"w": 1.0, **dict(zip("xyz", axis))}
+    b = {"w": "c", **{v: f"({u[v]!r} * s)" for v in "xyz"}}  # the axis-angle's components
+
+    def whole(products: tuple[tuple[str, str, str], ...]) -> str:
+        terms = [f"{sign} ({a[i]!r}) * {b[j]}" for sign, i, j in products]
+        return " ".join(terms)[2:]  # the first product is added: no leading sign
+
+    full = ", ".join(whole(products) for products in _PRODUCTS)
+    short = []
+    for products in _PRODUCTS:
+        left = [(sign, i, j) for sign, i, j in products if a[i] != 0.0 and u[j] != 0.0]
+        if len(left) != 1 or abs(a[left[0][1]]) < _SMALLEST or abs(u[left[0][2]]) < _SMALLEST:
+            short.append(whole(products))
+            continue
+        sign, i, j = left[0]
+        product = f"({a[i]!r}) * {b[j]}"
+        short.append(product if sign == "+" else f"-({product})")
+    names = f"qx{k}, qy{k}, qz{k}, qw{k}"
+    if short == full.split(", "):
+        return [f"    {names} = {full}"]
+    return [
+        "    if s >= 1e-150 or s <= -1e-150:",
+        f"        {names} = {', '.join(short)}",
+        "    else:",
+        f"        {names} = {full}",
+    ]
