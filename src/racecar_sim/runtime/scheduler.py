@@ -170,17 +170,22 @@ class Scheduler:
         here, each at its own time and in its order (they need nothing of the physics, and no other task comes
         before them), and the time returned is that of the first task that needs the physics there."""
         heap = self._heap
+        if until_ns is None:
+            until_ns = -1  # no task is done here
         while heap:
             time_ns, rank, task = heap[0]
             if task.cancelled:
                 heapq.heappop(heap)
-            elif type(task) is Timeout and task._due != (time_ns, rank):  # stopped, or restarted since it was queued
-                heapq.heappop(heap)
+            elif type(task) is Timeout:
+                if task._due == (time_ns, rank):
+                    return time_ns
+                heapq.heappop(heap)  # stopped, or restarted since it was queued
                 task._take(time_ns, rank)
-            elif until_ns is not None and time_ns <= until_ns and task.unheard is not None and task.unheard(time_ns):
+            elif time_ns <= until_ns and task.unheard is not None and task.unheard(time_ns):
                 task.index += 1  # done: a periodic task (only every() gives unheard) goes on to its next firing
                 fire = task.start_ns - (-(task._numerator * task.index) // task._denominator)
-                heapq.heapreplace(heap, (-(-fire // self.step_ns) * self.step_ns, next(self._seq), task))
+                step = self.step_ns
+                heapq.heapreplace(heap, (-(-fire // step) * step, next(self._seq), task))
             else:
                 return time_ns
         return None
