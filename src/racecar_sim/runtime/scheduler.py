@@ -28,6 +28,9 @@ class Task:
     # the period as a whole fraction of ns, for the k-th firing in integer arithmetic (a Fraction costs microseconds)
     _numerator: int = field(default=0, init=False, repr=False)
     _denominator: int = field(default=1, init=False, repr=False)
+    # where the period is a whole number of physics steps and the start is a step: the period in ns, and each firing
+    # is the last one's time plus it (the formula's own result, without its arithmetic); else 0
+    _stride: int = field(default=0, init=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.period_ns is not None:
@@ -134,6 +137,8 @@ class Scheduler:
             )
         period = Fraction(NS_PER_S) / Fraction(rate_hz).limit_denominator(1_000_000)
         task = Task(name, callback, period, start_ns, index=1, unheard=unheard)
+        if period.denominator == 1 and period.numerator % self.step_ns == 0 and start_ns % self.step_ns == 0:
+            task._stride = period.numerator  # a reset starts it at 0, a step too
         self._push(start_ns + _ceil(period), task)
         return task
 
@@ -183,6 +188,9 @@ class Scheduler:
                 task._take(time_ns, rank)
             elif time_ns <= until_ns and task.unheard is not None and task.unheard(time_ns):
                 task.index += 1  # done: a periodic task (only every() gives unheard) goes on to its next firing
+                if task._stride:
+                    heapq.heapreplace(heap, (time_ns + task._stride, next(self._seq), task))
+                    continue
                 fire = task.start_ns - (-(task._numerator * task.index) // task._denominator)
                 step = self.step_ns
                 heapq.heapreplace(heap, (-(-fire // step) * step, next(self._seq), task))
@@ -199,8 +207,11 @@ class Scheduler:
                 break
             if task.period_ns is not None and not task.cancelled:
                 task.index += 1  # its next firing takes its place in the heap (one sift instead of a pop and a push)
-                fire = task.start_ns - (-(task._numerator * task.index) // task._denominator)
-                replace(heap, (-(-fire // step) * step, next(seq), task))
+                if task._stride:
+                    replace(heap, (time_ns + task._stride, next(seq), task))
+                else:
+                    fire = task.start_ns - (-(task._numerator * task.index) // task._denominator)
+                    replace(heap, (-(-fire // step) * step, next(seq), task))
                 task.callback(now_ns)
                 continue
             pop(heap)
