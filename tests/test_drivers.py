@@ -284,3 +284,19 @@ def test_cli_driver_errors_are_one_line(tmp_path):
         )
         assert result.returncode == 2 and len(result.stderr.strip().splitlines()) == 1, result.stderr
         assert expected in result.stderr
+
+
+def test_planar_position_is_the_pose_and_heading_of_an_odometry_message() -> None:
+    from racecar_sim.drivers.odom import planar_position
+    from racecar_sim.msgs import Odometry, Point, Pose, PoseWithCovariance, Quaternion
+
+    for yaw in (0.0, 0.7, -2.5, math.pi - 1e-9):
+        # a rotation by `yaw` about z, then a pitch of 0.1 about the new y: the heading stays `yaw`
+        cy, sy, cp, sp = math.cos(yaw / 2), math.sin(yaw / 2), math.cos(0.05), math.sin(0.05)
+        q = Quaternion(x=-sy * sp, y=cy * sp, z=sy * cp, w=cy * cp)
+        msg = Odometry(pose=PoseWithCovariance(Pose(Point(1.5, -2.0, 0.1), q)))
+        x, y, heading = planar_position(msg)
+        assert (x, y) == (1.5, -2.0)
+        assert heading == pytest.approx(yaw, abs=1e-9)
+        pose = planar_pose(msg)
+        assert (pose.x, pose.y, pose.yaw) == (x, y, heading)

@@ -15,16 +15,22 @@ STEP_NS = 1_000_000  # 1 ms physics step
 
 
 @pytest.mark.parametrize("rate", [100.0, 50.0, 40.0, 30.0, 7.0, 6.0, 3.3, 0.7])
-def test_periodic_tasks_fire_at_the_kth_period_rounded_up_to_a_step(rate):
+@pytest.mark.parametrize("start_ns", [2_500_000, 0, 2_000_000])  # between two steps (a car spawned at run time), on one
+def test_periodic_tasks_fire_at_the_kth_period_rounded_up_to_a_step(rate, start_ns):
     scheduler = Scheduler(STEP_NS)
     fired: list[int] = []
-    start_ns = 2_500_000  # a task started between two steps (a car spawned at run time)
     scheduler.every(rate, fired.append, "task", start_ns=start_ns)
     for now in range(0, 4_000_000_000, STEP_NS):
         scheduler.run_due(now)
     period = Fraction(10**9) / Fraction(rate).limit_denominator(1_000_000)
     expected = [math.ceil((start_ns + math.ceil(period * k)) / STEP_NS) * STEP_NS for k in range(1, len(fired) + 1)]
     assert fired == expected and fired[-1] > 4_000_000_000 - 2 * 10**9 / rate
+    fired.clear()
+    scheduler.reset()  # sim time back at 0: the task starts over from 0
+    for now in range(0, 4_000_000_000, STEP_NS):
+        scheduler.run_due(now)
+    assert fired == [math.ceil(math.ceil(period * k) / STEP_NS) * STEP_NS for k in range(1, len(fired) + 1)]
+    assert fired[-1] > 4_000_000_000 - 2 * 10**9 / rate
 
 
 def test_ties_run_in_registration_order_and_cancelled_tasks_never_run():

@@ -77,6 +77,9 @@ class ServoCommands(NodeBase):
         # the controller command topic of each of the law's outputs, in the order they are published
         self.topics = tuple(hinge_topics[i] if hinge else rate_topics[i] for i, hinge in self.law.outputs)
         self._warned = False
+        # the last command's speed and steering_angle (the very float objects) and the law's values for them: a driver
+        # that repeats one command object (a constant driver) gets them without the law's key being made again
+        self._last_drive: tuple[object, object, list[float]] = (None, None, [])
         self.input_topic = input_topic
         self.warn = ThrottledWarning(log, now)
         bus.subscribe(input_topic, self._on_drive, AckermannDriveStamped)
@@ -90,8 +93,13 @@ class ServoCommands(NodeBase):
         if not accept_command(self.input_topic, msg, self.warn):
             return
         drive = msg.drive
+        speed, steer = drive.speed, drive.steering_angle
+        last_speed, last_steer, values = self._last_drive
+        if speed is not last_speed or steer is not last_steer:  # the same float objects: the same bits, sign included
+            values = self._values(speed, steer)
+            self._last_drive = (speed, steer, values)
         publish = self.bus.publish
-        for topic, value in zip(self.topics, self._values(drive.speed, drive.steering_angle)):
+        for topic, value in zip(self.topics, values):
             publish(topic, Float64(value))
 
     def commands(self, speed: float, steer: float) -> list[tuple[str, float]]:

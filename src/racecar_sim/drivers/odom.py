@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from racecar_sim.core.transforms import yaw_of
 from racecar_sim.msgs import Odometry
 
 
@@ -25,7 +24,16 @@ def planar_pose(msg: Odometry) -> PlanarPose:
     REP 105 puts the twist in child_frame_id (base_link); the 2017 sim's gazebo_odometry.py gave it
     in the world frame (child `odom`), so it is projected onto the heading then.
     """
-    p, q, v = msg.pose.pose.position, msg.pose.pose.orientation, msg.twist.twist.linear
-    yaw = yaw_of((q.w, q.x, q.y, q.z))
+    x, y, yaw = planar_position(msg)
+    v = msg.twist.twist.linear
     speed = v.x if msg.child_frame_id == "base_link" else v.x * math.cos(yaw) + v.y * math.sin(yaw)
-    return PlanarPose(p.x, p.y, yaw, speed)
+    return PlanarPose(x, y, yaw, speed)
+
+
+def planar_position(msg: Odometry) -> tuple[float, float, float]:
+    """x, y (m) and yaw (rad) of an Odometry message's pose: planar_pose() without the speed, for a listener of every
+    car's odometry that needs no more (yaw_of's arithmetic, written out)."""
+    pose = msg.pose.pose
+    p, q = pose.position, pose.orientation
+    w, qx, qy, qz = q.w, q.x, q.y, q.z
+    return p.x, p.y, math.atan2(2 * (w * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))

@@ -19,6 +19,7 @@ class ClockPublisher(NodeBase):
     def __init__(self, bus: BusPort, timers: Timers, rate: float = CLOCK_RATE) -> None:
         self.bus = bus
         self._layout: CdrLayout | None = None  # the CDR layout of a Clock, read off the first one published
+        self._heard: tuple[int | None, bool] = (None, True)  # (the bus's listeners epoch, has_listeners(CLOCK) then)
         self._task = timers.every(rate, self._publish, "clock", unheard=self._unheard)
 
     def _publish(self, now_ns: int) -> None:
@@ -33,9 +34,15 @@ class ClockPublisher(NodeBase):
         self.bus.publish(CLOCK, msg)
 
     def _unheard(self, _now_ns: int) -> bool:
-        if self.bus.has_listeners(CLOCK):
+        bus = self.bus
+        epoch, heard = self._heard
+        if epoch is None or epoch != bus.listeners_epoch():  # asked again only once a listener came or went
+            epoch = bus.listeners_epoch()
+            heard = bus.has_listeners(CLOCK)
+            self._heard = (epoch, heard)
+        if heard:
             return False
-        self.bus.tally(CLOCK, Clock)
+        bus.tally(CLOCK, Clock)
         return True
 
     def close(self) -> None:

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from racecar_sim.bus import Bus, BusPort
-from racecar_sim.drivers.odom import planar_pose
+from racecar_sim.drivers.odom import planar_position
 from racecar_sim.msgs import Image, LaserScan, Odometry, String
 from racecar_sim.runtime.collisions import COLLISIONS, MAX_KEPT
 from racecar_sim.runtime.laps import LAP
@@ -68,15 +68,15 @@ class RunLog:
                 bus.subscribe(image_topic, self._on_image)
 
     def _on_odom(self, msg: Odometry) -> None:
-        pose = planar_pose(msg)
+        x, y, yaw = planar_position(msg)
         v = msg.twist.twist.linear
         stamp = msg.header.stamp.to_ns()
-        if self._last_row is not None:
-            x, y, _ = self._last_row
-            self.distance += math.hypot(pose.x - x, pose.y - y)
+        last = self._last_row
+        if last is not None:
+            self.distance += math.hypot(x - last[0], y - last[1])
         else:
             self._first_ns = stamp
-        row = (pose.x, pose.y, math.hypot(v.x, v.y))
+        row = (x, y, math.hypot(v.x, v.y))
         if self._count % self._stride == 0:
             if self._kept == TRAJECTORY_ROWS:  # full: keep every other row, and every other one from now on
                 half = self._path[::2].copy()
@@ -88,7 +88,7 @@ class RunLog:
         self._count += 1
         self._last_row = row
         self._last_ns = stamp
-        self.last_pose = (pose.x, pose.y, pose.yaw)
+        self.last_pose = (x, y, yaw)
 
     def _on_scan(self, msg: LaserScan) -> None:
         ranges = np.asarray(msg.ranges)

@@ -28,6 +28,9 @@ class Task:
     # the period as a whole fraction of ns, for the k-th firing in integer arithmetic (a Fraction costs microseconds)
     _numerator: int = field(default=0, init=False, repr=False)
     _denominator: int = field(default=1, init=False, repr=False)
+    # where the period is a whole number of physics steps and the start is a step: the period in ns, and each firing
+    # is the last one's time plus it (the formula's own result, without its arithmetic); else 0
+    _stride: int = field(default=0, init=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.period_ns is not None:
@@ -134,6 +137,8 @@ class Scheduler:
             )
         period = Fraction(NS_PER_S) / Fraction(rate_hz).limit_denominator(1_000_000)
         task = Task(name, callback, period, start_ns, index=1, unheard=unheard)
+        if period.denominator == 1 and period.numerator % self.step_ns == 0 and start_ns % self.step_ns == 0:
+            task._stride = period.numerator  # a reset starts it at 0, a step too
         self._push(start_ns + _ceil(period), task)
         return task
 
@@ -170,17 +175,25 @@ class Scheduler:
         here, each at its own time and in its order (they need nothing of the physics, and no other task comes
         before them), and the time returned is that of the first task that needs the physics there."""
         heap = self._heap
+        if until_ns is None:
+            until_ns = -1  # no task is done here
         while heap:
             time_ns, rank, task = heap[0]
             if task.cancelled:
                 heapq.heappop(heap)
-            elif type(task) is Timeout and task._due != (time_ns, rank):  # stopped, or restarted since it was queued
-                heapq.heappop(heap)
+            elif type(task) is Timeout:
+                if task._due == (time_ns, rank):
+                    return time_ns
+                heapq.heappop(heap)  # stopped, or restarted since it was queued
                 task._take(time_ns, rank)
-            elif until_ns is not None and time_ns <= until_ns and task.unheard is not None and task.unheard(time_ns):
+            elif time_ns <= until_ns and task.unheard is not None and task.unheard(time_ns):
                 task.index += 1  # done: a periodic task (only every() gives unheard) goes on to its next firing
+                if task._stride:
+                    heapq.heapreplace(heap, (time_ns + task._stride, next(self._seq), task))
+                    continue
                 fire = task.start_ns - (-(task._numerator * task.index) // task._denominator)
-                heapq.heapreplace(heap, (-(-fire // self.step_ns) * self.step_ns, next(self._seq), task))
+                step = self.step_ns
+                heapq.heapreplace(heap, (-(-fire // step) * step, next(self._seq), task))
             else:
                 return time_ns
         return None
@@ -194,8 +207,11 @@ class Scheduler:
                 break
             if task.period_ns is not None and not task.cancelled:
                 task.index += 1  # its next firing takes its place in the heap (one sift instead of a pop and a push)
-                fire = task.start_ns - (-(task._numerator * task.index) // task._denominator)
-                replace(heap, (-(-fire // step) * step, next(seq), task))
+                if task._stride:
+                    replace(heap, (time_ns + task._stride, next(seq), task))
+                else:
+                    fire = task.start_ns - (-(task._numerator * task.index) // task._denominator)
+                    replace(heap, (-(-fire // step) * step, next(seq), task))
                 task.callback(now_ns)
                 continue
             pop(heap)

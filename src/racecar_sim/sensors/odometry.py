@@ -58,6 +58,7 @@ class OdometryPublisher(NodeBase):
         self.frame, self.child = (names.frame(f) for f in FRAMES[mode])
         self._tf_layout: CdrLayout | None = None  # the CDR layout of its /tf message (bytes for a recorder alone)
         self._local = mode == "ros"  # twist in the body frame
+        self._tf_heard: tuple[int | None, bool] = (None, True)  # (the bus's listeners epoch, has_listeners(TF) then)
         if relay_topic:
             relay = names.topic(relay_topic)
             bus.subscribe(self.topic, lambda msg: bus.publish(relay, msg))
@@ -74,7 +75,12 @@ class OdometryPublisher(NodeBase):
         )
         bus = self.bus
         bus.publish(self.topic, msg)
-        if not bus.has_listeners(TF):  # nobody would receive it: counted, not built
+        epoch, heard = self._tf_heard
+        if epoch is None or epoch != bus.listeners_epoch():  # asked again only once a listener came or went
+            epoch = bus.listeners_epoch()
+            heard = bus.has_listeners(TF)
+            self._tf_heard = (epoch, heard)
+        if not heard:  # nobody would receive it: counted, not built
             bus.tally(TF, TFMessage)
             return
         cdr = bus.cdr_only(TF)
