@@ -61,12 +61,18 @@ def test_run_mcap_is_the_same_from_bytes_and_from_objects(tmp_path: Path, monkey
     assert len(from_bytes) > 100_000 and from_bytes == from_objects
 
 
-def test_link_twists_are_mj_object_velocity_bit_for_bit() -> None:
+def _two_cars_turning() -> Simulator:
+    """Two cars in the tunnel, each driven round its own circle (their links move in every direction)."""
     cars = [Car("car1", spawn=Spawn(0.0, 0.0, 0.05, 0.0), camera=False),
             Car("car2", spawn=Spawn(-1.5, 0.0, 0.05, 0.3), camera=False)]  # fmt: skip
     sim = Simulator(world="tunnel", cars=cars)
     for k, car in enumerate(sim.cars):
         ConstantCommand(sim.bus, sim.scheduler, 2.0 + k, 0.3 - 0.5 * k, topic=car.topic(NAVIGATION))
+    return sim
+
+
+def test_link_twists_are_mj_object_velocity_bit_for_bit() -> None:
+    sim = _two_cars_turning()
     api = sim.gazebo
     velocity = np.zeros(6)
     compared = 0
@@ -88,11 +94,7 @@ def test_a_writer_derives_the_links_arrays_from_the_ticks_bytes_bit_for_bit() ->
     """What a recorded tick hands over (MuJoCo's arrays' bytes) gives a writer process's copy of LinkArrays the
     numbers link_arrays() gives in the simulation, bit for bit (the wheels posed by kinematics, the bases read from
     qpos)."""
-    cars = [Car("car1", spawn=Spawn(0.0, 0.0, 0.05, 0.0), camera=False),
-            Car("car2", spawn=Spawn(-1.5, 0.0, 0.05, 0.3), camera=False)]  # fmt: skip
-    sim = Simulator(world="tunnel", cars=cars)
-    for k, car in enumerate(sim.cars):
-        ConstantCommand(sim.bus, sim.scheduler, 2.0 + k, 0.3 - 0.5 * k, topic=car.topic(NAVIGATION))
+    sim = _two_cars_turning()
     api = sim.gazebo
     writers = pickle.loads(pickle.dumps(api._arrays))  # as a writer process unpickles it
     assert len(api._posed_links) > 0 and len(api._free_links) == 2  # both ways of reading a pose are compared

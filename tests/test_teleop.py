@@ -207,10 +207,12 @@ def test_read_keys_raises_eof_when_the_terminal_closes():
 def test_stop_signals_note_the_first_signal_and_interrupt_on_the_second():
     previous = signal.getsignal(signal.SIGTERM)
     with StopSignals() as signals:
-        os.kill(os.getpid(), signal.SIGTERM)
+        # raise_signal: the handler has run when it returns (os.kill's signal may reach another thread of the
+        # process, and the main thread run its handler only later)
+        signal.raise_signal(signal.SIGTERM)
         assert signals.received == signal.SIGTERM
         with pytest.raises(KeyboardInterrupt):
-            os.kill(os.getpid(), signal.SIGINT)
+            signal.raise_signal(signal.SIGINT)
     assert signal.getsignal(signal.SIGTERM) == previous
     ignored = signal.signal(signal.SIGHUP, signal.SIG_IGN)
     try:
