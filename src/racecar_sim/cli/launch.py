@@ -38,7 +38,7 @@ from racecar_sim.cli.run_folder import (
     node_failure_title,
     output_paths,
 )
-from racecar_sim.cli.terminal import RawTerminal, stdin_is_tty
+from racecar_sim.cli.terminal import RawTerminal, StopSignals, stdin_is_tty
 from racecar_sim.cli.topic_map import check_topic_map
 from racecar_sim.core.errors import ConfigError, NodeError
 from racecar_sim.core.names import TELEOP
@@ -214,17 +214,16 @@ def _drive_options(args: argparse.Namespace, run: LaunchRun) -> list[str]:
 def _run_ros_only(args: argparse.Namespace, plan: LaunchPlan) -> int:
     """A launch file with no car (the original teleop.launch): its nodes on the master of a sim already running
     with --ros, until they all exit, --duration wall seconds pass, or Ctrl-C."""
-    with RosOnlyLaunch(plan) as launch:
+    # Ctrl-C (or SIGTERM) is noted and the loop ends: a KeyboardInterrupt raised inside Popen.poll() could leave the
+    # node's wait lock taken, and stopping the node then waited on it for ever
+    with StopSignals() as signals, RosOnlyLaunch(plan) as launch:
         print(
             f"launch {plan.file.name}: no car, {launch.running} ROS nodes on {launch.ros.master_uri}", file=sys.stderr
         )
         end = None if args.duration is None else time.monotonic() + args.duration
-        try:
-            while launch.running and (end is None or time.monotonic() < end):
-                time.sleep(CHUNK)
-        except KeyboardInterrupt:
-            return 130
-    return 0
+        while launch.running and signals.received is None and (end is None or time.monotonic() < end):
+            time.sleep(CHUNK)
+    return 0 if signals.received is None else 130
 
 
 def _closing(bridge: Ros2Bridge | None) -> contextlib.AbstractContextManager[Ros2Bridge | None]:
