@@ -107,6 +107,7 @@ TELEOP_LAUNCH = """<launch>
 
 
 def test_a_carless_launch_file_joins_a_running_sim(master, tmp_path, monkeypatch):
+    import signal
     import subprocess
     import sys
 
@@ -136,6 +137,9 @@ def test_a_carless_launch_file_joins_a_running_sim(master, tmp_path, monkeypatch
             ],
             stderr=subprocess.PIPE,
             text=True,
+            # SIGINT as a terminal's foreground has it (a shell's background job, a CI runner's for one, starts with
+            # it ignored, and an ignored signal stays ignored across exec)
+            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
         )
         end = time.monotonic() + 60
         while sim.car.state.base_pose()[0][0] < 0.5 and time.monotonic() < end and launch.poll() is None:
@@ -146,7 +150,7 @@ def test_a_carless_launch_file_joins_a_running_sim(master, tmp_path, monkeypatch
         assert bridge.get_param("/teleop/speed") == 0.9  # the command line's arg, on the sim's master
     finally:
         if launch is not None:
-            launch.send_signal(__import__("signal").SIGINT)
+            launch.send_signal(signal.SIGINT)
             err = launch.communicate(timeout=30)[1]
         bridge.close()
         sim.close()

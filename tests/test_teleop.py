@@ -14,6 +14,7 @@ import subprocess
 import sys
 import termios
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import pexpect
@@ -203,8 +204,17 @@ def test_read_keys_raises_eof_when_the_terminal_closes():
         os.close(slave)
 
 
+@pytest.fixture
+def foreground_sigint() -> Iterator[None]:
+    """SIGINT handled as in a terminal's foreground, whatever the runner's: a shell's background job starts with it
+    ignored, and StopSignals rightly leaves an ignored signal ignored."""
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, before)
+
+
 @posix_only
-def test_stop_signals_note_the_first_signal_and_interrupt_on_the_second():
+def test_stop_signals_note_the_first_signal_and_interrupt_on_the_second(foreground_sigint: None):
     previous = signal.getsignal(signal.SIGTERM)
     with StopSignals() as signals:
         # raise_signal: the handler has run when it returns (os.kill's signal may reach another thread of the
