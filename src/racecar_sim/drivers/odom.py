@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from racecar_sim.core.transforms import yaw_of
 from racecar_sim.msgs import Odometry
 
 
@@ -32,8 +33,7 @@ def planar_pose(msg: Odometry) -> PlanarPose:
 
 def planar_position(msg: Odometry) -> tuple[float, float, float]:
     """x, y (m) and yaw (rad) of an Odometry message's pose: planar_pose() without the speed, for a listener of every
-    car's odometry that needs no more (yaw_of's arithmetic, written out)."""
+    car's odometry that needs no more."""
     pose = msg.pose.pose
     p, q = pose.position, pose.orientation
-    w, qx, qy, qz = q.w, q.x, q.y, q.z
-    return p.x, p.y, math.atan2(2 * (w * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
+    return p.x, p.y, yaw_of((q.w, q.x, q.y, q.z))
