@@ -119,6 +119,57 @@ def test_interrupted_run_leaves_a_readable_recording(tmp_path):
         assert sum(c.msgcount for c in reader.connections if c.topic == "/vesc/odom") >= 20
 
 
+# A driver that signals its own process in the middle of its scan callback and then goes on with it: the callback's
+# remaining lines (the marker file) must still run, wherever the signal lands.
+SELF_SIGNALLING_DRIVER = """
+import os
+import signal
+from pathlib import Path
+
+from racecar_sim.msgs import AckermannDriveStamped
+from racecar_sim.nodes import NodeBase
+
+
+class Signaller(NodeBase):
+    def __init__(self, ctx, signum=15, at_ns=1_000_000_000):
+        self.ctx, self.signum, self.at_ns, self.sent = ctx, signum, at_ns, False
+        ctx.bus.subscribe(ctx.topic("/scan"), self.on_scan)
+
+    def on_scan(self, msg):
+        if self.ctx.now() >= self.at_ns and not self.sent:
+            self.sent = True
+            os.kill(os.getpid(), self.signum)
+            for _ in range(1000):  # bytecode boundaries enough for a raising handler to have run
+                pass
+            Path("after_signal.txt").write_text(str(self.ctx.now()))
+        cmd = AckermannDriveStamped()
+        cmd.drive.speed = 1.0
+        self.ctx.bus.publish(self.ctx.topic("/vesc/ackermann_cmd_mux/input/navigation"), cmd)
+"""
+
+
+@pytest.mark.skipif(os.name != "posix", reason="signals")
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
+def test_a_signal_inside_the_loop_is_noted_and_ends_the_run_after_the_slice(tmp_path, signum):
+    (tmp_path / "signaller.py").write_text(SELF_SIGNALLING_DRIVER)
+    (tmp_path / "settings.yaml").write_text(f"signum: {int(signum)}\n")
+    done = subprocess.run(
+        [*CLI, "run", "--world", "empty", "--driver", "signaller.py:Signaller", "--driver-config", "settings.yaml",
+         "--no-camera", "--no-video", "--duration", "5", "--out", "out"],
+        cwd=tmp_path, capture_output=True, text=True, timeout=120, preexec_fn=default_sigint,
+    )  # fmt: skip
+    assert done.returncode == 130, done.stderr
+    assert "Traceback" not in done.stderr and "Exception ignored" not in done.stderr, done.stderr
+    # the callback ran to its end: the signal was noted, not raised inside it
+    assert int((tmp_path / "after_signal.txt").read_text()) == 1_000_000_000
+    # the run stopped at the end of the slice the signal came in (run's CHUNK, 0.1 s), with its files complete
+    stopped = float(done.stderr.split("interrupted at sim time ", 1)[1].split(" s", 1)[0])
+    assert 1.0 <= stopped <= 1.1 + 1e-9, done.stderr
+    with AnyReader([tmp_path / "out" / "run.mcap"], default_typestore=get_typestore(Stores.EMPTY)) as reader:
+        stamps = [t for c, t, _ in reader.messages() if c.topic == "/vesc/odom"]
+    assert stamps and 1.0e9 <= max(stamps) <= 1.1e9 + 1
+
+
 def test_bad_arguments_give_one_line_and_exit_2():
     for args in (
         ["run", "--speed", "nan"],

@@ -54,6 +54,7 @@ from racecar_sim.cli.run_folder import (
     output_paths,
 )
 from racecar_sim.cli.spawns import check_row, check_spawn_option, fleet_size
+from racecar_sim.cli.terminal import StopSignals
 from racecar_sim.cli.topic_map import check_topic_map, sim_drives
 from racecar_sim.control.profiles import profile_names
 from racecar_sim.core.errors import ConfigError, NodeError
@@ -342,33 +343,36 @@ def _drive(args: argparse.Namespace, sim: Simulator, live: LiveViews) -> tuple[f
         camera.render_ahead()
     start = time.perf_counter()
     interrupted, failure = False, None
-    try:
-        while sim.time < args.duration - 1e-9 and not live.closed:
-            sim.run_until(min(sim.time + chunk, args.duration))
-            if bridge is not None:  # between events too: a paused sim still answers /gazebo/unpause_physics
-                bridge.spin_once(PAUSED_WAIT if sim.paused else 0.0)
-            if ros2 is not None:
-                ros2.spin_once(PAUSED_WAIT if sim.paused else 0.0)
-            live.update()
+    # Ctrl-C and SIGTERM are noted and end the loop between slices: an exception raised from a signal handler can land
+    # anywhere, even in a callback Python only reports ("Exception ignored in ..."). A second one still raises.
+    with StopSignals((signal.SIGINT, signal.SIGTERM)) as stop:
+        try:
+            while sim.time < args.duration - 1e-9 and not live.closed and stop.received is None:
+                sim.run_until(min(sim.time + chunk, args.duration))
+                if bridge is not None:  # between events too: a paused sim still answers /gazebo/unpause_physics
+                    bridge.spin_once(PAUSED_WAIT if sim.paused else 0.0)
+                if ros2 is not None:
+                    ros2.spin_once(PAUSED_WAIT if sim.paused else 0.0)
+                live.update()
+                if bar is not None:
+                    bar.n = min(round(sim.time, 3), bar.total)  # never past the total: tqdm would count down below 0
+                    bar.update(0)  # redraws no more often than tqdm's mininterval
+                if realtime:
+                    pacer.wait(sim.time)
+        except KeyboardInterrupt:
+            interrupted = True
+        except NodeError as exc:
+            failure = exc
+        finally:
+            for camera in cameras:
+                camera.flush()  # the last frame, at the time the run stops
             if bar is not None:
-                bar.n = min(round(sim.time, 3), bar.total)  # never past the total: tqdm would count down below 0
-                bar.update(0)  # redraws no more often than tqdm's mininterval
-            if realtime:
-                pacer.wait(sim.time)
-    except KeyboardInterrupt:
-        interrupted = True
-    except NodeError as exc:
-        failure = exc
-    finally:
-        for camera in cameras:
-            camera.flush()  # the last frame, at the time the run stops
-        if bar is not None:
-            bar.close()
-        if bridge is not None:
-            bridge.close()
-        if ros2 is not None:
-            ros2.close()
-    return time.perf_counter() - start, interrupted, failure
+                bar.close()
+            if bridge is not None:
+                bridge.close()
+            if ros2 is not None:
+                ros2.close()
+    return time.perf_counter() - start, interrupted or stop.received is not None, failure
 
 
 def _progress_bar(duration: float, endless: bool) -> tqdm | None:

@@ -93,17 +93,18 @@ class StopSignals:
     The first signal is only noted in `received` (the session loop checks it between slices and then
     stops the car, restores the terminal and closes the recording); a second one raises
     KeyboardInterrupt, which still unwinds through every `with` block. A signal ignored on entry stays
-    ignored; the previous handlers come back on exit.
+    ignored; the previous handlers come back on exit. `signals` narrows the set (`run` leaves SIGHUP alone).
     """
 
     SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
-    def __init__(self) -> None:
+    def __init__(self, signals: tuple[int, ...] = SIGNALS) -> None:
         self.received: int | None = None
+        self._signals = signals
         self._previous: dict[int, Any] = {}
 
     def __enter__(self) -> StopSignals:
-        for signum in self.SIGNALS:
+        for signum in self._signals:
             if signal.getsignal(signum) != signal.SIG_IGN:  # ignored on purpose (nohup, a background job)
                 self._previous[signum] = signal.signal(signum, self._handle)
         return self
