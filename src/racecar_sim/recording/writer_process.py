@@ -628,7 +628,8 @@ def _import_encoders(colour: bool) -> None:
 
     The imports make some 10^5 objects that live as long as the process (numba's load most of them). With the
     collector on, it walked them again and again while they were made, and once more in a full collection soon after:
-    about 0.25 s of the writer's CPU in a main job's start, on a 2-core machine whose other core is the simulation's.
+    0.13-0.14 s of the writer's CPU in a main job's start (1-2 ms frozen), while the simulation's process starts on
+    the other core of a 2-core machine.
     Frozen (gc.freeze), they are out of the way of every later collection; the run's own garbage is collected as
     before. As the CLI does for the simulation's process (cli/collector.py)."""
     try:
