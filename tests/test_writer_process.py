@@ -514,3 +514,21 @@ def test_rows_packed_by_the_writer_are_the_bytes_of_the_messages(tmp_path, proce
     from_objects = _record_states(tmp_path / "objects.mcap", process, rows=False)
     from_rows = _record_states(tmp_path / "rows.mcap", process, rows=True)
     assert len(from_rows) > 20_000 and from_rows == from_objects
+
+
+@pytest.mark.parametrize("colour", [False, True])
+def test_the_child_freezes_what_its_imports_made_and_turns_the_collector_back_on(colour):
+    # started as the child is (the collector off before its first import), the imports' objects (10^4-10^5: PyAV,
+    # the MCAP writer, numba's load with the colour kernel) end up frozen, out of every later collection's way, and
+    # the collector runs again for what the run makes
+    code = (
+        "import gc; gc.disable(); from racecar_sim.recording.writer_process import _import_encoders; "
+        f"_import_encoders({colour}); print(gc.isenabled(), gc.get_freeze_count(), len(gc.get_objects()))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=writer_process._child_environment(), capture_output=True, text=True
+    )
+    enabled, frozen, tracked = out.stdout.split()
+    assert enabled == "True"
+    assert int(frozen) > 20_000
+    assert int(tracked) < 1_000  # nothing left for a collection to walk

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import gc
 import logging
 import mmap
 import os
@@ -114,9 +115,11 @@ class WriterProcess:
         command = [
             sys.executable,
             "-c",
-            # once serve() reported its files finished, the child leaves without the interpreter's teardown (its
+            # the cyclic collector off while the modules load, until _import_encoders froze what they made; once
+            # serve() reported its files finished, the child leaves without the interpreter's teardown (its
             # modules' and objects' clean-up: 50-80 ms of CPU that the parent's close() would wait for)
-            "from racecar_sim.recording.writer_process import serve; serve(); import os; os._exit(0)",
+            "import gc; gc.disable(); from racecar_sim.recording.writer_process import serve; serve(); import os; "
+            "os._exit(0)",
             str(data_read),
             str(back_write),
             str(linked),
@@ -620,7 +623,23 @@ def serve() -> None:
 def _import_encoders(colour: bool) -> None:
     """Import what the operations use (the MCAP writer, PyAV, simplejpeg, serialization; with `colour`, the compiled
     colour conversion) while the parent starts, rather than with the first operation of each kind, in the middle of
-    a run (an import the first operation meets half-done waits for it)."""
+    a run (an import the first operation meets half-done waits for it); then freeze what exists and turn the cyclic
+    collector back on (the child's command turned it off before its first import).
+
+    The imports make some 10^5 objects that live as long as the process (numba's load most of them). With the
+    collector on, it walked them again and again while they were made, and once more in a full collection soon after:
+    0.13-0.14 s of the writer's CPU in a main job's start (1-2 ms frozen), while the simulation's process starts on
+    the other core of a 2-core machine.
+    Frozen (gc.freeze), they are out of the way of every later collection; the run's own garbage is collected as
+    before. As the CLI does for the simulation's process (cli/collector.py)."""
+    try:
+        _import(colour)
+    finally:
+        gc.freeze()
+        gc.enable()
+
+
+def _import(colour: bool) -> None:
     with contextlib.suppress(Exception):  # an encoder missing: the operation that needs it says so, as before
         import av  # noqa: F401
         import simplejpeg  # noqa: F401
