@@ -162,3 +162,38 @@ def test_listeners_epoch_changes_whenever_who_listens_changes() -> None:
     assert changed() and not bus.has_listeners("/c")
     bus.tap(lambda topic, msg: None, wants=lambda topic: topic == "/c")
     assert bus.listeners_epoch() is None
+
+
+def test_a_sole_taker_is_one_plain_subscriber_alone_and_delivered_counts_as_publish() -> None:
+    """sole_taker() names a topic's subscriber only where nothing else would take a message there: not with a second
+    subscriber, an overhearing one, one that feeds another topic, any tap, or a latched topic. delivered() then counts
+    the messages its publisher handed over itself, as publish() would have (the count and the class)."""
+    bus = Bus()
+
+    def take(msg: object) -> None:
+        pass
+
+    assert bus.sole_taker("/cmd") is None  # nobody
+    bus.subscribe("/cmd", take, Float64)
+    assert bus.sole_taker("/cmd") is take
+    bus.delivered(["/cmd", "/cmd"], Float64)
+    assert bus.count("/cmd") == 2 and bus.topics()["/cmd"] is Float64
+    with pytest.raises(TypeError, match="carries Float64"):
+        bus.delivered(["/cmd"], AckermannDriveStamped)
+    second = bus.subscribe("/cmd", lambda m: None)
+    assert bus.sole_taker("/cmd") is None
+    second.unsubscribe()
+    heard = bus.overhear("/cmd", lambda m: None)
+    assert bus.sole_taker("/cmd") is None
+    heard.unsubscribe()
+    assert bus.sole_taker("/cmd") is take
+    remove = bus.tap(lambda topic, msg: None, wants=lambda topic: topic == "/other")  # any tap: no sole taker
+    assert bus.sole_taker("/cmd") is None
+    remove()
+    remove = bus.tap(lambda topic, msg: None, cdr=lambda *item: None)
+    assert bus.sole_taker("/cmd") is None
+    remove()
+    bus.subscribe("/joint_states", lambda m: None, feeds={"/tf": Float64})
+    assert bus.sole_taker("/joint_states") is None  # it feeds another topic: tally and has_listeners look there
+    bus.latch("/cmd")
+    assert bus.sole_taker("/cmd") is None

@@ -518,3 +518,25 @@ def test_each_car_of_a_fleet_has_its_own_controller_manager():
     assert switch(sim, start=WHEELS, prefix="/car2")
     sim.run_until(2.0)
     assert float(np.hypot(*car2.state.base_velocity()[0][:2])) == pytest.approx(1.0, abs=0.02)
+
+
+def test_joint_states_and_controller_states_reach_a_listener_that_comes_and_goes_mid_run(sim):
+    """Whether anyone listens is kept while the bus's listeners stay the same: a subscriber that comes mid-run gets
+    joint states at 50 Hz and a controller's state at 100 Hz from its first tick, none after it left, and the topics
+    count every tick throughout (tallied while unheard)."""
+    topic = f"/racecar/{REAR[0]}/state"
+    sim.run_until(0.5)
+    joint_stamps: list[int] = []
+    state_stamps: list[int] = []
+    subs = [
+        sim.bus.subscribe("/racecar/joint_states", lambda m: joint_stamps.append(m.header.stamp.to_ns())),
+        sim.bus.subscribe(topic, lambda m: state_stamps.append(m.header.stamp.to_ns())),
+    ]
+    sim.run_until(1.0)
+    for sub in subs:
+        sub.unsubscribe()
+    sim.run_until(1.5)
+    ms = 1_000_000
+    assert joint_stamps == [t * ms for t in range(520, 1001, 20)]
+    assert state_stamps == [t * ms for t in range(510, 1001, 10)]
+    assert sim.bus.count("/racecar/joint_states") == 75

@@ -100,3 +100,23 @@ def test_min_clearance_is_the_shortest_finite_range_whatever_else_the_scan_holds
         expected = min([expected, *finite])
         assert log.min_clearance == expected
     assert log.min_clearance == 1.75
+
+
+def test_min_clearance_is_numpys_minimum_of_the_finite_ranges_over_random_scans() -> None:
+    """Scans of float32 and float64 ranges, with no echoes, NaN, -inf and signed zeros among them: the clearance is
+    numpy's minimum of the finite ones, bit for bit (the sign of a zero too), over every scan so far."""
+    rng = np.random.default_rng(7)
+    for dtype in (np.float32, np.float64):
+        log = RunLog(Bus(), "/scan", None, "/odom")
+        expected = np.inf
+        for _ in range(300):
+            ranges = rng.uniform(0.5, 30.0, int(rng.integers(1, 40))).astype(dtype)
+            picks = rng.random(len(ranges))
+            ranges[picks < 0.3] = np.inf
+            ranges[(picks > 0.95)] = rng.choice([np.nan, -np.inf, 0.0, -0.0])
+            log._on_scan(SimpleNamespace(ranges=ranges))
+            finite = ranges[np.isfinite(ranges)]
+            if len(finite) and finite.min() < expected:
+                expected = finite.min()
+            assert np.float64(log.min_clearance).tobytes() == np.float64(expected).tobytes()
+        assert log.min_clearance == 0.0  # a zero range came up

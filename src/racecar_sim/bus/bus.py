@@ -173,6 +173,30 @@ class Bus:
         for feed, feed_type in t.feeds:  # what its subscribers would have published in turn, unheard as well
             self.tally(feed, feed_type)
 
+    def sole_taker(self, topic: str) -> Callback | None:
+        """The callback of `topic`'s one subscriber where it alone would take a message published there now: one plain
+        subscriber (not feeding other topics, not overhearing), no tap, the topic not latched; else None. A publisher
+        may then hand it what it takes straight and count the message with delivered(), as long as listeners_epoch()
+        stays what it was (a tap or another subscriber that comes gets messages again)."""
+        if self._taps:
+            return None
+        t = self._topics.get(topic)
+        if t is None or t.latched or len(t.subscribers) != 1 or not t.plain:
+            return None
+        return t.callbacks[0]
+
+    def delivered(self, topics: Sequence[str], msgtype: type) -> None:
+        """Count a message of class `msgtype` on each of `topics`, handed by its publisher to the topic's sole_taker()
+        itself (no message made): topics() and count() read as if each had been published."""
+        known = self._topics
+        for topic in topics:
+            t = known[topic]
+            if msgtype is not t.msgtype:
+                if t.msgtype is not None:
+                    raise TypeError(f"topic {topic} carries {t.msgtype.__name__}, got {msgtype.__name__}")
+                t.msgtype = msgtype
+            t.count += 1
+
     def subscribe(
         self, topic: str, callback: Callback, msgtype: type | None = None, feeds: Mapping[str, type] | None = None
     ) -> Subscription:

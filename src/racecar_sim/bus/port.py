@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, Protocol
 
 from racecar_sim.bus.bus import RowPacker
@@ -27,6 +27,10 @@ class BusPort(Protocol):
     def listeners_epoch(self) -> int | None: ...
 
     def tally(self, topic: str, msgtype: type) -> None: ...
+
+    def sole_taker(self, topic: str) -> Callable[[Any], None] | None: ...
+
+    def delivered(self, topics: Sequence[str], msgtype: type) -> None: ...
 
     def cdr_only(self, topic: str) -> bool: ...
 

@@ -48,17 +48,7 @@ class ControllerCommands:
         name, topic, warn, set_command = controller.name, controller.command_topic, self.warn, self.state.set_command
         lo, hi = self.limits.get(name, _UNLIMITED)
 
-        def on_command(msg: Float64) -> None:
-            if type(msg) is not Float64:
-                warn(
-                    f"{topic} type",
-                    "%s: ignored a %s message (the topic takes %s)",
-                    topic,
-                    type_name(msg),
-                    type_name(Float64),
-                )
-                return
-            value = msg.data
+        def take(value: float) -> None:
             # a finite float (what servo_commands sends) in one look; anything else through the full check
             if (type(value) is not float or value - value != 0.0) and not is_finite_number(value):
                 warn(topic, "%s: ignored command %r (not a finite number)", topic, value)
@@ -69,6 +59,20 @@ class ControllerCommands:
                 value = hi
             set_command(name, value)
 
+        def on_command(msg: Float64) -> None:
+            if type(msg) is not Float64:
+                warn(
+                    f"{topic} type",
+                    "%s: ignored a %s message (the topic takes %s)",
+                    topic,
+                    type_name(msg),
+                    type_name(Float64),
+                )
+                return
+            take(msg.data)
+
+        # what a publisher whose message only this takes (Bus.sole_taker) may hand the command to: its value
+        on_command.take_value = take  # type: ignore[attr-defined]
         return on_command
 
 

@@ -87,6 +87,9 @@ class _Muted:
     def tally(self, topic: str, msgtype: type) -> None:
         pass
 
+    def listeners_epoch(self) -> int | None:
+        return None  # has_listeners() is asked every time
+
 
 class ControllerManager:
     """The controller_manager of one car (ros_control's, under `<namespace>/controller_manager`)."""

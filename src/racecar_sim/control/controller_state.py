@@ -74,6 +74,7 @@ class ControllerStatePublisher:
         # listeners epoch they were asked under (kept while it stays the same: twelve questions fewer per tick)
         self._heard: tuple[int | None, list[tuple[bool, bool]]] = (None, [])
         self._all_direct = False  # every state topic is taken by a recorder alone (under the epoch of `_heard`)
+        self._any_heard = True  # some state topic is listened to (under the epoch of `_heard`)
         # the model it was made for, what packs the rows and the spans of MjData's arrays they carry (_rows_packer)
         self._rows: tuple[object, ControllerRows, tuple[tuple[int, int], ...]] | None = None
         self._topics = tuple(c.topic for c in self.controllers)
@@ -93,15 +94,19 @@ class ControllerStatePublisher:
             heard.append((listened, listened and bus.cdr_only(c.topic)))
         self._heard = (epoch, heard)
         self._all_direct = bool(heard) and all(alone for _, alone in heard)
+        self._any_heard = any(listened for listened, _ in heard)
         return heard
 
     def _unheard(self, _now_ns: int) -> bool:
         """Nobody listens to any state topic: then there is nothing to do."""
-        return not any(listened for listened, _ in self._listening())
+        self._listening()
+        return not self._any_heard
 
     def publish(self, now_ns: int) -> None:
         bus = self.bus
         heard = self._listening()
+        if not self._any_heard:  # a tick the physics stopped at for another task: nothing to do
+            return
         if self._all_direct and self._layout and self._all_running():
             # the usual tick of a recorded run: every state, in one hand-over of MuJoCo's arrays (the writer reads the
             # numbers off them)

@@ -20,6 +20,8 @@ class Outlet(Protocol):
 
     def tally(self, topic: str, msgtype: type) -> None: ...
 
+    def listeners_epoch(self) -> int | None: ...
+
 
 class JointStatePublisher:
     """Position, velocity and effort of every joint that has a controller transmission."""
@@ -37,6 +39,8 @@ class JointStatePublisher:
         self.state, self.topic = state, topic
         self.names = list(joints)
         self._adr = state.joint_indices(self.names)
+        # (the outlet, its listeners epoch, has_listeners(topic) then): asked again only once a listener came or went
+        self._heard: tuple[object, int | None, bool] = (None, None, True)
         scheduler.every(rate, self.publish, "joint_state_controller", unheard=self._unheard)
 
     def publish(self, now_ns: int) -> None:
@@ -48,7 +52,13 @@ class JointStatePublisher:
     def _unheard(self, _now_ns: int) -> bool:
         """Nobody would receive the message (robot_state_publisher listens only for /tf's listeners): counted, not
         built, and the physics need not stop for it."""
-        if self.bus.has_listeners(self.topic):
+        bus = self.bus
+        epoch = bus.listeners_epoch()
+        outlet, known, heard = self._heard
+        if epoch is None or known != epoch or outlet is not bus:
+            heard = bus.has_listeners(self.topic)
+            self._heard = (bus, epoch, heard)
+        if heard:
             return False
-        self.bus.tally(self.topic, JointState)
+        bus.tally(self.topic, JointState)
         return True

@@ -184,7 +184,7 @@ class AckermannCmdMux:
 
     def _on_command(self, inp: MuxInput, plan: tuple[str, int, Restartable], msg: AckermannDriveStamped) -> None:
         topic, timeout_ns, timer = plan  # worked out once per input
-        if not accept_command(topic, msg, self.warn):
+        if msg is not _Forwarding.msg and not accept_command(topic, msg, self.warn):  # the first test: accept's own
             return
         timer.restart(self.now() + timeout_ns)
         holder = self.holder
@@ -284,5 +284,5 @@ class CommandChain(NodeBase):
 
     def _relay(self, source: str, target: str, msg: AckermannDriveStamped) -> None:
         """topic_tools relay; a non-finite command is dropped here, naming the topic it was published on."""
-        if accept_command(source, msg, self.warn):
+        if msg is _Forwarding.msg or accept_command(source, msg, self.warn):  # the first test: accept's own
             forward(self.bus, target, msg)

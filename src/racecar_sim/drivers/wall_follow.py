@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import sys
+from collections.abc import Callable
 
 import numpy as np
 
@@ -14,6 +15,18 @@ from racecar_sim.drivers.constant import NAVIGATION
 from racecar_sim.drivers.odom import planar_pose
 from racecar_sim.msgs import AckermannDrive, AckermannDriveStamped, Header, LaserScan, Odometry
 from racecar_sim.nodes import NodeBase
+
+_READ_SCAN: Callable[..., tuple[bool, float, float, float]] | None = None  # wall_fit.read_scan, once imported (numba)
+
+
+def _read_scan() -> Callable[..., tuple[bool, float, float, float]]:
+    """wall_fit.read_scan, imported at the first call and kept: an import statement costs a look-up per scan."""
+    global _READ_SCAN
+    from racecar_sim.drivers.wall_fit import read_scan
+
+    _READ_SCAN = read_scan
+    return read_scan
+
 
 # the side sector (beam indices, and their unit vectors: rows cos, sin) and the front cone (beam indices)
 Layout = tuple[slice | np.ndarray, np.ndarray, slice | np.ndarray]
@@ -89,8 +102,7 @@ class WallFollower(NodeBase):
         sector, beams, front = self._beams(angles)
         if type(sector) is not slice or type(front) is not slice:
             return None
-        from racecar_sim.drivers.wall_fit import read_scan
-
+        read_scan = _READ_SCAN or _read_scan()
         clean, approach, wall, ahead = read_scan(
             ranges,
             sector.start,

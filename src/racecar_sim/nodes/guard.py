@@ -78,6 +78,7 @@ class GuardedBus:
         self.has_listeners = bus.has_listeners
         self.listeners_epoch = bus.listeners_epoch
         self.tally = bus.tally
+        self.delivered = bus.delivered
         self.cdr_only = bus.cdr_only
         self.publish_cdr = bus.publish_cdr
         self.publish_cdr_rows = bus.publish_cdr_rows

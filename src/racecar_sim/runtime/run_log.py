@@ -93,8 +93,12 @@ class RunLog:
     def _on_scan(self, msg: LaserScan) -> None:
         ranges = np.asarray(msg.ranges)
         # the shortest finite range: the plain minimum (inf, no echo, is above every range), unless a NaN or -inf is
-        # in the scan; a third of the time of picking the finite ones out first (every scan of every car)
-        lowest = float(_MINIMUM(ranges)) if len(ranges) else math.inf  # ranges.min() without its Python wrapper
+        # in the scan; a third of the time of picking the finite ones out first (every scan of every car). The
+        # minimum is read at argmin, a third of the time of min()'s reduction: the first NaN where there is one, as
+        # min() gives NaN; at a zero min() is asked, as a tie of 0.0 and -0.0 may keep either sign
+        lowest = float(ranges[ranges.argmin()]) if len(ranges) else math.inf
+        if lowest == 0.0:
+            lowest = float(_MINIMUM(ranges))
         if math.isnan(lowest) or lowest == -math.inf:
             finite = ranges[np.isfinite(ranges)]
             lowest = float(finite.min()) if len(finite) else math.inf

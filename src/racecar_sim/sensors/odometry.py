@@ -11,6 +11,8 @@ not depend on anyone listening to /gazebo/link_states.
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 
 from racecar_sim.bus import BusPort
@@ -61,7 +63,7 @@ class OdometryPublisher(NodeBase):
         self._tf_heard: tuple[int | None, bool] = (None, True)  # (the bus's listeners epoch, has_listeners(TF) then)
         if relay_topic:
             relay = names.topic(relay_topic)
-            bus.subscribe(self.topic, lambda msg: bus.publish(relay, msg))
+            bus.subscribe(self.topic, partial(bus.publish, relay))  # a relay: no Python frame of its own
         scheduler.every(rate, self.publish, "gazebo_odometry_node")
 
     def publish(self, now_ns: int) -> None:
