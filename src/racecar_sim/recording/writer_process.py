@@ -604,7 +604,9 @@ def serve() -> None:
     urgent.start()  # before this thread gives way: it keeps the simulation's priority
     # so do the imports: on a busy machine, at the relaxed worker's priority, they were still going on (and numba's
     # load with them) when the run began
-    threading.Thread(target=_import_encoders, args=(colour,), name="imports", daemon=True).start()
+    global _imports
+    _imports = threading.Thread(target=_import_encoders, args=(colour,), name="imports", daemon=True)
+    _imports.start()
     if _give_way():
         workers.work(urgent=False)
     else:  # a nice value for the whole process: one worker, at the simulation's priority
@@ -618,6 +620,9 @@ def serve() -> None:
         if workers.error is None:
             back.send("error", exc)
     back.send("closed", workers.files.results())
+
+
+_imports: threading.Thread | None = None  # serve()'s thread running _import_encoders
 
 
 def _import_encoders(colour: bool) -> None:
@@ -818,6 +823,10 @@ class _Files:
             _, fd, path, compression = op
             self.recorder = McapRecorder(path, compression=compression, stream=open(self.passed_fd(fd), "wb"))
         elif kind == OPEN_VIDEO:
+            if _imports is not None:
+                # PyAV's import may be failing in the imports thread (no PyAV: the GIF fallback), and a concurrent
+                # `import av` can then return the half-made module (CPython's import fast path): its outcome first
+                _imports.join()
             from racecar_sim.recording.video import VideoWriter
 
             self.video = VideoWriter(*op[1:])
