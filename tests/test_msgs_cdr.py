@@ -576,3 +576,57 @@ def test_compiled_encoders_write_what_the_ops_write(typestore: Any) -> None:
     scan = msgs.LaserScan(msgs.Header.at(0, "laser"), range_max="far")  # type: ignore[arg-type]
     with pytest.raises(TypeError, match=r"sensor_msgs/msg/LaserScan: field 'range_max'"):
         msgs.serialize(scan)
+
+
+def test_numeric_arrays_in_any_form_write_rosbags_bytes_at_every_alignment(typestore: Any) -> None:
+    """The compiled encoder writes a 1-D C-ordered ndarray of a field's dtype as it is, and hands anything else to the
+    field's op (cdr._numeric_array_lines): lists, other dtypes and byte orders, strided and 2-D arrays, read-only and
+    empty arrays give the ops' own bytes and rosbags', after names and frame ids of every length (every start
+    alignment); a fixed-size array of the wrong length is still named."""
+    values = np.random.default_rng(5).normal(size=36)
+    forms: list[Callable[[np.ndarray], Any]] = [
+        lambda a: a.copy(),
+        lambda a: a.tolist(),
+        lambda a: a.astype(np.float32),
+        lambda a: a.astype(">f8"),
+        lambda a: np.repeat(a, 2)[::2],  # strided
+        lambda a: a.reshape(-1, 1),  # 2-D
+        lambda a: np.lib.stride_tricks.as_strided(a, writeable=False),  # read-only
+        lambda a: a[:0],  # empty
+    ]
+    checked = 0
+    for names in ([], ["a"], ["ab"], ["abc", "d"], ["wheel_joint"]):
+        frame = "f" * len(names)
+        for form in forms:
+            n = len(names) or 3
+            joint = msgs.JointState(msgs.Header.at(7, frame), list(names), form(values[:n]), form(values[n:2 * n]),
+                                    form(values[:1]))  # fmt: skip
+            scan = msgs.LaserScan(msgs.Header.at(9, frame), ranges=form(values[:5]), intensities=form(values[5:7]))
+            pose = msgs.PoseWithCovariance(covariance=form(values))
+            odom = msgs.Odometry(msgs.Header.at(11, frame), child_frame_id=frame * 2, pose=pose)
+            camera = msgs.CameraInfo(msgs.Header.at(13, frame), d=form(values[: len(names)]), k=form(values[:9]))
+            for msg in (joint, scan, odom, camera):  # a camera's k: 9 numbers after d's count (every alignment)
+                msgtype = msgs.msgtype_of(msg)
+                if np.size(form(values)) != 36 and msg in (odom, camera):
+                    field = "pose.covariance" if msg is odom else "k"
+                    with pytest.raises(ValueError, match=rf"{msgtype}: field '{field}'"):
+                        msgs.serialize(msg)
+                    continue
+                data = msgs.serialize(msg)
+                by_ops: list[Any] = [cdr.CDR_LE_HEADER]
+                cdr._encoder(msgtype).__globals__["_checked"](msg, by_ops, 0)
+                assert b"".join(by_ops) == data
+                assert data == typestore.serialize_cdr(to_rosbags(_as_arrays(msg), typestore), msgtype), msgtype
+                checked += 1
+    assert checked == 5 * (4 * 8 - 2)  # an empty covariance (36 numbers) or k (9) is refused
+
+
+def _as_arrays(msg: Any) -> Any:
+    """`msg` with its numeric array fields as 1-D arrays of the field's dtype, as rosbags takes them (in place)."""
+    for spec in idl.get_spec(msg.__msgtype__).fields:
+        value = getattr(msg, spec.name)
+        if isinstance(value, Message):
+            _as_arrays(value)
+        elif spec.is_array and spec.type in DTYPES and spec.type not in ("uint8", "byte", "char", "string"):
+            setattr(msg, spec.name, np.ascontiguousarray(value, DTYPES[spec.type]).reshape(-1))
+    return msg

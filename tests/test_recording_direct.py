@@ -128,6 +128,8 @@ def test_a_writers_controller_rows_pack_the_states_messages_bytes() -> None:
         writers = pickle.loads(pickle.dumps(packer))  # as a writer process unpickles it
         expected = [serialize(publisher.message(c, sim.time_ns)) for c in publisher.controllers]
         assert writers.pack_many(rows) == expected
+        handed = pickle.loads(pickle.dumps(rows, 5))  # the rows as a hand-over gives them: one tick shared
+        assert len({id(tick) for _, tick in handed}) == 1 and writers.pack_many(handed) == expected
         commands.update(deserialize(data, "control_msgs/msg/JointControllerState").command for data in expected)
     assert len(commands) > 20  # every controller's command changes as the car speeds up: real numbers compared
     sim.close()

@@ -42,22 +42,25 @@ def state_numbers(
 
 
 class ControllerRows:
-    """Packs a car's controller states (`layout`: their CdrLayout, stamp first) from rows of
-    ``(controller index, sec, nanosec, time step, qpos, qvel, ctrl, act)``, the arrays as their float64 bytes: the k-th
-    controller of `specs` (Spec) read from them with state_numbers(). Pickles as its layout and specs."""
+    """Packs a car's controller states (`layout`: their CdrLayout, stamp first) from rows of ``(controller index,
+    tick)``, a tick being ``(sec, nanosec, time step, qpos, qvel, ctrl, act)``, the arrays as their float64 bytes: the
+    k-th controller of `specs` (Spec) read from them with state_numbers(). The rows of one tick share its tuple (one
+    object to build and to pickle, and its arrays viewed once). Pickles as its layout and specs."""
 
     def __init__(self, layout: CdrLayout, specs: Sequence[Spec]) -> None:
         self.layout, self.specs = layout, tuple(specs)
-        self._last: tuple[list[Any], tuple[Any, ...]] | None = None  # the last tick's arrays, and views of them
+        self._last: tuple[Any, tuple[Any, ...]] | None = None  # the last tick, and its stamp, step and array views
 
     def pack_many(self, rows: Sequence[Sequence[Any]]) -> list[bytes]:
         """The CDR bytes of each row's message."""
         pack, specs, packed = self.layout.pack, self.specs, []
-        for index, sec, nanosec, time_step, *arrays in rows:
+        for index, tick in rows:
             last = self._last
-            if last is None or any(mine is not theirs for mine, theirs in zip(last[0], arrays)):
-                last = self._last = (arrays, tuple(memoryview(data).cast("d") for data in arrays))  # a tick's: once
-            qpos, qvel, ctrl, act = last[1]
+            if last is None or last[0] is not tick:
+                sec, nanosec, time_step, *arrays = tick
+                views = tuple(memoryview(data).cast("d") for data in arrays)
+                last = self._last = (tick, (sec, nanosec, time_step, *views))  # a tick's: once
+            sec, nanosec, time_step, qpos, qvel, ctrl, act = last[1]
             packed.append(pack((sec, nanosec, *state_numbers(specs[index], qpos, qvel, ctrl, act, time_step))))
         return packed
 

@@ -75,8 +75,9 @@ class ControllerStatePublisher:
         self._heard: tuple[int | None, list[tuple[bool, bool]]] = (None, [])
         self._all_direct = False  # every state topic is taken by a recorder alone (under the epoch of `_heard`)
         self._any_heard = True  # some state topic is listened to (under the epoch of `_heard`)
-        # the model it was made for, what packs the rows and the spans of MjData's arrays they carry (_rows_packer)
-        self._rows: tuple[object, ControllerRows, tuple[tuple[int, int], ...]] | None = None
+        # the model and the data it was made for, what packs the rows, views of the spans of MjData's arrays they
+        # carry (_rows_packer) and the controllers' indices
+        self._rows: tuple[object, object, ControllerRows, tuple[np.ndarray, ...], range] | None = None
         self._topics = tuple(c.topic for c in self.controllers)
         self._names = tuple(c.config.name for c in self.controllers)
         self._name_set = frozenset(self._names)
@@ -155,19 +156,20 @@ class ControllerStatePublisher:
         self.bus.publish_cdr_rows(JointControllerState, self._layout, topics, rows)
 
     def _publish_arrays(self, layout: CdrLayout, now_ns: int) -> None:
-        """Every controller's state, which only a recorder takes, as one row each of the car's part of MjData's qpos,
-        qvel, ctrl and act (their bytes, shared) for a ControllerRows to pack (made again when the model is)."""
+        """Every controller's state, which only a recorder takes, as one row each sharing the tick: the car's part of
+        MjData's qpos, qvel, ctrl and act (their bytes, read through views kept with the MjData) for a ControllerRows
+        to pack (made again when the model or the data is)."""
         state = self.state
+        model, data = state.model, state.data
         made = self._rows
-        if made is None or made[0] is not state.model:
-            made = self._rows = (state.model, *self._rows_packer(layout))
-        _, packer, ((q0, q1), (v0, v1), (c0, c1), (a0, a1)) = made
-        data = state.data
+        if made is None or made[0] is not model or made[1] is not data:
+            packer, spans = self._rows_packer(layout)
+            views = tuple(array[a:b] for array, (a, b) in zip((data.qpos, data.qvel, data.ctrl, data.act), spans))
+            made = self._rows = (model, data, packer, views, range(len(self.controllers)))
+        _, _, packer, (qpos, qvel, ctrl, act), indices = made
         sec, nanosec = divmod(now_ns, NS_PER_S)
-        head = (sec, nanosec, float(state.model.opt.timestep), data.qpos[q0:q1].tobytes(), data.qvel[v0:v1].tobytes(),
-                data.ctrl[c0:c1].tobytes(), data.act[a0:a1].tobytes())  # fmt: skip
-        rows = [(index, *head) for index in range(len(self.controllers))]
-        self.bus.publish_cdr_rows(JointControllerState, packer, self._topics, rows)
+        tick = (sec, nanosec, float(model.opt.timestep), qpos.tobytes(), qvel.tobytes(), ctrl.tobytes(), act.tobytes())
+        self.bus.publish_cdr_rows(JointControllerState, packer, self._topics, [(index, tick) for index in indices])
 
     def _rows_packer(self, layout: CdrLayout) -> tuple[ControllerRows, tuple[tuple[int, int], ...]]:
         """What packs the controllers' rows, and the spans of qpos, qvel, ctrl and act their addresses lie in (a row

@@ -90,7 +90,13 @@ def _compiled(
     structs, the same kept strings). Where it meets anything the ops would refuse or diagnose (a missing attribute,
     a value struct refuses), it drops what it appended and hands the message to `checked`, the ops one by one, which
     encode it or raise their one-line error. None where a path is no Python attribute chain."""
-    names: dict[str, Any] = {"_checked": checked, "_errors": (struct.error, TypeError, AttributeError, OverflowError)}
+    names: dict[str, Any] = {
+        "_checked": checked,
+        "_errors": (struct.error, TypeError, AttributeError, OverflowError),
+        "_ndarray": np.ndarray,
+        "_PAD": _PAD,
+        "_U32": _U32,
+    }
     lines = ["def encode(msg, out, pos):", "    start, count = pos, len(out)", "    try:"]
     for index, (op, what) in enumerate(steps):
         if isinstance(what, list):  # a scalar run: its structs by start alignment, as _scalar_run_op keeps them
@@ -116,6 +122,9 @@ def _compiled(
                 "            out.append(data)",
                 "            pos += len(data)",
             ]
+        elif hasattr(op, "numeric") and _attribute_chain(what):
+            names[f"_op{index}"], names[f"_dtype{index}"] = op, op.numeric[0]
+            lines += _numeric_array_lines(index, what, *op.numeric)
         else:
             names[f"_op{index}"] = op
             lines.append(f"        pos = _op{index}(msg, out, pos)")
@@ -130,6 +139,37 @@ def _compiled(
     )  # the source is made from the field model
     encode: Encoder = names["encode"]
     return encode
+
+
+def _numeric_array_lines(index: int, path: str, dtype: np.dtype[Any], itemsize: int, size: int | None) -> list[str]:
+    """The compiled encoder's lines for a numeric array field: a 1-D C-ordered ndarray of the field's dtype (and
+    length, for a fixed-size array) goes out as it is, with the prefix and padding _numeric_array_op writes; any other
+    value goes to that op (_op<index>), which converts it or says what is wrong."""
+    fits = f"type(value) is _ndarray and value.dtype is _dtype{index} and value.ndim == 1 and value.flags.c_contiguous"
+    if size is not None:
+        pad = f"_PAD[-pos % {itemsize}]" if size else 'b""'
+        return [
+            f"        value = msg.{path}",
+            f"        if {fits} and len(value) == {size}:",
+            f"            out.append({pad})",
+            "            out.append(value)",
+            f"            pos += len(out[-2]) + {size * itemsize}",
+            "        else:",
+            f"            pos = _op{index}(msg, out, pos)",
+        ]
+    return [
+        f"        value = msg.{path}",
+        f"        if {fits}:",
+        "            count = len(value)",
+        "            align = -pos & 3",
+        "            pos += align + 4",
+        f"            pad = -pos % {itemsize} if count else 0",
+        "            out.append(_PAD[align] + _U32.pack(count) + _PAD[pad])",
+        "            out.append(value)",
+        f"            pos += pad + count * {itemsize}",
+        "        else:",
+        f"            pos = _op{index}(msg, out, pos)",
+    ]
 
 
 def _attribute_chain(path: str) -> bool:
@@ -324,6 +364,7 @@ def _numeric_array_op(msgtype: str, path: str, type_name: str, size: int | None)
         out.append(array)
         return pos + pad + count * itemsize
 
+    op.numeric = (dtype, itemsize, size)  # type: ignore[attr-defined]  # what the compiled encoder inlines (_compiled)
     return op
 
 
