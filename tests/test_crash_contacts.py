@@ -79,3 +79,40 @@ def test_the_same_contacts_again_are_looked_at_again_where_a_wheel_tilts(
     data.contact.frame[wheel, 2] = -0.5  # tipped past 45 degrees, pointing down: a crash on the remembered look too
     assert contacts.touching(data) == {(0, -1, floor)}
     sim.close()
+
+
+def test_the_kept_contact_views_read_each_later_step_as_a_fresh_look_does() -> None:
+    """touching() keeps views of MuJoCo's contact array per contact count (MuJoCo keeps an MjData's contacts at the
+    start of its arena): over a run whose contact count goes up and down (crashes into a wall and into a car, a reset
+    in between), each look with the kept views finds what a CrashContacts made afresh for that look finds, and the
+    views lie where data.contact does."""
+    cars = [  # as above: a drives into a tunnel wall, b and c into each other
+        Car("a", spawn=Spawn(0.0, 0.0, 0.05, -math.pi / 2), camera=False),
+        Car("b", spawn=Spawn(3.0, 0.0, 0.05, math.pi), camera=False),
+        Car("c", spawn=Spawn(1.5, 1.0, 0.05, -1.5), camera=False),
+    ]
+    sim = Simulator(world="tunnel", cars=cars, sensor_noise=False)
+    for car, steering in zip(sim.cars, (0.0, 0.0, 0.3)):
+        _drive(sim, car, 2.0, steering)
+    kept = sim.collisions._contacts
+    assert kept is not None
+    watched = sim.collisions._cars
+    roots, wheels = [car.root for car in watched], [w for car in watched for w in car.wheels]
+    counts: set[int] = set()
+    found: set[tuple[int, int]] = set()
+    for step in range(150):
+        if step == 100:
+            sim.reset()
+        sim.run_for(0.02)
+        data = sim.data
+        fresh = crash_contacts.CrashContacts(sim.model, roots, wheels).touching(data)
+        assert kept.touching(data) == fresh
+        if data.ncon:
+            pairs, normals_z = kept._live[data.ncon]
+            assert pairs.ctypes.data == data.contact.geom.ctypes.data
+            assert normals_z.ctypes.data == data.contact.frame[:, 2].ctypes.data
+        counts.add(data.ncon)
+        found |= {(a, b) for a, b, _ in fresh}
+    assert len(counts) > 3, "the contact count hardly changed"
+    assert any(b >= 0 for _, b in found) and any(b < 0 for _, b in found), "not both kinds of crash"
+    sim.close()

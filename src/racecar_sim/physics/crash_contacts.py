@@ -38,6 +38,10 @@ class CrashContacts:
         # the last contacts that were no crash (their geom pairs' bytes), and which of them are a wheel on a surface:
         # the same pairs again are no crash as long as those wheels' normals stay within 45 degrees of vertical
         self._quiet: tuple[bytes, npt.NDArray[np.intp] | slice | None] | None = None
+        # views of MuJoCo's contact array by contact count: the geom pairs and the normals' z of the first ncon
+        # contacts of _live_data (see _views), made once per count
+        self._live_data: mujoco.MjData | None = None
+        self._live: dict[int, tuple[npt.NDArray[np.int32], npt.NDArray[np.float64]]] = {}
 
     def touching(self, data: mujoco.MjData) -> set[tuple[int, int, int]]:
         """(car, other car or -1, geom of the other side) for every crash contact now; a car-car contact once, with
@@ -45,8 +49,12 @@ class CrashContacts:
         n = data.ncon
         if n == 0:
             return set()
-        contact = data.contact  # the ncon contacts
-        pairs = contact.geom
+        if data is not self._live_data:  # another MjData (a recompiled model): views of its own
+            self._live_data, self._live = data, {}
+        live = self._live.get(n)
+        if live is None:
+            live = self._live[n] = _views(data)
+        pairs, normals_z = live
         key = pairs.tobytes()
         quiet = self._quiet
         if quiet is not None and quiet[0] == key:  # most looks: the wheels on the floor as at the last one
@@ -56,23 +64,26 @@ class CrashContacts:
             # every resting wheel's normal within 45 degrees of vertical: most often all point up, seen in one min()
             # (Python's, on a list: numpy's reduction costs microseconds of wrapping on a few numbers; the sum is
             # NaN where a normal is, which Python's min() may pass over)
-            normal_z = contact.frame[rows, 2].tolist()
+            normal_z = normals_z[rows].tolist()
             total = sum(normal_z)
             if total == total and (
                 min(normal_z) > SUPPORT_NORMAL_Z or all(abs(z) > SUPPORT_NORMAL_Z for z in normal_z)
             ):
                 return set()
         resting: list[int] = []  # the wheels on a surface among them (their normals decide)
-        found = self._touching_few(contact, n, resting) if n <= _FEW else self._touching_many(contact, pairs, resting)
+        found = (
+            self._touching_few(pairs, normals_z, resting)
+            if n <= _FEW
+            else self._touching_many(pairs, normals_z, resting)
+        )
         self._quiet = None if found else (key, _rows(resting, n))
         return found
 
     def _touching_many(
-        self, contact: mujoco._structs._MjContactList, geoms: npt.NDArray[np.int32], resting: list[int]
+        self, geoms: npt.NDArray[np.int32], normals_z: npt.NDArray[np.float64], resting: list[int]
     ) -> set[tuple[int, int, int]]:
         """touching() for many contacts, with numpy; the wheels on a surface (whatever their normals) into
         `resting`."""
-        n = len(geoms)
         owner = self.car_of_geom[geoms]
         first, second = owner[:, 0], owner[:, 1]
         touching = first != second  # a car and something not of it (the world is -1 on both sides of its own)
@@ -81,14 +92,14 @@ class CrashContacts:
         wheel = self._wheel_geom[geoms]
         on_surface = (wheel[:, 0] & (second < 0)) | (wheel[:, 1] & (first < 0))
         resting.extend(np.flatnonzero(on_surface).tolist())
-        crash = touching & ~(on_surface & (np.abs(contact.frame[:n, 2]) > SUPPORT_NORMAL_Z))
+        crash = touching & ~(on_surface & (np.abs(normals_z) > SUPPORT_NORMAL_Z))
         found: set[tuple[int, int, int]] = set()
         for index in np.flatnonzero(crash):
             found.add(_crash(int(first[index]), int(second[index]), int(geoms[index, 0]), int(geoms[index, 1])))
         return found
 
     def _touching_few(
-        self, contact: mujoco._structs._MjContactList, n: int, resting: list[int]
+        self, geoms: npt.NDArray[np.int32], normals_z: npt.NDArray[np.float64], resting: list[int]
     ) -> set[tuple[int, int, int]]:
         """touching() for a few contacts, element by element: the same tests on the same numbers (a Python float is
         the float64 numpy compares), the normals read only when a wheel may rest on a surface (those into
@@ -96,18 +107,27 @@ class CrashContacts:
         owner, wheel = self._owner_list, self._wheel_list
         found: set[tuple[int, int, int]] = set()
         normal_z: list[float] | None = None
-        for index, (ga, gb) in enumerate(contact.geom[:n].tolist()):
+        for index, (ga, gb) in enumerate(geoms.tolist()):
             a, b = owner[ga], owner[gb]
             if a == b:  # within one car, or the world against itself
                 continue
             if (wheel[ga] and b < 0) or (wheel[gb] and a < 0):
                 resting.append(index)
                 if normal_z is None:
-                    normal_z = contact.frame[:n, 2].tolist()
+                    normal_z = normals_z.tolist()
                 if abs(normal_z[index]) > SUPPORT_NORMAL_Z:  # a wheel resting on the ground, a floor, a ramp
                     continue
             found.add(_crash(a, b, ga, gb))
         return found
+
+
+def _views(data: mujoco.MjData) -> tuple[npt.NDArray[np.int32], npt.NDArray[np.float64]]:
+    """The geom pairs (ncon, 2) and the normals' z (ncon,) of `data`'s contacts, as views of MuJoCo's contact array
+    that stay live: MuJoCo keeps an MjData's contacts at the start of its arena (mj_clearEfc sets d->contact =
+    d->arena at every step), so these views read every later step's first ncon contacts, without data.contact making
+    its wrapper again (microseconds at every look, with the caches MuJoCo's stepping left cold)."""
+    contact = data.contact
+    return contact.geom, contact.frame[:, 2]
 
 
 def _rows(resting: list[int], n: int) -> npt.NDArray[np.intp] | slice | None:
