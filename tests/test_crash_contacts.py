@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+import mujoco
 import pytest
 
 import racecar_sim.physics.crash_contacts as crash_contacts
@@ -83,9 +84,9 @@ def test_the_same_contacts_again_are_looked_at_again_where_a_wheel_tilts(
 
 def test_the_kept_contact_views_read_each_later_step_as_a_fresh_look_does() -> None:
     """touching() keeps views of MuJoCo's contact array per contact count (MuJoCo keeps an MjData's contacts at the
-    start of its arena): over a run whose contact count goes up and down (crashes into a wall and into a car, a reset
-    in between), each look with the kept views finds what a CrashContacts made afresh for that look finds, and the
-    views lie where data.contact does."""
+    start of its arena): over a run whose contact count goes up and down (crashes into a wall and into a car, an
+    MjData copied back in and a reset in between), each look with the kept views finds what a CrashContacts made
+    afresh for that look finds, and the views lie where data.contact does."""
     cars = [  # as above: a drives into a tunnel wall, b and c into each other
         Car("a", spawn=Spawn(0.0, 0.0, 0.05, -math.pi / 2), camera=False),
         Car("b", spawn=Spawn(3.0, 0.0, 0.05, math.pi), camera=False),
@@ -100,7 +101,12 @@ def test_the_kept_contact_views_read_each_later_step_as_a_fresh_look_does() -> N
     roots, wheels = [car.root for car in watched], [w for car in watched for w in car.wheels]
     counts: set[int] = set()
     found: set[tuple[int, int]] = set()
+    saved = mujoco.MjData(sim.model)
     for step in range(150):
+        if step == 60:
+            mujoco.mj_copyData(saved, sim.model, sim.data)
+        if step == 80:  # back to the state of step 60, copied in as a failed spawn check restores it
+            mujoco.mj_copyData(sim.data, sim.model, saved)
         if step == 100:
             sim.reset()
         sim.run_for(0.02)
