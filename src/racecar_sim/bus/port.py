@@ -32,6 +32,17 @@ class BusPort(Protocol):
 
     def delivered(self, topics: Sequence[str], msgtype: type) -> None: ...
 
+    def sole_feeder(self, topic: str) -> Callable[[Any], None] | None: ...
+
+    def publish_fed_rows(
+        self,
+        msgtype: type,
+        packer: RowPacker,
+        topics: tuple[str, ...],
+        rows: list[tuple[Any, ...]],
+        fed: Sequence[tuple[type, RowPacker, tuple[str, ...], list[tuple[Any, ...]]]],
+    ) -> None: ...
+
     def cdr_only(self, topic: str) -> bool: ...
 
     def publish_cdr(self, topic: str, msgtype: type, data: bytes) -> None: ...
