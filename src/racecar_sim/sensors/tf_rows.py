@@ -1,7 +1,7 @@
 """robot_state_publisher's /tf numbers from a joint state's positions, where the simulation publishes them and where a
 writer process packs them.
 
-_revolute_numbers() makes one function from the moving joints' constants; RobotStatePublisher calls it on each joint
+revolute_numbers() makes one function from the moving joints' constants; RobotStatePublisher calls it on each joint
 state, and TfRows calls the same function, made again from the same constants, on the rows a recorded run hands its
 writer (the joint state's numbers), so /tf's bytes are the same bits either way. Light to import: a writer process
 unpickles TfRows.
