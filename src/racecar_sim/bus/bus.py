@@ -24,6 +24,10 @@ class RowPacker(Protocol):
     def pack_many(self, rows: Sequence[Sequence[Any]], /) -> list[bytes]: ...
 
 
+FedRows = tuple[type, RowPacker, tuple[str, ...], list[tuple[Any, ...]]]
+"""What a feeding subscriber would have published in turn, for publish_fed_rows(): (message class, packer, topics,
+rows), as publish_cdr_rows() takes them."""
+
 CdrRowsTap = Callable[[type, RowPacker, tuple[str, ...], list[tuple[Any, ...]]], None]
 """``cdr_rows(message class, packer, topics, rows)``: such a tap taking several messages of one class, published at
 one moment, as their numbers (one row per topic, in order) and what packs them: it packs them when it writes them (a
@@ -196,13 +200,7 @@ class Bus:
         t = self._topics.get(topic)
         if t is None or t.latched or len(t.subscribers) != 1 or t.plain or t.overheard or not t.feeds:
             return None
-        heard = False
-        for e in self._tap_entries:
-            if e.wants is None or e.wants(topic):
-                if e.cdr_rows is None:
-                    return None
-                heard = True
-        if not heard or not all(self.cdr_only(feed) for feed, _ in t.feeds):
+        if not self._taps_take_bytes(topic, rows=True) or not all(self.cdr_only(feed) for feed, _ in t.feeds):
             return None
         return t.callbacks[0]
 
@@ -212,7 +210,7 @@ class Bus:
         packer: RowPacker,
         topics: tuple[str, ...],
         rows: list[tuple[Any, ...]],
-        fed: Sequence[tuple[type, RowPacker, tuple[str, ...], list[tuple[Any, ...]]]],
+        fed: Sequence[FedRows],
     ) -> None:
         """publish_cdr_rows() of messages on `topics`, where sole_feeder() gave each topic's subscriber, followed by
         what those subscribers would have published in turn, `fed`: (message class, packer, topics, rows) each, in
@@ -348,10 +346,14 @@ class Bus:
         if t is not None and t.callbacks:
             if t.plain or t.overheard or any(self.has_listeners(feed) for feed, _ in t.feeds):
                 return False
+        return self._taps_take_bytes(topic)
+
+    def _taps_take_bytes(self, topic: str, rows: bool = False) -> bool:
+        """Whether a tap wants `topic` and every tap that wants it takes CDR bytes (`rows`: as rows too, cdr_rows)."""
         heard = False
         for e in self._tap_entries:
             if e.wants is None or e.wants(topic):
-                if e.cdr is None:
+                if (e.cdr_rows if rows else e.cdr) is None:
                     return False
                 heard = True
         return heard
