@@ -197,3 +197,57 @@ def test_a_sole_taker_is_one_plain_subscriber_alone_and_delivered_counts_as_publ
     assert bus.sole_taker("/joint_states") is None  # it feeds another topic: tally and has_listeners look there
     bus.latch("/cmd")
     assert bus.sole_taker("/cmd") is None
+
+
+def test_a_sole_feeder_is_one_feeding_subscriber_beside_taps_that_take_rows_and_fed_rows_count_as_publish() -> None:
+    """sole_feeder() names a topic's subscriber only where it feeds other topics that taps taking bytes alone take,
+    and only taps taking rows take the topic beside it: not with a second subscriber, a plain or overhearing one, a
+    tap taking objects or bytes one by one, a listener on the fed topic, or a latched topic. publish_fed_rows() then
+    hands every tap the messages and the fed ones in publish()'s order and counts each topic once per message."""
+    bus = Bus()
+    feeds = {"/tf": AckermannDriveStamped}
+
+    def feed(msg: object) -> None:
+        pass
+
+    assert bus.sole_feeder("/joint_states") is None  # nobody
+    bus.subscribe("/joint_states", feed, feeds=feeds)
+    assert bus.sole_feeder("/joint_states") is None  # no recorder: nothing would be made at all
+    got: list[object] = []
+    remove = bus.tap(lambda topic, msg: None, cdr=lambda *item: None, cdr_rows=lambda *batch: got.append(batch))
+    assert bus.sole_feeder("/joint_states") is feed
+    packer = _Packer()
+    bus.publish_fed_rows(
+        Float64, packer, ("/joint_states",), [(1,)], [(AckermannDriveStamped, packer, ("/tf",), [(2,)])]
+    )
+    assert got == [(Float64, packer, ("/joint_states",), [(1,)]), (AckermannDriveStamped, packer, ("/tf",), [(2,)])]
+    assert bus.count("/joint_states") == 1 and bus.count("/tf") == 1  # the fed topic counted once, not tallied too
+    assert bus.topics()["/joint_states"] is Float64 and bus.topics()["/tf"] is AckermannDriveStamped
+    for other in (
+        lambda: bus.subscribe("/tf", lambda m: None),  # someone listens where it feeds: it must make messages
+        lambda: bus.overhear("/tf", lambda m: None),
+        lambda: bus.subscribe("/joint_states", lambda m: None),  # a plain second subscriber
+        lambda: bus.overhear("/joint_states", lambda m: None),
+    ):
+        sub = other()
+        assert bus.sole_feeder("/joint_states") is None
+        sub.unsubscribe()
+        assert bus.sole_feeder("/joint_states") is feed
+    for tap in (
+        {"cdr": lambda *item: None},  # bytes one by one
+        {},  # objects
+        {"wants": lambda topic: topic == "/tf"},  # a bridge whose node takes /tf
+        {"wants": lambda topic: topic == "/joint_states", "cdr": lambda *item: None},
+    ):
+        untap = bus.tap(lambda topic, msg: None, **tap)  # type: ignore[arg-type]
+        assert bus.sole_feeder("/joint_states") is None
+        untap()
+    untap = bus.tap(lambda topic, msg: None, wants=lambda topic: topic == "/other")  # wants neither topic
+    assert bus.sole_feeder("/joint_states") is feed
+    untap()
+    remove()
+    bus.subscribe("/odom", lambda m: None)
+    remove = bus.tap(lambda topic, msg: None, cdr=lambda *item: None, cdr_rows=lambda *batch: None)
+    assert bus.sole_feeder("/odom") is None  # a plain subscriber, not a feeder
+    bus.latch("/joint_states")
+    assert bus.sole_feeder("/joint_states") is None

@@ -26,14 +26,15 @@ RUN = ["run", "--world", "empty", "--cars", "3", "--driver", "constant", "--spee
        "--no-summary", "--duration", "1.2"]  # fmt: skip
 DIRECT = {"/gazebo/link_states", "/gazebo/model_states", "/clock", "/tf"}
 ROWS = {"/gazebo/link_states (rows)", "/gazebo/model_states (rows)",
-        "/car2/racecar/left_rear_wheel_velocity_controller/state (rows)"}  # fmt: skip
+        "/car2/racecar/left_rear_wheel_velocity_controller/state (rows)",
+        "/car3/racecar/joint_states (fed rows)", "/tf (rows)"}  # fmt: skip
 
 
 def _run(out: Path, monkeypatch: pytest.MonkeyPatch, objects: bool, command: list[str] = RUN) -> tuple[bytes, set[str]]:
     """run.mcap of `command`, and the topics handed over as bytes (those handed over as rows for a writer to pack
     marked " (rows)"); `objects`: every message made as an object."""
     direct: set[str] = set()
-    publish_cdr, publish_cdr_rows = Bus.publish_cdr, Bus.publish_cdr_rows
+    publish_cdr, publish_cdr_rows, publish_fed_rows = Bus.publish_cdr, Bus.publish_cdr_rows, Bus.publish_fed_rows
 
     def counted(self: Bus, topic: str, msgtype: type, data: bytes) -> None:
         direct.add(topic)
@@ -43,9 +44,14 @@ def _run(out: Path, monkeypatch: pytest.MonkeyPatch, objects: bool, command: lis
         direct.update(f"{topic} (rows)" for topic in topics)
         publish_cdr_rows(self, msgtype, packer, topics, rows)
 
+    def counted_fed(self: Bus, msgtype: type, packer: RowPacker, topics: tuple[str, ...], *rest: Any) -> None:
+        direct.update(f"{topic} (fed rows)" for topic in topics)
+        publish_fed_rows(self, msgtype, packer, topics, *rest)
+
     with monkeypatch.context() as patch:
         patch.setattr(Bus, "publish_cdr", counted)
         patch.setattr(Bus, "publish_cdr_rows", counted_rows)
+        patch.setattr(Bus, "publish_fed_rows", counted_fed)
         if objects:
             patch.setattr(Bus, "cdr_only", lambda self, topic: False)
         assert main([*command, "--out", str(out)]) == 0
@@ -220,3 +226,60 @@ def test_camera_info_from_bytes_makes_the_same_run_mcap(tmp_path: Path, monkeypa
     assert not none
     assert "/camera/zed/rgb/camera_info" in direct
     assert len(from_bytes) > 100_000 and from_bytes == from_objects
+
+
+def _listened_car(path: Path, listen_from: float) -> tuple[list[tuple[str, int, bytes]], int]:
+    """A turning car's 1 s recorded by a writer process to `path`, with a subscriber to its joint states and to /tf
+    from `listen_from` s on: what the subscriber got, (topic, stamp, serialize() bytes) each, and how many joint
+    states went to the writer as rows (publish_fed_rows)."""
+    heard: list[tuple[str, int, bytes]] = []
+    fed = 0
+    publish_fed_rows = Bus.publish_fed_rows
+
+    def counted(self: Bus, *args: Any) -> None:
+        nonlocal fed
+        fed += 1
+        publish_fed_rows(self, *args)
+
+    def listen(topic: str) -> None:
+        sim.subscribe(topic, lambda msg: heard.append((topic, msg_stamp(msg), serialize(msg))))
+
+    def msg_stamp(msg: Any) -> int:
+        header = msg.header if hasattr(msg, "header") else msg.transforms[0].header
+        return int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(Bus, "publish_fed_rows", counted)  # before the car's nodes take the bus's methods
+        sim = Simulator(world="empty", cars=[Car("car1", camera=False)])
+        ConstantCommand(sim.bus, sim.scheduler, 1.5, 0.3, topic=sim.cars[0].topic(NAVIGATION))
+        with RunRecording(sim.bus, lambda: sim.time_ns, path, process=True):
+            if listen_from:
+                sim.run_until(listen_from)
+            listen(JOINT_STATES)
+            listen("/tf")
+            sim.run_until(1.0)
+    sim.close()
+    return heard, fed
+
+
+JOINT_STATES = "/car1/racecar/joint_states"
+
+
+def test_joint_states_and_tf_packed_by_the_writer_are_the_messages_a_subscriber_gets(tmp_path: Path) -> None:
+    """Joint states and their /tf, handed to the writer as rows while the recorder alone takes them: run.mcap holds
+    the bytes of the very messages a subscriber gets in a run where it listens all along, and a subscriber that
+    comes later still gets every one (the objects again), the same messages."""
+    all_along, fed_all_along = _listened_car(tmp_path / "objects.mcap", 0.0)
+    later, fed = _listened_car(tmp_path / "rows.mcap", 0.5)
+    assert fed_all_along == 0 and 20 <= fed <= 26  # rows for 0.5 s at 50 Hz, and none once someone listened
+    assert later == [item for item in all_along if item[1] > 500_000_000]  # the later subscriber misses nothing
+    assert [topic for topic, _, _ in later].count(JOINT_STATES) == 25
+    recorded = (tmp_path / "rows.mcap").read_bytes()
+    assert recorded == (tmp_path / "objects.mcap").read_bytes()
+    with open(tmp_path / "rows.mcap", "rb") as stream:
+        messages = [(c.topic, m.data) for _, c, m in make_reader(stream).iter_messages(topics=[JOINT_STATES, "/tf"])]
+    for topic in (JOINT_STATES, "/tf"):  # each topic's messages in order (a subscriber hears /tf before the state)
+        assert [data for t, data in messages if t == topic] == [data for t, _, data in all_along if t == topic]
+    states = [deserialize(data, "sensor_msgs/msg/JointState") for topic, data in messages if topic == JOINT_STATES]
+    positions = {tuple(state.position) for state in states}
+    assert len(positions) == 50  # the wheels turn and the hinges steer: fifty different joint states compared

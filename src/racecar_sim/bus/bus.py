@@ -24,6 +24,10 @@ class RowPacker(Protocol):
     def pack_many(self, rows: Sequence[Sequence[Any]], /) -> list[bytes]: ...
 
 
+FedRows = tuple[type, RowPacker, tuple[str, ...], list[tuple[Any, ...]]]
+"""What a feeding subscriber would have published in turn, for publish_fed_rows(): (message class, packer, topics,
+rows), as publish_cdr_rows() takes them."""
+
 CdrRowsTap = Callable[[type, RowPacker, tuple[str, ...], list[tuple[Any, ...]]], None]
 """``cdr_rows(message class, packer, topics, rows)``: such a tap taking several messages of one class, published at
 one moment, as their numbers (one row per topic, in order) and what packs them: it packs them when it writes them (a
@@ -185,6 +189,38 @@ class Bus:
             return None
         return t.callbacks[0]
 
+    def sole_feeder(self, topic: str) -> Callback | None:
+        """The callback of `topic`'s one subscriber where it only turns each message into messages on other topics
+        (`feeds`: robot_state_publisher, a joint state into /tf), each of which only taps that take CDR bytes would take
+        (cdr_only), and where only taps that take rows (`cdr_rows`: a recorder) take `topic` besides it; the topic
+        not latched; else None. A publisher may then hand the taps its message and what that subscriber would have
+        made of it as rows, with publish_fed_rows(), as long as listeners_epoch() stays what it was."""
+        if not self._cdr_entries or self._object_taps_all:
+            return None
+        t = self._topics.get(topic)
+        if t is None or t.latched or len(t.subscribers) != 1 or t.plain or t.overheard or not t.feeds:
+            return None
+        if not self._taps_take_bytes(topic, rows=True) or not all(self.cdr_only(feed) for feed, _ in t.feeds):
+            return None
+        return t.callbacks[0]
+
+    def publish_fed_rows(
+        self,
+        msgtype: type,
+        packer: RowPacker,
+        topics: tuple[str, ...],
+        rows: list[tuple[Any, ...]],
+        fed: Sequence[FedRows],
+    ) -> None:
+        """publish_cdr_rows() of messages on `topics`, where sole_feeder() gave each topic's subscriber, followed by
+        what those subscribers would have published in turn, `fed`: (message class, packer, topics, rows) each, in
+        order, as publish_cdr_rows() too. The taps get them in the order publish() would give them; each topic
+        counts its messages (the fed topics theirs, instead of a tally)."""
+        self.delivered(topics, msgtype)
+        self._hand_rows(msgtype, packer, topics, rows)
+        for fed_type, fed_packer, fed_topics, fed_rows in fed:
+            self.publish_cdr_rows(fed_type, fed_packer, fed_topics, fed_rows)
+
     def delivered(self, topics: Sequence[str], msgtype: type) -> None:
         """Count a message of class `msgtype` on each of `topics`, handed by its publisher to the topic's sole_taker()
         itself (no message made): topics() and count() read as if each had been published."""
@@ -310,10 +346,14 @@ class Bus:
         if t is not None and t.callbacks:
             if t.plain or t.overheard or any(self.has_listeners(feed) for feed, _ in t.feeds):
                 return False
+        return self._taps_take_bytes(topic)
+
+    def _taps_take_bytes(self, topic: str, rows: bool = False) -> bool:
+        """Whether a tap wants `topic` and every tap that wants it takes CDR bytes (`rows`: as rows too, cdr_rows)."""
         heard = False
         for e in self._tap_entries:
             if e.wants is None or e.wants(topic):
-                if e.cdr is None:
+                if (e.cdr_rows if rows else e.cdr) is None:
                     return False
                 heard = True
         return heard
@@ -356,6 +396,12 @@ class Bus:
         gets the bytes, packed once. Each tap gets them in their order (taps are served one after the other, not
         message by message)."""
         self._count_cdr(topics, msgtype)
+        self._hand_rows(msgtype, packer, topics, rows)
+
+    def _hand_rows(
+        self, msgtype: type, packer: RowPacker, topics: tuple[str, ...], rows: list[tuple[Any, ...]]
+    ) -> None:
+        """publish_cdr_rows()' messages to the taps, counted already."""
         packed: list[bytes] | None = None
         for e in self._cdr_entries:
             wants = e.wants

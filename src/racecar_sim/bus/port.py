@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, Protocol
 
-from racecar_sim.bus.bus import RowPacker
+from racecar_sim.bus.bus import FedRows, RowPacker
 
 
 class BusPort(Protocol):
@@ -31,6 +31,12 @@ class BusPort(Protocol):
     def sole_taker(self, topic: str) -> Callable[[Any], None] | None: ...
 
     def delivered(self, topics: Sequence[str], msgtype: type) -> None: ...
+
+    def sole_feeder(self, topic: str) -> Callable[[Any], None] | None: ...
+
+    def publish_fed_rows(
+        self, msgtype: type, packer: RowPacker, topics: tuple[str, ...], rows: list[Any], fed: Sequence[FedRows]
+    ) -> None: ...
 
     def cdr_only(self, topic: str) -> bool: ...
 

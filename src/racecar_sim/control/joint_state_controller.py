@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
-from typing import Any, Protocol
+from collections.abc import Callable
+from typing import Any, Literal, Protocol
 
-from racecar_sim.bus import BusPort
+from racecar_sim.bus import BusPort, RowPacker
+from racecar_sim.core.time import NS_PER_S
 from racecar_sim.msgs import Header, JointState
+from racecar_sim.msgs.cdr_layout import CdrLayout
 from racecar_sim.nodes import Timers
 from racecar_sim.physics.state import CarState
 
@@ -21,6 +24,10 @@ class Outlet(Protocol):
     def tally(self, topic: str, msgtype: type) -> None: ...
 
     def listeners_epoch(self) -> int | None: ...
+
+
+_FedRows = tuple[Callable[..., None], CdrLayout, type, RowPacker, tuple[str, ...]]
+"""A bus's publish_fed_rows, the joint state's layout, and the class, packer and topics of what its feeder makes."""
 
 
 class JointStatePublisher:
@@ -41,13 +48,46 @@ class JointStatePublisher:
         self._adr = state.joint_indices(self.names)
         # (the outlet, its listeners epoch, has_listeners(topic) then): asked again only once a listener came or went
         self._heard: tuple[object, int | None, bool] = (None, None, True)
+        self._layout: CdrLayout | None | Literal[False] = False  # read off the first message (None: none holds it)
+        # (the outlet, its listeners epoch, _fed_rows() then)
+        self._rows: tuple[object, int | None, _FedRows | None] = (None, None, None)
         scheduler.every(rate, self.publish, "joint_state_controller", unheard=self._unheard)
 
     def publish(self, now_ns: int) -> None:
         if self._unheard(now_ns):
             return
         position, velocity, effort = self.state.joint_state(*self._adr)
-        self.bus.publish(self.topic, JointState(Header.at(now_ns), list(self.names), position, velocity, effort))
+        rows = self._fed_rows()
+        if rows is not None:  # a recorder and robot_state's /tf alone take it: its numbers, for the writer to pack
+            publish_fed_rows, layout, fed_type, fed_packer, fed_topics = rows
+            sec, nanosec = divmod(now_ns, NS_PER_S)
+            row = (sec, nanosec, *position.tolist(), *velocity.tolist(), *effort.tolist())
+            publish_fed_rows(JointState, layout, (self.topic,), [row], ((fed_type, fed_packer, fed_topics, [row]),))
+            return
+        msg = JointState(Header.at(now_ns), list(self.names), position, velocity, effort)
+        if self._layout is False:  # the first message: its shape is every message's (rows may go from the next)
+            self._layout, self._rows = CdrLayout.read(msg), (None, None, None)
+        self.bus.publish(self.topic, msg)
+
+    def _fed_rows(self) -> _FedRows | None:
+        """Where the topic's only takers are a recorder that takes rows and one subscriber that only feeds /tf, which
+        only that recorder takes (Bus.sole_feeder: robot_state_publisher): the bus's publish_fed_rows, the joint
+        state's layout, and the class, packer and topics of what the subscriber makes of each row. Asked again only
+        when the bus's listeners change; None while a message object is needed (any other listener), or before the
+        first message gave the layout."""
+        bus = self.bus
+        epoch = bus.listeners_epoch()
+        outlet, known, rows = self._rows
+        if epoch is None or known != epoch or outlet is not bus:
+            rows = None
+            feeder = getattr(bus, "sole_feeder", None)  # not on a stopped controller's muted outlet
+            if self._layout and feeder is not None:
+                ask = getattr(feeder(self.topic), "joint_state_rows", None)
+                fed = ask(self.names) if ask is not None else None
+                if fed is not None:
+                    rows = (bus.publish_fed_rows, self._layout, *fed)  # type: ignore[attr-defined]  # a BusPort's
+            self._rows = (bus, epoch, rows)
+        return rows
 
     def _unheard(self, _now_ns: int) -> bool:
         """Nobody would receive the message (robot_state_publisher listens only for /tf's listeners): counted, not

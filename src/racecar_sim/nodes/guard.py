@@ -82,6 +82,7 @@ class GuardedBus:
         self.cdr_only = bus.cdr_only
         self.publish_cdr = bus.publish_cdr
         self.publish_cdr_rows = bus.publish_cdr_rows
+        self.publish_fed_rows = bus.publish_fed_rows
         self.latch = bus.latch
         self.call = bus.call
 

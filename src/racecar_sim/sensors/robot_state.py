@@ -28,11 +28,7 @@ from racecar_sim.msgs import (
 )
 from racecar_sim.msgs.cdr_layout import CdrLayout
 from racecar_sim.nodes import NodeBase, StaticTf
-
-# a frame's step: (index, parent, child, 3 origin translation, 4 origin rotation w x y z, 3 unit axis) for a moving
-# joint, (index, joint) for a prismatic one
-_Step = tuple[Any, ...]
-_REVOLUTE = 13  # the length of a moving joint's step
+from racecar_sim.sensors.tf_rows import REVOLUTE, Step, TfRows, revolute_numbers
 
 
 def transform_msg(stamp_ns: int, parent: str, child: str, pos: np.ndarray, quat_wxyz: np.ndarray) -> TransformStamped:
@@ -106,15 +102,41 @@ class RobotStatePublisher(NodeBase):
         # and the CDR layout of its /tf message once one was recorded (the names, in order, give the frames: bytes
         # for a recorder alone)
         self._plan_names: list[str] | None = None
-        self._plan: list[_Step] = []
-        self._numbers: Callable[[list[float], int, int], list[Any]] | None = None
+        self._plan: list[Step] = []
+        self._numbers: Callable[[Sequence[float], int, int], list[Any]] | None = None
         self._layout: CdrLayout | None = None
-        bus.subscribe(joint_states_topic, self._on_joint_states, feeds={TF: TFMessage})
+        self._rows: TfRows | None = None  # what packs the plan's /tf messages from joint-state rows (joint_state_rows)
 
-    def _make_plan(self, names: list[str]) -> list[_Step]:
+        def on_joint_states(msg: JointState) -> None:
+            self._on_joint_states(msg)
+
+        # what a joint-state publisher whose messages only a recorder and this take (Bus.sole_feeder) may ask for
+        on_joint_states.joint_state_rows = self.joint_state_rows  # type: ignore[attr-defined]
+        bus.subscribe(joint_states_topic, on_joint_states, feeds={TF: TFMessage})
+
+    def joint_state_rows(self, names: list[str]) -> tuple[type, TfRows, tuple[str, ...]] | None:
+        """What /tf is made of joint states of `names` handed over as rows (sec, nanosec, positions, velocities,
+        efforts) where only a recorder takes /tf: its message class, what packs each row's /tf message (the numbers
+        _on_joint_states gives, packed by the layout it would read), its topics. None where a frame is not a moving
+        joint's or the frames' message has no layout."""
+        if names != self._plan_names:
+            self._make_plan(list(names))
+        plan, numbers = self._plan, self._numbers
+        if numbers is None:
+            return None
+        if self._rows is None or self._rows.plan != tuple(plan):
+            layout = self._layout or CdrLayout.read(
+                TFMessage(self._transforms(plan, numbers([0.0] * len(names), 0, 0)))
+            )
+            if layout is None:
+                return None
+            self._layout, self._rows = layout, TfRows(layout, plan)
+        return TFMessage, self._rows, (TF,)
+
+    def _make_plan(self, names: list[str]) -> list[Step]:
         """The frames a joint state of `names` gives, in order: a moving joint's constants (its index in the message,
         parent, child, origin translation, origin rotation w x y z, unit axis), a prismatic joint's index and joint."""
-        plan: list[_Step] = []
+        plan: list[Step] = []
         for index, name in enumerate(names):
             joint = self._moving.get(name)
             if joint is not None:
@@ -122,17 +144,17 @@ class RobotStatePublisher(NodeBase):
                 plan.append((index, parent, child, *pos, *quat, *axis))
             elif name in self.sliding:
                 plan.append((index, self.sliding[name]))
-        self._plan_names, self._plan, self._layout = list(names), plan, None
-        self._numbers = _revolute_numbers(plan)
+        self._plan_names, self._plan, self._layout, self._rows = list(names), plan, None, None
+        self._numbers = revolute_numbers(plan)
         return plan
 
     @staticmethod
-    def _stepped_numbers(plan: list[_Step], positions: list[float], sec: int, nanosec: int) -> list[Any]:
+    def _stepped_numbers(plan: list[Step], positions: list[float], sec: int, nanosec: int) -> list[Any]:
         """The /tf numbers of `plan`'s frames, step by step: per frame sec, nanosec, translation x y z, rotation x y z
         w (a /tf message's numbers, in wire order)."""
         numbers: list[Any] = []
         for step in plan:
-            if len(step) == _REVOLUTE:
+            if len(step) == REVOLUTE:
                 # origin * axis-angle, in plain floats: the same IEEE operations quat_mul(quat_from_axis_angle)
                 # does on numpy scalars
                 index, _, _, px, py, pz, aw, ax, ay, az, ux, uy, uz = step
@@ -183,11 +205,11 @@ class RobotStatePublisher(NodeBase):
             self._layout = CdrLayout.read(tf)
         bus.publish(TF, tf)
 
-    def _transforms(self, plan: list[_Step], numbers: list[Any]) -> list[TransformStamped]:
+    def _transforms(self, plan: list[Step], numbers: list[Any]) -> list[TransformStamped]:
         """The TransformStamped of each of `plan`'s frames, from their numbers (nine each)."""
         transforms = []
         for k, step in enumerate(plan):
-            if len(step) == _REVOLUTE:
+            if len(step) == REVOLUTE:
                 parent, child = step[1], step[2]
             else:
                 slider = step[1]
@@ -206,74 +228,3 @@ class RobotStatePublisher(NodeBase):
 def _floats(values: np.ndarray | Sequence[float]) -> list[float]:
     """Joint positions as Python floats (a message's numpy array, or a list from elsewhere)."""
     return values.tolist() if isinstance(values, np.ndarray) else [float(v) for v in values]
-
-
-def _revolute_numbers(plan: list[_Step]) -> Callable[[list[float], int, int], list[Any]] | None:
-    """One function that gives the /tf numbers of `plan`'s frames, all of moving joints, from the joint positions,
-    bit for bit those of RobotStatePublisher._stepped_numbers: each joint's constants written in (repr() reads back to
-    the same float), the numbers in one list display, and each rotation component that has one product left once
-    the constant zeros' products are dropped computed as that product alone (see _rotation). None where a frame is a
-    prismatic joint's (this runs for every joint state, 50 a second a car)."""
-    if not plan or any(len(step) != _REVOLUTE for step in plan):
-        return None
-    lines, items = [], []
-    for k, (index, _, _, *constants) in enumerate(plan):
-        if not all(math.isfinite(value) for value in constants):
-            return None
-        lines += [
-            f"    h = 0.5 * p[{index}]",
-            "    s, c = sin(h), cos(h)",
-            *_rotation(k, constants[3:7], constants[7:10]),
-        ]
-        items += ["sec", "nanosec", *(f"({value!r})" for value in constants[:3]), f"qx{k}, qy{k}, qz{k}, qw{k}"]
-    source = "\n".join(["def numbers(p, sec, nanosec):", *lines, f"    return [{', '.join(items)}]"])
-    names: dict[str, Any] = {"sin": math.sin, "cos": math.cos}
-    exec(compile(source, "<robot_state /tf numbers>", "exec"), names)  # made from the joints' constants alone
-    return names["numbers"]
-
-
-# origin (a) * axis-angle (b): each rotation component x y z w as its four signed products, as quat_mul sums them
-_PRODUCTS = (
-    (("+", "w", "x"), ("+", "x", "w"), ("+", "y", "z"), ("-", "z", "y")),
-    (("+", "w", "y"), ("-", "x", "z"), ("+", "y", "w"), ("+", "z", "x")),
-    (("+", "w", "z"), ("+", "x", "y"), ("-", "y", "x"), ("+", "z", "w")),
-    (("+", "w", "w"), ("-", "x", "x"), ("-", "y", "y"), ("-", "z", "z")),
-)
-_SMALLEST = 1e-50  # the least magnitude of a constant a short form multiplies (with |sin| >= 1e-150: no underflow)
-
-
-def _rotation(k: int, origin: list[float], axis: list[float]) -> list[str]:
-    """Lines that set joint k's rotation qx{k} qy{k} qz{k} qw{k} from s = sin(h) and c = cos(h) (h, half its
-    angle): the origin rotation `origin` (w x y z) times the axis-angle (c, `axis` * s), summed in quat_mul's order.
-    A product with a zero constant (an origin or axis component) is a zero, and adding a zero to a number that is not
-    zero gives that number: where one product of a component is left and it cannot be zero (s not zero: then nor is
-    any product of constants of at least _SMALLEST, and a cosine never is), the component is that product (negated
-    if it is subtracted), the same float. Where s is zero (or NaN), each component is the whole sum (its zero's
-    sign, the NaN's bits)."""
-    a = dict(zip("wxyz", origin))
-    u = {"w": 1.0, **dict(zip("xyz", axis))}
-    b = {"w": "c", **{v: f"({u[v]!r} * s)" for v in "xyz"}}  # the axis-angle's components
-
-    def whole(products: tuple[tuple[str, str, str], ...]) -> str:
-        terms = [f"{sign} ({a[i]!r}) * {b[j]}" for sign, i, j in products]
-        return " ".join(terms)[2:]  # the first product is added: no leading sign
-
-    full = ", ".join(whole(products) for products in _PRODUCTS)
-    short = []
-    for products in _PRODUCTS:
-        left = [(sign, i, j) for sign, i, j in products if a[i] != 0.0 and u[j] != 0.0]
-        if len(left) != 1 or abs(a[left[0][1]]) < _SMALLEST or abs(u[left[0][2]]) < _SMALLEST:
-            short.append(whole(products))
-            continue
-        sign, i, j = left[0]
-        product = f"({a[i]!r}) * {b[j]}"
-        short.append(product if sign == "+" else f"-({product})")
-    names = f"qx{k}, qy{k}, qz{k}, qw{k}"
-    if short == full.split(", "):
-        return [f"    {names} = {full}"]
-    return [
-        "    if s >= 1e-150 or s <= -1e-150:",
-        f"        {names} = {', '.join(short)}",
-        "    else:",
-        f"        {names} = {full}",
-    ]
