@@ -251,3 +251,42 @@ def test_a_sole_feeder_is_one_feeding_subscriber_beside_taps_that_take_rows_and_
     assert bus.sole_feeder("/odom") is None  # a plain subscriber, not a feeder
     bus.latch("/joint_states")
     assert bus.sole_feeder("/joint_states") is None
+
+
+def test_a_listener_answer_follows_subscribers_taps_and_the_bus_it_is_asked_of() -> None:
+    """ListenerAnswer keeps has_listeners()' answer while nobody comes or goes, and gives the bus's own answer again as
+    soon as a subscriber or a tap comes or goes, at every ask while a tap decides by itself (a bridge), for another
+    bus, and after forget()."""
+    from racecar_sim.bus import ListenerAnswer
+
+    bus, other = Bus(), Bus()
+    asked: list[Bus] = []
+    target = [bus]
+
+    def work() -> bool:
+        asked.append(target[0])
+        return target[0].has_listeners("/scan")
+
+    answer = ListenerAnswer(work)
+    assert answer(bus) is False and answer(bus) is False and len(asked) == 1  # kept
+    sub = bus.subscribe("/scan", lambda m: None)
+    assert answer(bus) is True and answer(bus) is True and len(asked) == 2  # a subscriber came: asked again, once
+    sub.unsubscribe()
+    assert answer(bus) is False and len(asked) == 3
+    remove = bus.tap(lambda topic, msg: None)  # a recorder: every topic
+    assert answer(bus) is True and len(asked) == 4
+    remove()
+    assert answer(bus) is False and len(asked) == 5
+    wanted = {"/scan"}
+    remove = bus.tap(lambda topic, msg: None, wants=lambda topic: topic in wanted)  # a bridge: may change any time
+    assert answer(bus) is True
+    wanted.clear()  # nothing on the bus moved, but the bridge's answer did
+    assert answer(bus) is False and answer(bus) is False and len(asked) == 8  # asked at every ask meanwhile
+    remove()
+    assert answer(bus) is False and answer(bus) is False and len(asked) == 9
+    target[0] = other
+    other.subscribe("/scan", lambda m: None)
+    assert answer(other) is True and len(asked) == 10  # another bus: its own answer
+    answer.forget()
+    assert answer(other) is True and len(asked) == 11
+    assert answer(other) is True and len(asked) == 11

@@ -18,11 +18,11 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
 
-from racecar_sim.bus import BusPort
+from racecar_sim.bus import BusPort, ListenerAnswer
 from racecar_sim.control.controller_rows import ControllerRows, Spec, state_numbers
 from racecar_sim.control.controllers import VELOCITY, ControllerConfig, JointController
 from racecar_sim.core.names import CarNames
@@ -33,6 +33,15 @@ from racecar_sim.nodes import Timers
 from racecar_sim.physics.state import CarState
 
 STATE_RATE = 100.0  # Hz: every 10th update of ros_control's 1 kHz loop
+
+
+class _Listening(NamedTuple):
+    """Who listens to the state topics: per controller (anyone, only a recorder: its bytes), whether only a recorder
+    takes every one, and whether anyone takes any."""
+
+    heard: list[tuple[bool, bool]]
+    all_direct: bool
+    any_heard: bool
 
 
 @dataclass
@@ -70,11 +79,8 @@ class ControllerStatePublisher:
         # the MjData whose arrays these views are, and the views (MjData makes a new view object at every access)
         self._views: tuple[object, np.ndarray, np.ndarray, np.ndarray, np.ndarray] = (None, *(np.zeros(0),) * 4)
         self._layout: CdrLayout | None | Literal[False] = False  # read off the first message (None: none holds it)
-        # per controller, whether its topic is listened to and whether only a recorder takes it (bytes), and the bus's
-        # listeners epoch they were asked under (kept while it stays the same: twelve questions fewer per tick)
-        self._heard: tuple[int | None, list[tuple[bool, bool]]] = (None, [])
-        self._all_direct = False  # every state topic is taken by a recorder alone (under the epoch of `_heard`)
-        self._any_heard = True  # some state topic is listened to (under the epoch of `_heard`)
+        # kept while the bus's listeners stay the same: twelve questions fewer per tick
+        self._listening = ListenerAnswer(self._ask_listening)
         # the model and the data it was made for, what packs the rows, views of the spans of MjData's arrays they
         # carry (_rows_packer) and the controllers' indices
         self._rows: tuple[object, object, ControllerRows, tuple[np.ndarray, ...], range] | None = None
@@ -83,38 +89,34 @@ class ControllerStatePublisher:
         self._name_set = frozenset(self._names)
         scheduler.every(STATE_RATE, self.publish, "controller_state", unheard=self._unheard)
 
-    def _listening(self) -> list[tuple[bool, bool]]:
-        """Per controller: (whether anyone listens to its state topic, whether only a recorder does: its bytes)."""
+    def _ask_listening(self) -> _Listening:
+        """Who listens to the state topics, asked of the bus."""
         bus = self.bus
-        epoch = bus.listeners_epoch()
-        if epoch is not None and self._heard[0] == epoch:
-            return self._heard[1]
         heard = []
         for c in self.controllers:
             listened = bus.has_listeners(c.topic)  # asked first: the cheaper question, and mostly no
             heard.append((listened, listened and bus.cdr_only(c.topic)))
-        self._heard = (epoch, heard)
-        self._all_direct = bool(heard) and all(alone for _, alone in heard)
-        self._any_heard = any(listened for listened, _ in heard)
-        return heard
+        return _Listening(
+            heard, bool(heard) and all(alone for _, alone in heard), any(listened for listened, _ in heard)
+        )
 
     def _unheard(self, _now_ns: int) -> bool:
         """Nobody listens to any state topic: then there is nothing to do."""
-        self._listening()
-        return not self._any_heard
+        return not self._listening(self.bus).any_heard
 
     def publish(self, now_ns: int) -> None:
         bus = self.bus
-        heard = self._listening()
-        if not self._any_heard:  # a tick the physics stopped at for another task: nothing to do
+        listening = self._listening(bus)
+        if not listening.any_heard:  # a tick the physics stopped at for another task: nothing to do
             return
-        if self._all_direct and self._layout and self._all_running():
+        if listening.all_direct and self._layout and self._all_running():
             # the usual tick of a recorded run: every state, in one hand-over of MuJoCo's arrays (the writer reads the
             # numbers off them)
             self._publish_arrays(self._layout, now_ns)
             return
         time_step = None
         direct: list[_Controller] = []  # those only a recorder takes (bytes), in a row: read and handed over together
+        heard = listening.heard
         for index, c in enumerate(self.controllers):
             listened, bytes_alone = heard[index]
             if listened and self.running(c.config.name):
@@ -130,7 +132,7 @@ class ControllerStatePublisher:
                 if self._layout is False:  # the first message: its shape is every message's (frame id "")
                     self._layout = CdrLayout.read(msg)
                 bus.publish(c.topic, msg)
-                heard = self._listening()  # its subscribers may have changed who listens
+                heard = self._listening(bus).heard  # its subscribers may have changed who listens
         if direct:
             self._publish_bytes(direct, now_ns, time_step)  # type: ignore[arg-type]  # set with the first one
 

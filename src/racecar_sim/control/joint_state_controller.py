@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any, Literal, Protocol
 
-from racecar_sim.bus import BusPort, RowPacker
+from racecar_sim.bus import BusPort, ListenerAnswer, RowPacker
 from racecar_sim.core.time import NS_PER_S
 from racecar_sim.msgs import Header, JointState
 from racecar_sim.msgs.cdr_layout import CdrLayout
@@ -46,18 +46,16 @@ class JointStatePublisher:
         self.state, self.topic = state, topic
         self.names = list(joints)
         self._adr = state.joint_indices(self.names)
-        # (the outlet, its listeners epoch, has_listeners(topic) then): asked again only once a listener came or went
-        self._heard: tuple[object, int | None, bool] = (None, None, True)
+        self._heard = ListenerAnswer(lambda: self.bus.has_listeners(self.topic))
         self._layout: CdrLayout | None | Literal[False] = False  # read off the first message (None: none holds it)
-        # (the outlet, its listeners epoch, _fed_rows() then)
-        self._rows: tuple[object, int | None, _FedRows | None] = (None, None, None)
+        self._rows = ListenerAnswer(self._fed_rows)
         scheduler.every(rate, self.publish, "joint_state_controller", unheard=self._unheard)
 
     def publish(self, now_ns: int) -> None:
         if self._unheard(now_ns):
             return
         position, velocity, effort = self.state.joint_state(*self._adr)
-        rows = self._fed_rows()
+        rows = self._rows(self.bus)
         if rows is not None:  # a recorder and robot_state's /tf alone take it: its numbers, for the writer to pack
             publish_fed_rows, layout, fed_type, fed_packer, fed_topics = rows
             sec, nanosec = divmod(now_ns, NS_PER_S)
@@ -66,7 +64,8 @@ class JointStatePublisher:
             return
         msg = JointState(Header.at(now_ns), list(self.names), position, velocity, effort)
         if self._layout is False:  # the first message: its shape is every message's (rows may go from the next)
-            self._layout, self._rows = CdrLayout.read(msg), (None, None, None)
+            self._layout = CdrLayout.read(msg)
+            self._rows.forget()
         self.bus.publish(self.topic, msg)
 
     def _fed_rows(self) -> _FedRows | None:
@@ -76,29 +75,20 @@ class JointStatePublisher:
         when the bus's listeners change; None while a message object is needed (any other listener), or before the
         first message gave the layout."""
         bus = self.bus
-        epoch = bus.listeners_epoch()
-        outlet, known, rows = self._rows
-        if epoch is None or known != epoch or outlet is not bus:
-            rows = None
-            feeder = getattr(bus, "sole_feeder", None)  # not on a stopped controller's muted outlet
-            if self._layout and feeder is not None:
-                ask = getattr(feeder(self.topic), "joint_state_rows", None)
-                fed = ask(self.names) if ask is not None else None
-                if fed is not None:
-                    rows = (bus.publish_fed_rows, self._layout, *fed)  # type: ignore[attr-defined]  # a BusPort's
-            self._rows = (bus, epoch, rows)
-        return rows
+        feeder = getattr(bus, "sole_feeder", None)  # not on a stopped controller's muted outlet
+        if not self._layout or feeder is None:
+            return None
+        ask = getattr(feeder(self.topic), "joint_state_rows", None)
+        fed = ask(self.names) if ask is not None else None
+        if fed is None:
+            return None
+        return (bus.publish_fed_rows, self._layout, *fed)  # type: ignore[attr-defined]  # a BusPort's
 
     def _unheard(self, _now_ns: int) -> bool:
         """Nobody would receive the message (robot_state_publisher listens only for /tf's listeners): counted, not
         built, and the physics need not stop for it."""
         bus = self.bus
-        epoch = bus.listeners_epoch()
-        outlet, known, heard = self._heard
-        if epoch is None or known != epoch or outlet is not bus:
-            heard = bus.has_listeners(self.topic)
-            self._heard = (bus, epoch, heard)
-        if heard:
+        if self._heard(bus):
             return False
         bus.tally(self.topic, JointState)
         return True

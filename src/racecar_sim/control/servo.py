@@ -18,7 +18,7 @@ import logging
 import math
 from collections.abc import Callable
 
-from racecar_sim.bus import BusPort
+from racecar_sim.bus import BusPort, ListenerAnswer
 from racecar_sim.control.controllers import ControllerConfig
 from racecar_sim.control.mux import accept_command
 from racecar_sim.control.servo_law import ServoLaw, ServoWheel
@@ -81,8 +81,7 @@ class ServoCommands(NodeBase):
         # that repeats one command object (a constant driver) gets them without the law's key being made again
         self._last_drive: tuple[object, object, list[float]] = (None, None, [])
         self.input_topic = input_topic
-        # (the bus's listeners epoch, what takes each output's value straight then: see _takers)
-        self._direct: tuple[int | None, tuple[Callable[[float], None], ...] | None] = (None, None)
+        self._takers = ListenerAnswer(self._find_takers)  # what takes each output's value straight
         self.warn = ThrottledWarning(log, now)
         bus.subscribe(input_topic, self._on_drive, AckermannDriveStamped)
 
@@ -100,7 +99,7 @@ class ServoCommands(NodeBase):
         if speed is not last_speed or steer is not last_steer:  # the same float objects: the same bits, sign included
             values = self._values(speed, steer)
             self._last_drive = (speed, steer, values)
-        takers = self._takers()
+        takers = self._takers(self.bus)
         if takers is not None:  # only the controllers take these commands: their values, no Float64 made
             for take, value in zip(takers, values):
                 take(value)
@@ -110,18 +109,12 @@ class ServoCommands(NodeBase):
         for topic, value in zip(self.topics, values):
             publish(topic, Float64(value))
 
-    def _takers(self) -> tuple[Callable[[float], None], ...] | None:
+    def _find_takers(self) -> tuple[Callable[[float], None], ...] | None:
         """What takes each output's value where its topic's sole taker is a controller's command subscriber that takes
         values (ControllerCommands): asked again only when the bus's listeners change; None where any other would
         take a message (a recorder, a bridge, another subscriber: they get Float64 messages as before)."""
-        bus = self.bus
-        epoch = bus.listeners_epoch()
-        known, takers = self._direct
-        if epoch is None or known != epoch:
-            found = [getattr(bus.sole_taker(topic), "take_value", None) for topic in self.topics]
-            takers = tuple(found) if all(found) else None  # type: ignore[arg-type]  # no None left in it
-            self._direct = (epoch, takers)
-        return takers
+        found = [getattr(self.bus.sole_taker(topic), "take_value", None) for topic in self.topics]
+        return tuple(found) if all(found) else None  # type: ignore[arg-type]  # no None left in it
 
     def commands(self, speed: float, steer: float) -> list[tuple[str, float]]:
         """The controller commands for one drive command, (topic, rad or rad/s) in the order they are published."""

@@ -3,7 +3,7 @@ use_sim_time run on sim time. A world node: it belongs to the simulation, not to
 
 from __future__ import annotations
 
-from racecar_sim.bus import BusPort
+from racecar_sim.bus import BusPort, ListenerAnswer
 from racecar_sim.core.names import CLOCK
 from racecar_sim.core.time import NS_PER_S
 from racecar_sim.msgs import Clock, Time
@@ -19,7 +19,7 @@ class ClockPublisher(NodeBase):
     def __init__(self, bus: BusPort, timers: Timers, rate: float = CLOCK_RATE) -> None:
         self.bus = bus
         self._layout: CdrLayout | None = None  # the CDR layout of a Clock, read off the first one published
-        self._heard: tuple[int | None, bool] = (None, True)  # (the bus's listeners epoch, has_listeners(CLOCK) then)
+        self._heard = ListenerAnswer(lambda: self.bus.has_listeners(CLOCK))
         self._task = timers.every(rate, self._publish, "clock", unheard=self._unheard)
 
     def _publish(self, now_ns: int) -> None:
@@ -35,12 +35,7 @@ class ClockPublisher(NodeBase):
 
     def _unheard(self, _now_ns: int) -> bool:
         bus = self.bus
-        epoch, heard = self._heard
-        if epoch is None or epoch != bus.listeners_epoch():  # asked again only once a listener came or went
-            epoch = bus.listeners_epoch()
-            heard = bus.has_listeners(CLOCK)
-            self._heard = (epoch, heard)
-        if heard:
+        if self._heard(bus):
             return False
         bus.tally(CLOCK, Clock)
         return True

@@ -15,7 +15,7 @@ from functools import partial
 
 import numpy as np
 
-from racecar_sim.bus import BusPort
+from racecar_sim.bus import BusPort, ListenerAnswer
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import ODOM, ODOM_RELAY, TF, CarNames
 from racecar_sim.core.time import NS_PER_S
@@ -60,7 +60,7 @@ class OdometryPublisher(NodeBase):
         self.frame, self.child = (names.frame(f) for f in FRAMES[mode])
         self._tf_layout: CdrLayout | None = None  # the CDR layout of its /tf message (bytes for a recorder alone)
         self._local = mode == "ros"  # twist in the body frame
-        self._tf_heard: tuple[int | None, bool] = (None, True)  # (the bus's listeners epoch, has_listeners(TF) then)
+        self._tf_heard = ListenerAnswer(lambda: self.bus.has_listeners(TF))
         if relay_topic:
             relay = names.topic(relay_topic)
             bus.subscribe(self.topic, partial(bus.publish, relay))  # a relay: no Python frame of its own
@@ -77,12 +77,7 @@ class OdometryPublisher(NodeBase):
         )
         bus = self.bus
         bus.publish(self.topic, msg)
-        epoch, heard = self._tf_heard
-        if epoch is None or epoch != bus.listeners_epoch():  # asked again only once a listener came or went
-            epoch = bus.listeners_epoch()
-            heard = bus.has_listeners(TF)
-            self._tf_heard = (epoch, heard)
-        if not heard:  # nobody would receive it: counted, not built
+        if not self._tf_heard(bus):  # nobody would receive it: counted, not built
             bus.tally(TF, TFMessage)
             return
         cdr = bus.cdr_only(TF)
