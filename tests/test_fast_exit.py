@@ -44,11 +44,12 @@ class Counter(NodeBase):
 """
 
 
-def _run(tmp_path: Path, *args: str) -> subprocess.CompletedProcess[str]:
+def _run(tmp_path: Path, *args: str, wrapper: str = WRAPPER) -> subprocess.CompletedProcess[str]:
     src = str(Path(__file__).parents[1] / "src")
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([src, os.environ.get("PYTHONPATH", "")])}
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}  # C's stdio buffered, as users have it
+    env["PYTHONPATH"] = os.pathsep.join([src, os.environ.get("PYTHONPATH", "")])
     return subprocess.run(
-        [sys.executable, "-v", "-c", WRAPPER, "run", *args],
+        [sys.executable, "-v", "-c", wrapper, "run", *args],
         capture_output=True,
         text=True,
         cwd=tmp_path,
@@ -102,3 +103,14 @@ def test_a_thread_python_would_wait_for_or_a_profiler_keep_the_teardown():
     daemon = threading.Thread(target=release.wait, daemon=True)  # Python's exit does not wait for a daemon
     daemon.start()
     assert not fast_exit._waited_for()
+
+
+def test_what_c_code_left_in_its_stdio_buffer_is_written(tmp_path: Path):
+    """exit() flushes C's stdio buffers and os._exit does not: what C code printed at the end (to a pipe: fully
+    buffered, so still in the buffer) arrives all the same."""
+    c_print = "import ctypes\natexit.register(lambda: ctypes.CDLL(None).printf(b'C-LEVEL\\n'))\nfrom racecar_sim"
+    wrapper = WRAPPER.replace("from racecar_sim", c_print, 1)
+    done = _run(tmp_path, "--world", "empty", *QUIET, "--duration", "0.1", "--out", "run", wrapper=wrapper)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert TEARDOWN not in done.stderr
+    assert done.stdout.endswith("C-LEVEL\n")

@@ -29,7 +29,19 @@ def finish(code: int) -> None:
                 stream.flush()
     except (OSError, ValueError):  # a pipe closed early, a stream closed: Python's own exit reports it, as always
         return
+    _flush_c_streams()
     os._exit(code)
+
+
+def _flush_c_streams() -> None:
+    """What C code (MuJoCo, Mesa, a bridge's library) wrote to its own stdio buffers: exit() flushes them,
+    os._exit does not."""
+    import ctypes  # already imported by a run (numba, MuJoCo's GL)
+
+    try:
+        ctypes.CDLL(None).fflush(None)
+    except (AttributeError, OSError, TypeError):  # no C library to load by that name (Windows)
+        pass
 
 
 def _nothing_depends_on_teardown() -> bool:
