@@ -58,13 +58,13 @@ def _waited_for() -> bool:
 
 
 def _only_known_code() -> bool:
-    """Whether every module loaded from a file is racecar-sim's, the standard library's or an installed package's."""
+    """Whether every module loaded from a file is racecar-sim's or the Python installation's and environment's (the
+    standard library, installed packages)."""
     import site
-    import sysconfig
 
-    paths = sysconfig.get_paths()
-    known = {paths[k] for k in ("stdlib", "platstdlib", "purelib", "platlib") if k in paths}
-    known.update(site.getsitepackages())
+    known = {sys.prefix, sys.base_prefix, sys.exec_prefix, sys.base_exec_prefix, *site.getsitepackages()}
+    if site.ENABLE_USER_SITE and site.USER_SITE:
+        known.add(site.USER_SITE)
     package = os.path.dirname(os.path.dirname(__file__))  # racecar_sim (an editable install's source tree too)
     known.update((package, os.path.realpath(package)))
     roots = tuple(os.path.join(p, "") for p in known)
