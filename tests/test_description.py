@@ -194,3 +194,29 @@ def test_describe_cli_prints_urdf_and_table():
     for row in joints[1:]:
         assert all(row[i - 2 : i] == "  " and row[i] != " " for i in starts), row
     assert "right_steering_hinge -> right_front_wheel  effort 10 N m" in table
+
+
+def test_derived_dimensions_once_per_description_and_each_descriptions_own(robot):
+    """A fleet's cars share one parsed description, so its geometry is derived once; a description of other
+    dimensions (the front axle 0.1 m further forward) still gets its own, 0.1 m longer wheelbase."""
+    import copy
+    import dataclasses
+    import gc
+
+    from racecar_sim.description import vehicle
+
+    first = VehicleGeometry.from_robot(robot)
+    assert VehicleGeometry.from_robot(robot) is first
+    longer = copy.deepcopy(robot)
+    for hinge in HINGES:  # the steering hinges carry the front wheels: moving them moves the front axle
+        joint = longer.joints[f"{hinge}_joint"]
+        x, y, z = joint.origin.xyz
+        longer.joints[joint.name] = dataclasses.replace(
+            joint, origin=dataclasses.replace(joint.origin, xyz=(x + 0.1, y, z))
+        )
+    assert VehicleGeometry.from_robot(longer).wheelbase == pytest.approx(first.wheelbase + 0.1)
+    assert VehicleGeometry.from_robot(robot) is first
+    key = id(longer)
+    del longer
+    gc.collect()
+    assert key not in vehicle._DERIVED  # the answer goes with its description

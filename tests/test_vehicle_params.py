@@ -74,3 +74,19 @@ def test_the_cli_takes_a_vehicle_and_names_a_bad_file_in_one_line(tmp_path: Path
     assert result.returncode == 2 and "Traceback" not in result.stderr
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and str(bad) in lines[0] and "mu" in lines[0]
+
+
+def test_a_file_read_again_after_it_changed(tmp_path: Path):
+    """A fleet's cars read one set, parsed once: the same file again gives the same set, and the file's new text
+    (a user editing it between two simulators of one process) gives the new numbers."""
+    path = tmp_path / "mine.yaml"
+    path.write_text("mu: 0.8\nC_Sf: 4.0\nC_Sr: 5.0\n")
+    first = load_vehicle(path)
+    assert load_vehicle(str(path)) == first
+    assert (first.mu, first.C_Sf, first.tyre_model) == (0.8, 4.0, "linear")
+    path.write_text("mu: 0.6\n")
+    again = load_vehicle(path)
+    assert (again.mu, again.C_Sf, again.tyre_model) == (0.6, None, "none")
+    path.write_text("mu: -1\n")
+    with pytest.raises(ConfigError, match="mu must be positive"):
+        load_vehicle(path)

@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from types import ModuleType
 
 from racecar_sim import __version__
-from racecar_sim.cli import collector
+from racecar_sim.cli import collector, fast_exit
 from racecar_sim.core.errors import NodeError, RacecarSimError
 from racecar_sim.render.gl import guard_mujoco_import, mujoco_gl_disabled
 
@@ -34,6 +34,7 @@ SUBCOMMANDS = {
 }
 
 HOLD_COLLECTOR = ("run",)  # the subcommands that release the held collector themselves, once built (cli/collector.py)
+FAST_EXIT = ("run",)  # the subcommands whose process ends without the interpreter's teardown (cli/fast_exit.py)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -78,12 +79,14 @@ def main(argv: list[str] | None = None) -> int:
     try:
         code = _main(argv)
         sys.stdout.flush()  # a pipe closed early breaks here, not in the interpreter's exit
-        return code
     except BrokenPipeError:
         devnull = os.open(os.devnull, os.O_WRONLY)  # the rest of stdout goes nowhere: no second error at exit
         os.dup2(devnull, sys.stdout.fileno())
         os.close(devnull)
         return 128 + signal.SIGPIPE
+    if argv is None and _command_named(sys.argv[1:]) in FAST_EXIT:  # the command's own process: no teardown
+        fast_exit.finish(code)
+    return code
 
 
 def _main(argv: list[str] | None = None) -> int:

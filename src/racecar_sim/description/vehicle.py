@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,6 +38,19 @@ class VehicleGeometry:
 
     @classmethod
     def from_robot(cls, robot: Robot) -> VehicleGeometry:
+        """The geometry of `robot`, derived once per Robot object: a parsed description is never changed after
+        parsing, and a fleet's cars share one, so the builder, the servo, the tyres, the crash watch and the drivers
+        of N cars ask for the same answer (1.2 ms of forward kinematics each time; 120 times for 30 cars)."""
+        known = _DERIVED.get(id(robot))
+        if known is not None and known[0]() is robot:
+            return known[1]
+        geometry = cls._derive(robot)
+        key = id(robot)
+        _DERIVED[key] = (weakref.ref(robot, lambda _gone: _DERIVED.pop(key, None)), geometry)
+        return geometry
+
+    @classmethod
+    def _derive(cls, robot: Robot) -> VehicleGeometry:
         wheels = []
         radius = width = None
         for joint in robot.joints.values():
@@ -90,3 +104,7 @@ class VehicleGeometry:
 
     def wheel(self, link: str) -> WheelGeometry:
         return next(w for w in self.wheels if w.link == link)
+
+
+# VehicleGeometry.from_robot's answers by the id of a live Robot (the entry goes with the Robot)
+_DERIVED: dict[int, tuple[weakref.ref[Robot], VehicleGeometry]] = {}

@@ -48,6 +48,8 @@ ROW_CHECK_HEIGHT = 0.1  # m above the lower spawn: the sight line between two ca
 PROBE_BEFORE = "car_before"  # SpawnProbe's second car: the one before in the row
 _PARKED = Spawn(0.0, 0.0, -1e6, 0.0)  # SpawnProbe's second car when no other is near: far out of reach
 _G = mujoco.mjtGeom
+# as ints: numpy compares an array with one of MuJoCo's enum members through Python objects (1 ms a comparison)
+_PLANE, _HFIELD, _SDF = int(_G.mjGEOM_PLANE), int(_G.mjGEOM_HFIELD), int(_G.mjGEOM_SDF)
 
 
 def check_spawn(
@@ -117,8 +119,8 @@ def _check_overlap(model: mujoco.MjModel, data: mujoco.MjData, car: np.ndarray, 
     gap = np.linalg.norm(data.geom_xpos[car][:, None] - data.geom_xpos[solid][None], axis=2)
     reach = model.geom_rbound[car][:, None] + model.geom_rbound[solid][None] + PENETRATION_TOL
     kinds = model.geom_type[solid]
-    near = (gap <= reach) | (kinds == _G.mjGEOM_PLANE)[None]  # a plane's rbound is 0
-    near &= ~np.isin(kinds, (_G.mjGEOM_HFIELD, _G.mjGEOM_SDF))[None]  # no distance function (the loader makes none)
+    near = (gap <= reach) | (kinds == _PLANE)[None]  # a plane's rbound is 0
+    near &= ((kinds != _HFIELD) & (kinds != _SDF))[None]  # no distance function (the loader makes none)
     fromto = np.zeros(6)
     found: list[tuple[bool, float, int, int, np.ndarray]] = []
     for i, j in zip(*np.nonzero(near)):
