@@ -24,8 +24,9 @@ def _drive(sim: Simulator, car: Car, speed: float, steering: float) -> None:
     sim.scheduler.every(20.0, send, f"{car.name} driver")
 
 
-def test_the_few_contacts_path_finds_what_the_numpy_path_finds(monkeypatch: pytest.MonkeyPatch) -> None:
-    cars = [  # a drives into a tunnel wall (at 1.5 s), b and c into each other (at 0.6 s)
+def _crashing_trio() -> Simulator:
+    """Three cars in the tunnel: a drives into a wall (at 1.5 s), b and c into each other (at 0.6 s)."""
+    cars = [
         Car("a", spawn=Spawn(0.0, 0.0, 0.05, -math.pi / 2), camera=False),
         Car("b", spawn=Spawn(3.0, 0.0, 0.05, math.pi), camera=False),
         Car("c", spawn=Spawn(1.5, 1.0, 0.05, -1.5), camera=False),
@@ -33,6 +34,11 @@ def test_the_few_contacts_path_finds_what_the_numpy_path_finds(monkeypatch: pyte
     sim = Simulator(world="tunnel", cars=cars, sensor_noise=False)
     for car, steering in zip(sim.cars, (0.0, 0.0, 0.3)):
         _drive(sim, car, 2.0, steering)
+    return sim
+
+
+def test_the_few_contacts_path_finds_what_the_numpy_path_finds(monkeypatch: pytest.MonkeyPatch) -> None:
+    sim = _crashing_trio()
     contacts = sim.collisions._contacts
     assert contacts is not None
     seen: set[tuple[int, int]] = set()
@@ -87,14 +93,7 @@ def test_the_kept_contact_views_read_each_later_step_as_a_fresh_look_does() -> N
     start of its arena): over a run whose contact count goes up and down (crashes into a wall and into a car, an
     MjData copied back in and a reset in between), each look with the kept views finds what a CrashContacts made
     afresh for that look finds, and the views lie where data.contact does."""
-    cars = [  # as above: a drives into a tunnel wall, b and c into each other
-        Car("a", spawn=Spawn(0.0, 0.0, 0.05, -math.pi / 2), camera=False),
-        Car("b", spawn=Spawn(3.0, 0.0, 0.05, math.pi), camera=False),
-        Car("c", spawn=Spawn(1.5, 1.0, 0.05, -1.5), camera=False),
-    ]
-    sim = Simulator(world="tunnel", cars=cars, sensor_noise=False)
-    for car, steering in zip(sim.cars, (0.0, 0.0, 0.3)):
-        _drive(sim, car, 2.0, steering)
+    sim = _crashing_trio()
     kept = sim.collisions._contacts
     assert kept is not None
     watched = sim.collisions._cars
