@@ -395,7 +395,7 @@ def main() -> None:
                 f"{world:<8}{count:>5}{r['rtf']:>17.1f}x{r['bare']:>12.1f}x{r['ratio']:>7.2f}{r['rtf'] * count:>18.1f}",
                 flush=True,
             )
-        if args.cli_cars:
+        if args.cli_cars or args.cli_track_cars:
             print(
                 f"racecar-sim run --world empty --cars N --driver constant --speed 1 --no-camera --no-video "
                 f"--no-summary --duration {args.cli_duration:g} (tunnel: --driver wall-follow; track: the oval, "
