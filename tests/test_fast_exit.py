@@ -20,9 +20,9 @@ from racecar_sim.cli import fast_exit
 WRAPPER = """
 import atexit, os, sys
 atexit.register(lambda: os.write(2, b"ATEXIT\\n"))
-from racecar_sim.cli.main import main
+from racecar_sim.cli.main import entry
 sys.argv = ["racecar-sim", *sys.argv[1:]]
-sys.exit(main())
+sys.exit(entry())
 """
 QUIET = ["--no-camera", "--no-record", "--no-video", "--no-summary"]
 TEARDOWN = "# cleanup["  # what `python -v` prints as the interpreter tears its modules down
@@ -65,6 +65,18 @@ def test_a_run_of_the_products_own_code_ends_without_the_teardown_keeping_output
     assert done.stdout.splitlines()[-1].startswith("car2 final pose")  # the summary to its last line
     assert "ATEXIT" in done.stderr
     assert TEARDOWN not in done.stderr
+
+
+def test_a_program_that_calls_main_goes_on_after_it(tmp_path: Path):
+    """Only the command's entry point ends the process: a program of the user's that sets sys.argv and calls main()
+    (an API older than the fast exit) gets the exit code back and runs on."""
+    program = WRAPPER.replace("import entry", "import main").replace(
+        "sys.exit(entry())", "code = main()\nprint('AFTER MAIN', code)\nsys.exit(code)"
+    )
+    done = _run(tmp_path, "--world", "empty", *QUIET, "--duration", "0.1", "--out", "run", wrapper=program)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.splitlines()[-1] == "AFTER MAIN 0"
+    assert "ATEXIT" in done.stderr
 
 
 def test_an_errors_exit_code_and_message_are_kept(tmp_path: Path):

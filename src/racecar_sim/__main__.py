@@ -1,5 +1,5 @@
 """`python -m racecar_sim` is the `racecar-sim` command."""
 
-from racecar_sim.cli.main import main
+from racecar_sim.cli.main import entry
 
-raise SystemExit(main())
+raise SystemExit(entry())

@@ -6,7 +6,8 @@ for 1-30 cars on a 2-core machine, none of it work anyone sees. Where that is al
 ends right after the atexit handlers (os._exit). It exits as always where something could depend on the teardown: a
 thread Python would wait for, a tracer or profiler (they write their output after the command), or code that is
 neither racecar-sim's, nor the standard library's, nor an installed package's (a driver file that leaves a file open
-relies on the teardown to flush it).
+relies on the teardown to flush it). Only the command's own entry point (cli.main.entry: the console script and
+`python -m racecar_sim`) ends this way; a program that calls cli.main.main() goes on after it.
 """
 
 from __future__ import annotations

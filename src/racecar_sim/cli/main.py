@@ -84,7 +84,15 @@ def main(argv: list[str] | None = None) -> int:
         os.dup2(devnull, sys.stdout.fileno())
         os.close(devnull)
         return 128 + signal.SIGPIPE
-    if argv is None and _command_named(sys.argv[1:]) in FAST_EXIT:  # the command's own process: no teardown
+    return code
+
+
+def entry() -> int:
+    """The `racecar-sim` command itself (its console script, `python -m racecar_sim`): main() on the process's own
+    arguments, after which a subcommand of FAST_EXIT ends the process without the interpreter's teardown where nothing
+    depends on it (cli/fast_exit.py). A program that calls main() gets its exit code back, as always."""
+    code = main()
+    if code != 128 + signal.SIGPIPE and _command_named(sys.argv[1:]) in FAST_EXIT:
         fast_exit.finish(code)
     return code
 
