@@ -79,12 +79,12 @@ def main(argv: list[str] | None = None) -> int:
     try:
         code = _main(argv)
         sys.stdout.flush()  # a pipe closed early breaks here, not in the interpreter's exit
+        return code
     except BrokenPipeError:
         devnull = os.open(os.devnull, os.O_WRONLY)  # the rest of stdout goes nowhere: no second error at exit
         os.dup2(devnull, sys.stdout.fileno())
         os.close(devnull)
         return 128 + signal.SIGPIPE
-    return code
 
 
 def entry() -> int:
