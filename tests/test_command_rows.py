@@ -119,3 +119,35 @@ def test_the_physics_get_the_same_commands_as_rows_or_objects(tmp_path: Path) ->
     assert handed > 0
     assert np.linalg.norm(rows[:2]) > 0.5  # the car moved
     assert rows.tobytes() == objects.tobytes() == unrecorded.tobytes()
+
+
+def test_a_bridge_tapping_the_path_gets_every_command_as_a_message(tmp_path: Path) -> None:
+    """A tap that decides by itself which topics it wants (a ROS bridge: no listeners epoch) makes the path publish its
+    messages as before, from the next command: the bridge gets each one on the topic it wants, as an object, and no
+    command goes as rows while it is there; once it is gone, they do again."""
+    got: list[Any] = []
+    handed = 0
+    publish_cdr_rows = Bus.publish_cdr_rows
+
+    def counted(self: Bus, msgtype: type, packer: RowPacker, topics: tuple[str, ...], rows: list[Any]) -> None:
+        nonlocal handed
+        handed += msgtype is AckermannDriveStamped
+        publish_cdr_rows(self, msgtype, packer, topics, rows)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(Bus, "publish_cdr_rows", counted)
+        sim = Simulator(world="empty", cars=[Car("car1", camera=False)])
+        _drive(sim)
+        with RunRecording(sim.bus, lambda: sim.time_ns, tmp_path / "run.mcap", process=False):
+            sim.run_until(0.2)
+            assert handed > 0
+            handed, before = 0, sim.bus.count(PATH[2])
+            untap = sim.bus.tap(lambda topic, msg: topic == PATH[2] and got.append(msg), wants=lambda t: t == PATH[2])
+            sim.run_until(0.9)
+            assert handed == 0
+            assert len(got) == sim.bus.count(PATH[2]) - before >= 8  # the driver silent for 0.3 s of it
+            assert all(type(msg) is AckermannDriveStamped for msg in got)
+            untap()
+            sim.run_until(1.0)
+            assert handed > 0
+    sim.close()

@@ -73,11 +73,12 @@ class CommandRows:
     def answer(self, topic: str) -> ListenerAnswer[Taker | None]:
         """Whom a hop to `topic` hands a command itself, asked again when the bus's listeners change: its one
         subscriber where that is a node of the path (joins_command_rows) and taps want the topic, each taking rows;
-        else None (no tap at all: publish() hands it on as cheaply)."""
+        else None (no tap at all: publish() hands it on as cheaply; a ROS bridge, which decides by itself what it
+        wants: publish() as before)."""
 
         def work() -> Taker | None:
             bus = self.bus
-            if bus.sole_taker(topic) is not None:
+            if bus.listeners_epoch() is None or bus.sole_taker(topic) is not None:
                 return None
             taker = bus.sole_taker(topic, rows=True)
             return taker if getattr(taker, "joins_command_rows", False) else None
