@@ -4,6 +4,10 @@ A message is forwarded unchanged, at once, when no input holds control, when its
 it, or when its input outranks the holder. Each input's timer restarts on every message; when the
 holder's timer runs out, control is vacant ("idle") until some input sends again. The mux never
 re-publishes on its own.
+
+The relays and muxes hand a command on through their chain's CommandRows (command_rows.py): where a recorder alone
+takes a topic besides the next node, that node gets the message itself and the recorder its numbers, one hand-over
+per command.
 """
 
 from __future__ import annotations

@@ -9,7 +9,10 @@ In both, a command faster than a wheel joint's velocity limit allows is slowed a
 by one factor), never clipped at one wheel.
 
 The law itself is control/servo_law.py (shared with the batch of worlds, envs/batch_command.py); this node reads
-the car's wheels and controller topics off its description and publishes the law's outputs per command.
+the car's wheels and controller topics off its description and publishes the law's outputs per command. Where the
+controllers alone take them, it hands them the values without messages; where a recorder takes them too, it hands the
+recorder their rows besides (one hand-over, joining the command's own where the path handed it on as rows:
+command_rows.py).
 """
 
 from __future__ import annotations
