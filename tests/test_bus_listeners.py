@@ -199,6 +199,44 @@ def test_a_sole_taker_is_one_plain_subscriber_alone_and_delivered_counts_as_publ
     assert bus.sole_taker("/cmd") is None
 
 
+def test_a_sole_taker_beside_rows_allows_taps_that_each_take_rows_where_they_want_the_topic() -> None:
+    """sole_taker(rows=True) names the one plain subscriber also where taps want the topic, as long as each that wants
+    it takes rows (a recorder): not beside a tap taking objects (wanting every topic or this one), nor one taking bytes
+    alone; a tap taking objects that wants other topics only leaves it be. The rest is sole_taker()'s."""
+    bus = Bus()
+
+    def take(msg: object) -> None:
+        pass
+
+    def rows(*item: object) -> None:
+        pass
+
+    bus.subscribe("/cmd", take, Float64)
+    assert bus.sole_taker("/cmd", rows=True) is take  # no tap: as sole_taker()
+    remove = bus.tap(lambda topic, msg: None, cdr=lambda *item: None, cdr_rows=rows)
+    assert bus.sole_taker("/cmd", rows=True) is take and bus.sole_taker("/cmd") is None
+    for tap in (
+        {"cdr": lambda *item: None},  # bytes, not rows
+        {},  # objects
+        {"wants": lambda topic: topic == "/cmd"},  # objects, of this topic
+    ):
+        other = bus.tap(lambda topic, msg: None, **tap)  # type: ignore[arg-type]
+        assert bus.sole_taker("/cmd", rows=True) is None, tap
+        other()
+    other = bus.tap(lambda topic, msg: None, wants=lambda topic: topic == "/other")
+    assert bus.sole_taker("/cmd", rows=True) is take
+    other()
+    second = bus.subscribe("/cmd", lambda m: None)
+    assert bus.sole_taker("/cmd", rows=True) is None
+    second.unsubscribe()
+    heard = bus.overhear("/cmd", lambda m: None)
+    assert bus.sole_taker("/cmd", rows=True) is None
+    heard.unsubscribe()
+    bus.latch("/cmd")
+    assert bus.sole_taker("/cmd", rows=True) is None
+    remove()
+
+
 def test_a_sole_feeder_is_one_feeding_subscriber_beside_taps_that_take_rows_and_fed_rows_count_as_publish() -> None:
     """sole_feeder() names a topic's subscriber only where it feeds other topics that taps taking bytes alone take,
     and only taps taking rows take the topic beside it: not with a second subscriber, a plain or overhearing one, a

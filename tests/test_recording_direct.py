@@ -27,7 +27,9 @@ RUN = ["run", "--world", "empty", "--cars", "3", "--driver", "constant", "--spee
 DIRECT = {"/gazebo/link_states", "/gazebo/model_states", "/clock", "/tf"}
 ROWS = {"/gazebo/link_states (rows)", "/gazebo/model_states (rows)",
         "/car2/racecar/left_rear_wheel_velocity_controller/state (rows)",
-        "/car3/racecar/joint_states (fed rows)", "/tf (rows)"}  # fmt: skip
+        "/car3/racecar/joint_states (fed rows)", "/tf (rows)",
+        "/car2/vesc/low_level/ackermann_cmd_mux/output (rows)",
+        "/car3/racecar/left_front_wheel_velocity_controller/command (rows)"}  # fmt: skip
 
 
 def _run(out: Path, monkeypatch: pytest.MonkeyPatch, objects: bool, command: list[str] = RUN) -> tuple[bytes, set[str]]:
@@ -35,6 +37,7 @@ def _run(out: Path, monkeypatch: pytest.MonkeyPatch, objects: bool, command: lis
     marked " (rows)"); `objects`: every message made as an object."""
     direct: set[str] = set()
     publish_cdr, publish_cdr_rows, publish_fed_rows = Bus.publish_cdr, Bus.publish_cdr_rows, Bus.publish_fed_rows
+    sole_taker = Bus.sole_taker
 
     def counted(self: Bus, topic: str, msgtype: type, data: bytes) -> None:
         direct.add(topic)
@@ -54,6 +57,7 @@ def _run(out: Path, monkeypatch: pytest.MonkeyPatch, objects: bool, command: lis
         patch.setattr(Bus, "publish_fed_rows", counted_fed)
         if objects:
             patch.setattr(Bus, "cdr_only", lambda self, topic: False)
+            patch.setattr(Bus, "sole_taker", lambda self, topic, rows=False: sole_taker(self, topic))
         assert main([*command, "--out", str(out)]) == 0
     return (out / "run.mcap").read_bytes(), direct
 

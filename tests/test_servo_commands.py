@@ -57,7 +57,7 @@ def test_values_handed_straight_to_the_controllers_set_what_published_commands_s
         published.bus.subscribe(other.topics[0], lambda msg: heard.append((other.topics[0], msg.data)), Float64)
         before = [direct.bus.count(topic) for topic in servo.topics]
         direct_ctrl = _drive_ctrl(direct, commands)
-        assert servo._takers(servo.bus) is not None and other._takers(other.bus) is None  # each took its path
+        assert servo._takers(servo.bus)[0] is not None and other._takers(other.bus)[0] is None  # each took its path
         assert direct_ctrl == _drive_ctrl(published, commands)
         assert len(heard) == len(commands)
         assert [direct.bus.count(t) - b for t, b in zip(servo.topics, before)] == [len(commands)] * len(servo.topics)
@@ -68,7 +68,7 @@ def test_values_handed_straight_to_the_controllers_set_what_published_commands_s
         _drive_ctrl(direct, [(-0.5, -0.3)])
         values, _ = servo.law.command(-0.5, -0.3)
         assert [(t, repr(v)) for t, v in late] == [(t, repr(v)) for t, v in zip(servo.topics, values)]
-        assert servo._takers(servo.bus) is None
+        assert servo._takers(servo.bus)[0] is None
     finally:
         for sim in sims:
             sim.close()

@@ -177,15 +177,23 @@ class Bus:
         for feed, feed_type in t.feeds:  # what its subscribers would have published in turn, unheard as well
             self.tally(feed, feed_type)
 
-    def sole_taker(self, topic: str) -> Callback | None:
+    def sole_taker(self, topic: str, rows: bool = False) -> Callback | None:
         """The callback of `topic`'s one subscriber where it alone would take a message published there now: one plain
         subscriber (not feeding other topics, not overhearing), no tap, the topic not latched; else None. A publisher
         may then hand it what it takes straight and count the message with delivered(), as long as listeners_epoch()
-        stays what it was (a tap or another subscriber that comes gets messages again)."""
-        if self._taps:
+        stays what it was (a tap or another subscriber that comes gets messages again).
+
+        `rows`: taps may want the topic too, as long as each takes rows (cdr_rows: a recorder); the publisher then
+        hands them the message's numbers with publish_cdr_rows() (which counts it) besides handing the subscriber what
+        it takes."""
+        if self._taps and (not rows or self._object_taps_all):
             return None
         t = self._topics.get(topic)
         if t is None or t.latched or len(t.subscribers) != 1 or not t.plain:
+            return None
+        if self._taps and not all(
+            e.cdr_rows is not None for e in self._tap_entries if e.wants is None or e.wants(topic)
+        ):
             return None
         return t.callbacks[0]
 
@@ -391,7 +399,8 @@ class Bus:
     ) -> None:
         """publish_cdr() of a message of class `msgtype` on each of `topics`, in order, published at one moment (a
         car's controller states), given as their numbers: `rows[k]` is the message on `topics[k]`, whose bytes are
-        packer.pack_many(rows)[k]. cdr_only() holds for each topic. A tap that takes rows (cdr_rows) gets them in one
+        packer.pack_many(rows)[k]. cdr_only() holds for each topic, or sole_taker(topic, rows=True) gave the subscriber
+        that its publisher hands the message itself. A tap that takes rows (cdr_rows) gets them in one
         call, unpacked (it may pack them later: the rows, tuples of numbers, are not to be changed after); any other
         gets the bytes, packed once. Each tap gets them in their order (taps are served one after the other, not
         message by message)."""

@@ -4,6 +4,10 @@ A message is forwarded unchanged, at once, when no input holds control, when its
 it, or when its input outranks the holder. Each input's timer restarts on every message; when the
 holder's timer runs out, control is vacant ("idle") until some input sends again. The mux never
 re-publishes on its own.
+
+The relays and muxes hand a command on through their chain's CommandRows (command_rows.py): where a recorder alone
+takes a topic besides the next node, that node gets the message itself and the recorder its numbers, one hand-over
+per command.
 """
 
 from __future__ import annotations
@@ -18,7 +22,8 @@ from typing import Any
 
 import yaml
 
-from racecar_sim.bus import BusPort, type_name
+from racecar_sim.bus import BusPort, ListenerAnswer, type_name
+from racecar_sim.control.command_rows import CommandRows, Forwarding, joins_command_rows
 from racecar_sim.core import yaml_text
 from racecar_sim.core.errors import ConfigError
 from racecar_sim.core.names import CarNames
@@ -56,28 +61,11 @@ def non_finite_field(msg: AckermannDriveStamped) -> str | None:
     return None
 
 
-class _Forwarding:
-    """The command a node of the command path is handing on right now, having accepted it: the very message object
-    (unchanged, as a mux and a relay forward it) that the next nodes get, which need not check it again. The bus is
-    synchronous, so this is set only while that node's publish() runs."""
-
-    msg: AckermannDriveStamped | None = None
-
-
-def forward(bus: BusPort, topic: str, msg: AckermannDriveStamped) -> None:
-    """Publish an accepted command unchanged on `topic`, vouching for it while its subscribers run."""
-    before, _Forwarding.msg = _Forwarding.msg, msg
-    try:
-        bus.publish(topic, msg)
-    finally:
-        _Forwarding.msg = before
-
-
 def accept_command(topic: str, msg: AckermannDriveStamped, warn: ThrottledWarning) -> bool:
     """Whether a command may enter the command path; a non-finite one, or a message of another type, is dropped with
     a throttled warning, so it neither drives the car nor refreshes any mux timeout (a NaN driver stops the car like a
     silent one)."""
-    if msg is _Forwarding.msg:  # accepted by the node that is forwarding it to us
+    if msg is Forwarding.msg:  # accepted by the node that is forwarding it to us
         return True
     if type(msg) is not AckermannDriveStamped:
         warn(
@@ -162,12 +150,15 @@ class AckermannCmdMux:
         namespace: str,
         inputs: list[MuxInput],
         output: str = "output",
+        rows: CommandRows | None = None,
     ) -> None:
         self.bus, self.scheduler, self.now = bus, scheduler, now
+        self.rows = rows or CommandRows(bus)  # its chain's: how it hands a command on (command_rows.py)
         self.warn = ThrottledWarning(log, now)
         self.namespace = namespace
         self.output_topic = f"{namespace}/{output}"
         self.active_topic = f"{namespace}/active"
+        self._output = self.rows.answer(self.output_topic)
         self.holder: MuxInput | None = None
         self.last_forwarded: MuxInput | None = None  # whose command went out last (it still drives downstream)
         self._timers: dict[str, Restartable] = {}  # per input, restarted by each of its commands
@@ -178,22 +169,21 @@ class AckermannCmdMux:
             timer = self._timers[inp.name] = scheduler.timeout(
                 partial(self._on_timeout, inp), f"{namespace} {inp.name} timeout"
             )
-            bus.subscribe(
-                topic, partial(self._on_command, inp, (topic, to_ns(inp.timeout), timer)), AckermannDriveStamped
-            )
+            take = joins_command_rows(partial(self._on_command, inp, (topic, to_ns(inp.timeout), timer)))
+            bus.subscribe(topic, take, AckermannDriveStamped)
 
     def _on_command(self, inp: MuxInput, plan: tuple[str, int, Restartable], msg: AckermannDriveStamped) -> None:
         topic, timeout_ns, timer = plan  # worked out once per input
-        if msg is not _Forwarding.msg and not accept_command(topic, msg, self.warn):  # the first test: accept's own
+        if msg is not Forwarding.msg and not accept_command(topic, msg, self.warn):  # the first test: accept's own
             return
         timer.restart(self.now() + timeout_ns)
         holder = self.holder
         if holder is None or holder is inp or inp.priority > holder.priority:
             if holder is not inp:
                 self.holder = inp
-                self.bus.publish(self.active_topic, String(inp.name))
+                self.rows.publish(self.active_topic, String(inp.name))
             self.last_forwarded = inp
-            forward(self.bus, self.output_topic, msg)
+            self.rows.forward(self.output_topic, msg, self._output)
 
     def _on_timeout(self, inp: MuxInput, _now: int) -> None:
         if self.holder is inp:
@@ -242,13 +232,15 @@ class CommandChain(NodeBase):
                 raise ConfigError(f"{where}: topic must be a topic name, got {default.get('topic')!r}")
             self.default_topic = default_topic = names.topic(default["topic"])
             speed, steering = _number(default, "speed", where), _number(default, "steering_angle", where)
+        self.rows = CommandRows(bus)  # a command's recorded messages, as rows where a recorder alone takes them
         self.muxes = []
         for namespace, file in muxes.items():
             inputs, output = load_mux_inputs(folder / file)
-            self.muxes.append(AckermannCmdMux(bus, scheduler, now, names.topic(namespace), inputs, output))
+            self.muxes.append(AckermannCmdMux(bus, scheduler, now, names.topic(namespace), inputs, output, self.rows))
         relays = [(names.topic(source), names.topic(target)) for source, target in relays]
         for source, target in relays:
-            bus.subscribe(source, partial(self._relay, source, target), AckermannDriveStamped)
+            relay = partial(self._relay, source, target, self.rows.answer(target))
+            bus.subscribe(source, joins_command_rows(relay), AckermannDriveStamped)
         self.bus = bus
         self._feeders = {target: mux for source, target in relays for mux in self.muxes if mux.output_topic == source}
         final = next((m for m in self.muxes if m.output_topic == self.output_topic), None)
@@ -282,7 +274,9 @@ class CommandChain(NodeBase):
                 return IDLE_ZERO
         return holder.name
 
-    def _relay(self, source: str, target: str, msg: AckermannDriveStamped) -> None:
+    def _relay(
+        self, source: str, target: str, to: ListenerAnswer[Callable[[Any], None] | None], msg: AckermannDriveStamped
+    ) -> None:
         """topic_tools relay; a non-finite command is dropped here, naming the topic it was published on."""
-        if msg is _Forwarding.msg or accept_command(source, msg, self.warn):  # the first test: accept's own
-            forward(self.bus, target, msg)
+        if msg is Forwarding.msg or accept_command(source, msg, self.warn):  # the first test: accept's own
+            self.rows.forward(target, msg, to)

@@ -9,7 +9,10 @@ In both, a command faster than a wheel joint's velocity limit allows is slowed a
 by one factor), never clipped at one wheel.
 
 The law itself is control/servo_law.py (shared with the batch of worlds, envs/batch_command.py); this node reads
-the car's wheels and controller topics off its description and publishes the law's outputs per command.
+the car's wheels and controller topics off its description and publishes the law's outputs per command. Where the
+controllers alone take them, it hands them the values without messages; where a recorder takes them too, it hands the
+recorder their rows besides (one hand-over, joining the command's own where the path handed it on as rows:
+command_rows.py).
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ import math
 from collections.abc import Callable
 
 from racecar_sim.bus import BusPort, ListenerAnswer
+from racecar_sim.control.command_rows import Forwarding, float64_layout, joins_command_rows
 from racecar_sim.control.controllers import ControllerConfig
 from racecar_sim.control.mux import accept_command
 from racecar_sim.control.servo_law import ServoLaw, ServoWheel
@@ -90,6 +94,7 @@ class ServoCommands(NodeBase):
         """1/m, the tightest turn the hinge joints' limits allow (the ackermann law turns no tighter)."""
         return self.law.max_curvature
 
+    @joins_command_rows
     def _on_drive(self, msg: AckermannDriveStamped) -> None:
         if not accept_command(self.input_topic, msg, self.warn):
             return
@@ -99,22 +104,32 @@ class ServoCommands(NodeBase):
         if speed is not last_speed or steer is not last_steer:  # the same float objects: the same bits, sign included
             values = self._values(speed, steer)
             self._last_drive = (speed, steer, values)
-        takers = self._takers(self.bus)
-        if takers is not None:  # only the controllers take these commands: their values, no Float64 made
+        rows = Forwarding.rows if msg is Forwarding.msg else None  # the command's, handed on as rows by the path
+        takers, recorded = self._takers(self.bus)
+        if takers is not None:  # only the controllers (and a recorder) take these commands: their values, no Float64
             for take, value in zip(takers, values):
                 take(value)
-            self.bus.delivered(self.topics, Float64)
+            if not recorded:
+                self.bus.delivered(self.topics, Float64)
+            elif rows is not None:
+                rows.add(Float64, float64_layout(), self.topics, [(value,) for value in values])
+            else:
+                self.bus.publish_cdr_rows(Float64, float64_layout(), self.topics, [(value,) for value in values])
             return
-        publish = self.bus.publish
+        publish = self.bus.publish if rows is None else rows.publish  # after the command's rows gathered before
         for topic, value in zip(self.topics, values):
             publish(topic, Float64(value))
 
-    def _find_takers(self) -> tuple[Callable[[float], None], ...] | None:
+    def _find_takers(self) -> tuple[tuple[Callable[[float], None], ...] | None, bool]:
         """What takes each output's value where its topic's sole taker is a controller's command subscriber that takes
-        values (ControllerCommands): asked again only when the bus's listeners change; None where any other would
-        take a message (a recorder, a bridge, another subscriber: they get Float64 messages as before)."""
-        found = [getattr(self.bus.sole_taker(topic), "take_value", None) for topic in self.topics]
-        return tuple(found) if all(found) else None  # type: ignore[arg-type]  # no None left in it
+        values (ControllerCommands), and whether taps that take rows (a recorder) want them too: asked again only when
+        the bus's listeners change; None where any other would take a message (a bridge, another subscriber, a tap
+        taking objects: they get Float64 messages as before)."""
+        for recorded in (False, True):
+            found = [getattr(self.bus.sole_taker(topic, recorded), "take_value", None) for topic in self.topics]
+            if all(found):
+                return tuple(found), recorded  # type: ignore[arg-type]  # no None left in it
+        return None, False
 
     def commands(self, speed: float, steer: float) -> list[tuple[str, float]]:
         """The controller commands for one drive command, (topic, rad or rad/s) in the order they are published."""
