@@ -32,7 +32,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Protocol, cast
+from typing import Any, Protocol, cast
 
 import mujoco
 import numpy as np
@@ -208,6 +208,7 @@ class GazeboApi(NodeBase):
         """(Re)build the table of models and links against the current MuJoCo model."""
         sim, model = self.sim, self.sim.model
         self._kin = mujoco.MjData(model)  # link poses: kinematics of the live qpos, the simulation's data untouched
+        self._array_views: tuple[Any, ...] | None = None  # see _views()
         cars = {car.model_name: car for car in sim.cars}
         objects: dict[str, list[WorldBody]] = {}
         for body in sim.world.bodies:
@@ -288,12 +289,25 @@ class GazeboApi(NodeBase):
     # --- states --------------------------------------------------------------------------------------------------
     def _posed(self) -> mujoco.MjData:
         kin, data, model = self._kin, self.sim.data, self.sim.model
-        kin.qpos[:] = data.qpos
-        if model.nmocap:
-            kin.mocap_pos[:] = data.mocap_pos
-            kin.mocap_quat[:] = data.mocap_quat
+        for posed, live in self._views(data, kin, model)[1]:
+            posed[:] = live
         mujoco.mj_kinematics(model, kin)
         return kin
+
+    def _views(
+        self, data: mujoco.MjData, kin: mujoco.MjData, model: mujoco.MjModel
+    ) -> tuple[tuple[np.ndarray, ...], tuple[tuple[np.ndarray, np.ndarray], ...]]:
+        """The arrays _state_arrays() reads (data's qpos, kin's xpos and xquat, data's xpos, subtree_com and cvel) and
+        the (kin, data) pairs _posed() copies, as views made once per (data, kin, model): an MjData's arrays stay where
+        they are for its lifetime, and each attribute read makes a new view."""
+        made = self._array_views
+        if made is None or made[0] is not data or made[1] is not kin or made[2] is not model:
+            read = (data.qpos, kin.xpos, kin.xquat, data.xpos, data.subtree_com, data.cvel)
+            copies = ((kin.qpos, data.qpos),)
+            if model.nmocap:
+                copies += ((kin.mocap_pos, data.mocap_pos), (kin.mocap_quat, data.mocap_quat))
+            made = self._array_views = (data, kin, model, read, copies)
+        return made[3], made[4]
 
     def _link_state(self, link: _Link, kin: mujoco.MjData | None) -> tuple[PoseArrays, PoseArrays]:
         """World pose and twist (linear, angular) of a link frame; `kin`: the posed private data, when needed."""
@@ -422,13 +436,14 @@ class GazeboApi(NodeBase):
 
     def _state_arrays(self) -> tuple[bytes, ...]:
         """What link_arrays() reads, as bytes (LinkArrays.derive's row: msgs.link_arrays.STATE_ARRAYS)."""
-        data = self.sim.data
         if self._posed_links:
-            kin = self._posed()
-            posed = kin.xpos.tobytes(), kin.xquat.tobytes()
+            self._posed()
+            qpos, kin_xpos, kin_xquat, xpos, subtree_com, cvel = self._views(self.sim.data, self._kin, self.sim.model)[0]
+            posed = kin_xpos.tobytes(), kin_xquat.tobytes()
         else:
+            qpos, _, _, xpos, subtree_com, cvel = self._views(self.sim.data, self._kin, self.sim.model)[0]
             posed = b"", b""
-        return (data.qpos.tobytes(), *posed, data.xpos.tobytes(), data.subtree_com.tobytes(), data.cvel.tobytes())
+        return (qpos.tobytes(), *posed, xpos.tobytes(), subtree_com.tobytes(), cvel.tobytes())
 
     def _model_states_cdr(self, arrays: tuple[np.ndarray, np.ndarray] | None = None) -> bytes:
         """model_states() serialized, packed from its numbers (as _link_states_cdr): the cars' from base_odometry(), or
