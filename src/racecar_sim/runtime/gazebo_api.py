@@ -37,7 +37,7 @@ from typing import Any, Protocol, cast
 import mujoco
 import numpy as np
 
-from racecar_sim.bus import BusPort, type_name
+from racecar_sim.bus import BusPort, ListenerAnswer, type_name
 from racecar_sim.core.errors import RacecarSimError, WorldError
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.throttle import ThrottledWarning
@@ -154,6 +154,8 @@ class GazeboApi(NodeBase):
 
     def __init__(self, sim: GazeboHost) -> None:
         self.sim, self.bus = sim, sim.bus
+        # whether only a recorder takes both state topics (their bytes), asked again when the bus's listeners change
+        self._bytes_alone = ListenerAnswer(lambda: self.bus.cdr_only(LINK_STATES) and self.bus.cdr_only(MODEL_STATES))
         self._frames = _world_file_frames(sim.world)  # model name -> its pose as the world file places it
         self._order = list(dict.fromkeys(_model_of(body.name) for body in sim.world.bodies))
         self._order += [car.model_name for car in sim.cars]
@@ -349,8 +351,7 @@ class GazeboApi(NodeBase):
             packers is not None
             and packers[0] is self._link_names
             and packers[1] == tuple(self.models)
-            and bus.cdr_only(LINK_STATES)
-            and bus.cdr_only(MODEL_STATES)
+            and self._bytes_alone(bus)
         ):  # only a recorder takes both: MuJoCo's arrays, as they are, and the writer packs both messages of them
             row = [self._state_arrays()]
             bus.publish_cdr_rows(LinkStates, packers[2], (LINK_STATES,), row)
