@@ -305,7 +305,7 @@ class GazeboApi(NodeBase):
         made = self._array_views
         if made is None or made[0] is not data or made[1] is not kin or made[2] is not model:
             read = (data.qpos, kin.xpos, kin.xquat, data.xpos, data.subtree_com, data.cvel)
-            copies = ((kin.qpos, data.qpos),)
+            copies: tuple[tuple[np.ndarray, np.ndarray], ...] = ((kin.qpos, data.qpos),)
             if model.nmocap:
                 copies += ((kin.mocap_pos, data.mocap_pos), (kin.mocap_quat, data.mocap_quat))
             made = self._array_views = (data, kin, model, read, copies)
@@ -439,11 +439,9 @@ class GazeboApi(NodeBase):
         """What link_arrays() reads, as bytes (LinkArrays.derive's row: msgs.link_arrays.STATE_ARRAYS)."""
         if self._posed_links:
             self._posed()
-            qpos, kin_xpos, kin_xquat, xpos, subtree_com, cvel = self._views(self.sim.data, self._kin, self.sim.model)[0]
-            posed = kin_xpos.tobytes(), kin_xquat.tobytes()
-        else:
-            qpos, _, _, xpos, subtree_com, cvel = self._views(self.sim.data, self._kin, self.sim.model)[0]
-            posed = b"", b""
+        qpos, kin_xpos, kin_xquat, xpos, subtree_com, cvel = self._views(self.sim.data, self._kin, self.sim.model)[0]
+        # (without posed links, the posed data's xpos and xquat go unread)
+        posed = (kin_xpos.tobytes(), kin_xquat.tobytes()) if self._posed_links else (b"", b"")
         return (qpos.tobytes(), *posed, xpos.tobytes(), subtree_com.tobytes(), cvel.tobytes())
 
     def _model_states_cdr(self, arrays: tuple[np.ndarray, np.ndarray] | None = None) -> bytes:
