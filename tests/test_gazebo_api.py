@@ -26,6 +26,7 @@ from racecar_sim.msgs.gazebo_msgs import (
     SpawnModelRequest,
 )
 from racecar_sim.msgs.std_srvs import EmptyRequest
+from racecar_sim.recording.run_recording import RunRecording
 from racecar_sim.runtime.gazebo_api import LINK_STATES, MODEL_STATES, STATES_RATE
 
 WHEELS = ("left_rear_wheel", "right_rear_wheel", "left_front_wheel", "right_front_wheel")
@@ -390,3 +391,31 @@ def test_model_and_link_states_are_recorded_and_read_back_by_rosbags(tmp_path):
     last = rows[-1][1]
     assert list(last.name) == ["ground_plane", "cone_1", "cone_2", "cone_3", "cone_4", "cone_5", "racecar"]
     assert last.pose[2].position.x == pytest.approx(2.0, abs=1e-3)
+
+
+def test_recorded_link_states_follow_a_spawned_car(tmp_path):
+    """The recorded states are read through array views kept with the MjData: a spawn (a new MjData) gives new ones,
+    so the messages after it hold the spawned car's links where it was put, and the first car's where qpos has it."""
+    sim = _sim(lidar=False)
+    path = tmp_path / "run.mcap"
+    with RunRecording(sim.bus, lambda: sim.time_ns, path):  # the run's recorder: it takes the states as rows
+        sim.run_until(0.3)
+        assert sim.gazebo._packers is not None  # the states go as MuJoCo's arrays
+        urdf = expand_xacro(DEFAULT_XACRO, {})
+        spawn = SpawnModelRequest("car2", urdf, "car2", _pose(0.0, 3.0, 0.05))
+        res = sim.bus.call("/gazebo/spawn_urdf_model", spawn)
+        assert res.success, res.status_message
+        sim.run_until(0.6)
+        assert sim.gazebo._packers is not None
+        first = sim.data.qpos[:3].copy()
+    with AnyReader([path], default_typestore=get_typestore(Stores.EMPTY)) as reader:
+        connections = [c for c in reader.connections if c.topic == LINK_STATES]
+        rows = [(t, reader.deserialize(raw, c.msgtype)) for c, t, raw in reader.messages(connections=connections)]
+    assert [t for t, _ in rows] == [10_000_000 * k for k in range(1, 61)]
+    before, last = rows[29][1], rows[-1][1]
+    assert not any(name.startswith("car2::") for name in before.name)
+    names = list(last.name)
+    car2 = last.pose[names.index("car2::base_link")].position
+    assert car2.y == pytest.approx(3.0, abs=0.05) and car2.x == pytest.approx(0.0, abs=0.05)
+    mine = last.pose[names.index("racecar::base_link")].position
+    assert (mine.x, mine.y, mine.z) == tuple(first)  # the live qpos, not the first MjData's frozen one

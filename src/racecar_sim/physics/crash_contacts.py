@@ -64,7 +64,8 @@ class CrashContacts:
             # every resting wheel's normal within 45 degrees of vertical: most often all point up, seen in one min()
             # (Python's, on a list: numpy's reduction costs microseconds of wrapping on a few numbers; the sum is
             # NaN where a normal is, which Python's min() may pass over)
-            normal_z = normals_z[rows].tolist()
+            # (all n rows, the usual case: the view itself holds exactly them, without a view of it made)
+            normal_z = (normals_z if type(rows) is slice else normals_z[rows]).tolist()
             total = sum(normal_z)
             if total == total and (
                 min(normal_z) > SUPPORT_NORMAL_Z or all(abs(z) > SUPPORT_NORMAL_Z for z in normal_z)

@@ -72,6 +72,7 @@ class FrustumCuller:
         call on no geoms (n = 0: nothing read or moved), with the argument types of cull()'s."""
         from racecar_sim.render.frustum_kernel import cull_records
 
+        self._kernel = cull_records  # kept: an import at every frame costs microseconds of import machinery
         eye, forward, up = np.zeros(3, np.float32), np.array([1, 0, 0], np.float32), np.array([0, 0, 1], np.float32)
         cull_records(
             raw, self._pos, self._rbound, self._type, self._half, self._mat, _BOXED, 0,
@@ -96,9 +97,7 @@ class FrustumCuller:
         left = self._eyes[0]
         if left.orthographic:
             return 0
-        from racecar_sim.render.frustum_kernel import cull_records  # loaded as the culler was made
-
-        kept = cull_records(
+        kept = self._kernel(
             raw,
             self._pos,
             self._rbound,

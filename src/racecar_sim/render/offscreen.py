@@ -358,7 +358,13 @@ class OffscreenCamera:
             raise ValueError(f"camera id {camera} is not one of the model's {model.ncam} cameras")
         self.close()
         self.model, self.data = model, data
-        self._pose = mujoco.MjData(model)
+        self._pose = pose = mujoco.MjData(model)
+        # (posed, live) pairs of array views, made once: an MjData's arrays stay where they are for its lifetime
+        self._copies = (
+            (pose.qpos, data.qpos),
+            (pose.mocap_pos, data.mocap_pos),
+            (pose.mocap_quat, data.mocap_quat),
+        )
         self.camera.fixedcamid = camera
         self.target = GLScene(model, self.width, self.height, self.gl, "run with --no-camera")
 
@@ -383,9 +389,8 @@ class OffscreenCamera:
         if self.target is None:
             raise RuntimeError("render() after close()")
         pose = self._pose
-        pose.qpos[:] = self.data.qpos
-        pose.mocap_pos[:] = self.data.mocap_pos
-        pose.mocap_quat[:] = self.data.mocap_quat
+        for posed, live in self._copies:
+            posed[:] = live
         mujoco.mj_kinematics(self.model, pose)
         mujoco.mj_camlight(self.model, pose)
         scene = self.target.flip()  # the previous frame's scene may still be drawing
@@ -398,8 +403,9 @@ class OffscreenCamera:
             mujoco.mjtCatBit.mjCAT_STATIC | mujoco.mjtCatBit.mjCAT_DYNAMIC,
             scene,
         )
+        flags = scene.flags
         for flag in _OFF:
-            scene.flags[flag] = 0
+            flags[flag] = 0
         if self.cull:
             self.target.culler.cull()
 

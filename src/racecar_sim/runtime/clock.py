@@ -20,12 +20,13 @@ class ClockPublisher(NodeBase):
         self.bus = bus
         self._layout: CdrLayout | None = None  # the CDR layout of a Clock, read off the first one published
         self._heard = ListenerAnswer(lambda: self.bus.has_listeners(CLOCK))
+        self._bytes_alone = ListenerAnswer(lambda: self.bus.cdr_only(CLOCK))  # only a recorder takes it
         self._task = timers.every(rate, self._publish, "clock", unheard=self._unheard)
 
     def _publish(self, now_ns: int) -> None:
         if self._unheard(now_ns):
             return
-        if self._layout is not None and self.bus.cdr_only(CLOCK):  # only a recorder takes it: its bytes
+        if self._layout is not None and self._bytes_alone(self.bus):  # only a recorder takes it: its bytes
             self.bus.publish_cdr(CLOCK, Clock, self._layout.pack(divmod(now_ns, NS_PER_S)))
             return
         msg = Clock(Time.from_ns(now_ns))

@@ -100,7 +100,8 @@ class EventLoop:
             target = end if due is None else max(min(due, end), self.time_ns)
             if target > self.time_ns:
                 data = scene.data  # a model spawned or deleted in an event replaces it
-                step(scene.model, data, nstep=(target - self.time_ns) // self.step_ns)
+                # nstep passed by position: a keyword costs the binding's parsing at every stop
+                step(scene.model, data, (target - self.time_ns) // self.step_ns)
                 self.time_ns = target
                 if data is not counted:
                     counted, warnings = data, data.warning.number

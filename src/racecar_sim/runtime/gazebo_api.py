@@ -32,12 +32,12 @@ import xml.etree.ElementTree as ET
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Protocol, cast
+from typing import Any, Protocol, cast
 
 import mujoco
 import numpy as np
 
-from racecar_sim.bus import BusPort, type_name
+from racecar_sim.bus import BusPort, ListenerAnswer, type_name
 from racecar_sim.core.errors import RacecarSimError, WorldError
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.throttle import ThrottledWarning
@@ -154,6 +154,8 @@ class GazeboApi(NodeBase):
 
     def __init__(self, sim: GazeboHost) -> None:
         self.sim, self.bus = sim, sim.bus
+        # whether only a recorder takes both state topics (their bytes), asked again when the bus's listeners change
+        self._bytes_alone = ListenerAnswer(lambda: self.bus.cdr_only(LINK_STATES) and self.bus.cdr_only(MODEL_STATES))
         self._frames = _world_file_frames(sim.world)  # model name -> its pose as the world file places it
         self._order = list(dict.fromkeys(_model_of(body.name) for body in sim.world.bodies))
         self._order += [car.model_name for car in sim.cars]
@@ -208,6 +210,7 @@ class GazeboApi(NodeBase):
         """(Re)build the table of models and links against the current MuJoCo model."""
         sim, model = self.sim, self.sim.model
         self._kin = mujoco.MjData(model)  # link poses: kinematics of the live qpos, the simulation's data untouched
+        self._array_views: tuple[Any, ...] | None = None  # see _views()
         cars = {car.model_name: car for car in sim.cars}
         objects: dict[str, list[WorldBody]] = {}
         for body in sim.world.bodies:
@@ -288,12 +291,25 @@ class GazeboApi(NodeBase):
     # --- states --------------------------------------------------------------------------------------------------
     def _posed(self) -> mujoco.MjData:
         kin, data, model = self._kin, self.sim.data, self.sim.model
-        kin.qpos[:] = data.qpos
-        if model.nmocap:
-            kin.mocap_pos[:] = data.mocap_pos
-            kin.mocap_quat[:] = data.mocap_quat
+        for posed, live in self._views(data, kin, model)[1]:
+            posed[:] = live
         mujoco.mj_kinematics(model, kin)
         return kin
+
+    def _views(
+        self, data: mujoco.MjData, kin: mujoco.MjData, model: mujoco.MjModel
+    ) -> tuple[tuple[np.ndarray, ...], tuple[tuple[np.ndarray, np.ndarray], ...]]:
+        """The arrays _state_arrays() reads (data's qpos, kin's xpos and xquat, data's xpos, subtree_com and cvel) and
+        the (kin, data) pairs _posed() copies, as views made once per (data, kin, model): an MjData's arrays stay where
+        they are for its lifetime, and each attribute read makes a new view."""
+        made = self._array_views
+        if made is None or made[0] is not data or made[1] is not kin or made[2] is not model:
+            read = (data.qpos, kin.xpos, kin.xquat, data.xpos, data.subtree_com, data.cvel)
+            copies: tuple[tuple[np.ndarray, np.ndarray], ...] = ((kin.qpos, data.qpos),)
+            if model.nmocap:
+                copies += ((kin.mocap_pos, data.mocap_pos), (kin.mocap_quat, data.mocap_quat))
+            made = self._array_views = (data, kin, model, read, copies)
+        return made[3], made[4]
 
     def _link_state(self, link: _Link, kin: mujoco.MjData | None) -> tuple[PoseArrays, PoseArrays]:
         """World pose and twist (linear, angular) of a link frame; `kin`: the posed private data, when needed."""
@@ -335,8 +351,7 @@ class GazeboApi(NodeBase):
             packers is not None
             and packers[0] is self._link_names
             and packers[1] == tuple(self.models)
-            and bus.cdr_only(LINK_STATES)
-            and bus.cdr_only(MODEL_STATES)
+            and self._bytes_alone(bus)
         ):  # only a recorder takes both: MuJoCo's arrays, as they are, and the writer packs both messages of them
             row = [self._state_arrays()]
             bus.publish_cdr_rows(LinkStates, packers[2], (LINK_STATES,), row)
@@ -422,13 +437,12 @@ class GazeboApi(NodeBase):
 
     def _state_arrays(self) -> tuple[bytes, ...]:
         """What link_arrays() reads, as bytes (LinkArrays.derive's row: msgs.link_arrays.STATE_ARRAYS)."""
-        data = self.sim.data
         if self._posed_links:
-            kin = self._posed()
-            posed = kin.xpos.tobytes(), kin.xquat.tobytes()
-        else:
-            posed = b"", b""
-        return (data.qpos.tobytes(), *posed, data.xpos.tobytes(), data.subtree_com.tobytes(), data.cvel.tobytes())
+            self._posed()
+        qpos, kin_xpos, kin_xquat, xpos, subtree_com, cvel = self._views(self.sim.data, self._kin, self.sim.model)[0]
+        # (without posed links, the posed data's xpos and xquat go unread)
+        posed = (kin_xpos.tobytes(), kin_xquat.tobytes()) if self._posed_links else (b"", b"")
+        return (qpos.tobytes(), *posed, xpos.tobytes(), subtree_com.tobytes(), cvel.tobytes())
 
     def _model_states_cdr(self, arrays: tuple[np.ndarray, np.ndarray] | None = None) -> bytes:
         """model_states() serialized, packed from its numbers (as _link_states_cdr): the cars' from base_odometry(), or

@@ -160,6 +160,7 @@ class CameraPublisher(NodeBase):
         than with the first frame in the middle of a run."""
         from racecar_sim.sensors.camera_noise import finish_frame
 
+        self._finish_frame = finish_frame  # kept: an import at every frame costs microseconds of import machinery
         if self.noise:
             self._noise_table  # noqa: B018 - drawn here
         finish_frame(
@@ -260,8 +261,6 @@ class CameraPublisher(NodeBase):
         """The frame from its GL buffer: flipped, the sky painted, the noise of `stamp_ns` added. It runs on the
         thread that takes the frame (compiled, without the GIL), not on the GL thread, which meanwhile draws the
         next frame into the other scene's buffer."""
-        from racecar_sim.sensors.camera_noise import finish_frame  # numba loads with the first frame
-
         spec = self.spec
         sky = self.renderer.sky
         pixels = np.empty((spec.height, spec.width, 3), dtype=np.uint8)  # the message keeps its own pixels
@@ -270,7 +269,7 @@ class CameraPublisher(NodeBase):
             noise = self._table = self._table or self._noise_table
             table = noise.values
             first, second = noise.offsets(self.seed ^ self._stream_key, stamp_ns)
-        finish_frame(
+        self._finish_frame(
             gl_rgba,
             _NO_SKY if sky is None else sky,
             sky is not None,
