@@ -112,3 +112,30 @@ def test_a_filled_layout_packs_the_template_with_the_arrays_in_place() -> None:
     assert filled.pack_many([row, row]) == [expected, expected]
     assert pickle.loads(pickle.dumps(filled)).pack_many([row]) == [expected]
     assert expected != layout.pack(template) and expected != msgs.serialize(_link_states(4.0))  # mixed: both change
+
+
+def test_a_filled_layout_packs_what_filling_the_numbers_one_by_one_packs() -> None:
+    """pack_many() writes the filled numbers into the template's bytes; the same bytes as filling the template's numbers
+    fill by fill and packing them (FilledLayout._packed, the way it packed before), for the real shape of a recorded
+    tick: links' poses and twists from two arrays, a number filled twice (the last fill wins), a row whose arrays
+    change length (a new recipe)."""
+    layout, template = CdrLayout.of(_link_states(0.3))
+    rng = np.random.default_rng(7)
+    poses, twists = rng.normal(size=(2, 7)), rng.normal(size=(2, 6))
+    poses[1, 2] = -0.0  # a negative zero and a NaN keep their bits
+    twists[0, 4] = np.nan
+    fills = [
+        (np.arange(7, 21), 0, np.arange(14)),
+        (np.arange(27, 39), 1, np.arange(12)),
+        (np.array([0, 7]), 1, np.array([5, 11])),  # the first link's x and the second's x again, from the twists
+    ]
+    filled = FilledLayout(layout, np.array(template), fills)
+    rows = [(poses.tobytes(), twists.tobytes()), ((poses * 3).tobytes(), twists[::-1].copy().tobytes())]
+    expected = [filled._packed([np.frombuffer(a, "<f8") for a in row]) for row in rows]
+    assert filled.pack_many(rows) == expected
+    numbers = np.array(template)
+    numbers[7:21], numbers[27:39] = poses.ravel(), twists.ravel()
+    numbers[[0, 7]] = twists.ravel()[[5, 11]]
+    assert expected[0] == layout.pack(numbers.tolist())  # the one-by-one way is pack()'s bytes
+    longer = (np.concatenate((poses.ravel(), [9.0])).tobytes(), twists.tobytes())  # other lengths: a new recipe
+    assert filled.pack_many([longer]) == [filled._packed([np.frombuffer(a, "<f8") for a in longer])]

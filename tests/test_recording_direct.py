@@ -20,6 +20,7 @@ from racecar_sim.cli.main import main
 from racecar_sim.drivers import ConstantCommand
 from racecar_sim.drivers.constant import NAVIGATION
 from racecar_sim.msgs import JointControllerState, deserialize, serialize
+from racecar_sim.msgs.link_arrays import LinkArrays
 from racecar_sim.recording.run_recording import RunRecording
 
 RUN = ["run", "--world", "empty", "--cars", "3", "--driver", "constant", "--speed", "1", "--no-camera", "--no-video",
@@ -117,6 +118,35 @@ def test_a_writer_derives_the_links_arrays_from_the_ticks_bytes_bit_for_bit() ->
             assert mine.tobytes() == theirs.tobytes()
     assert np.abs(derived[1]).max() > 0.5  # the cars move
     sim.close()
+
+
+def test_derive_gives_of_s_arrays_bit_for_bit_with_and_without_posed_links() -> None:
+    """LinkArrays.derive (one gather from a row's bytes, of()'s arithmetic on the gathered numbers) gives what of()
+    gives on the same arrays, bit for bit: free-joint links alone (no posed data: its arrays empty, as a tick hands
+    them over), free and posed links mixed in any order of bodies and roots, and rows of another model's sizes after
+    them (a new recipe)."""
+    rng = np.random.default_rng(3)
+
+    def state(bodies: int, qpos: int, posed: bool) -> list[np.ndarray]:
+        kin = [rng.normal(size=(bodies, 3)), rng.normal(size=(bodies, 4))] if posed else [np.empty(0), np.empty(0)]
+        return [rng.normal(size=qpos), *kin, *(rng.normal(size=(bodies, k)) * 3 for k in (3, 3, 6))]
+
+    free_only = LinkArrays(np.array([[0, 1, 2, 4, 5, 6, 3], [7, 8, 9, 11, 12, 13, 10]]), np.array([], int),
+                           np.array([1, 4]), np.array([1, 4]))  # fmt: skip
+    mixed = LinkArrays(np.array([[2, 3, 4, 6, 7, 8, 5]]), np.array([5, 2, 3]), np.array([1, 5, 2, 3]),
+                       np.array([1, 1, 1, 4]))  # fmt: skip
+    for arrays, sizes in ((free_only, (6, 14, False)), (mixed, (7, 9, True)), (mixed, (9, 12, True))):
+        for _ in range(5):
+            numbers = state(*sizes)
+            row = tuple(a.tobytes() for a in numbers)
+            qpos, kin_xpos, kin_xquat, xpos, subtree_com, cvel = numbers
+            if not sizes[2]:
+                kin_xpos, kin_xquat = np.empty((0, 3)), np.empty((0, 4))
+            expected = arrays.of(qpos, kin_xpos, kin_xquat, xpos, subtree_com, cvel)
+            derived = arrays.derive(row)
+            assert [a.shape for a in derived] == [a.shape for a in expected]
+            assert [a.tobytes() for a in derived] == [a.tobytes() for a in expected]
+            assert np.abs(expected[1][:, :3]).max() > 1  # the offsets' cross products count
 
 
 def test_a_writers_controller_rows_pack_the_states_messages_bytes() -> None:

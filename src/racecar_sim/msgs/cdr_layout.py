@@ -192,21 +192,65 @@ class FilledLayout:
     ) -> None:
         self.layout, self.template, self.fills = layout, np.asarray(template, "<f8"), tuple(fills)
         self.derive = derive
+        self._plan: tuple[tuple[int, ...], bytes, int, int, np.ndarray, np.ndarray] | None = None  # _plan_for()
 
     def pack_many(self, rows: Sequence[Sequence[bytes]]) -> list[bytes]:
-        """The CDR bytes of each row's message."""
+        """The CDR bytes of each row's message: the template's bytes, the fills' numbers put in place as float64."""
         packed = []
         derive = self.derive
         for row in rows:
-            numbers = self.template.copy()
             if derive is None:
                 arrays: Sequence[np.ndarray] = [np.frombuffer(data, "<f8") for data in row]
             else:
-                arrays = [np.ravel(array) for array in derive(row)]
-            for target, which, source in self.fills:
-                numbers[target] = arrays[which][source]
-            packed.append(self.layout.pack_doubles(numbers))
+                arrays = derive(row)
+            sizes = tuple(array.size for array in arrays)
+            plan = self._plan if self._plan is not None and self._plan[0] == sizes else self._plan_for(sizes)
+            _, template, start, count, targets, sources = plan
+            if not count:  # a layout whose numbers do not all lie on one 8-byte grid: the numbers packed
+                packed.append(self._packed(arrays))
+                continue
+            message = bytearray(template)
+            np.frombuffer(message, "<f8", count, start)[targets] = np.concatenate([a.ravel() for a in arrays])[sources]
+            packed.append(bytes(message))
         return packed
+
+    def _packed(self, arrays: Sequence[np.ndarray]) -> bytes:
+        numbers = self.template.copy()
+        flat = [np.ravel(array) for array in arrays]
+        for target, which, source in self.fills:
+            numbers[target] = flat[which][source]
+        return self.layout.pack_doubles(numbers)
+
+    def _plan_for(self, sizes: tuple[int, ...]) -> tuple[tuple[int, ...], bytes, int, int, np.ndarray, np.ndarray]:
+        """pack_many()'s recipe for rows whose arrays have `sizes` numbers: the template's bytes, the float64 grid its
+        numbers lie on (its first byte and length; 0 long where they do not all lie on one), and for each number
+        filled in, its place on that grid and in the row's arrays joined (the last fill of a number wins, as in
+        _packed())."""
+        layout = self.layout
+        template = layout.pack_doubles(self.template)
+        offsets = np.empty(layout.count, np.int64)  # each number's first byte in the message
+        at = 0
+        for data, first, end in layout._segments:
+            at += len(data)
+            offsets[first:end] = at + 8 * np.arange(end - first)
+            at += 8 * (end - first)
+        filled: dict[int, int] = {}
+        bases = np.cumsum((0, *sizes[:-1]))
+        for target, which, source in self.fills:
+            filled.update(zip(np.ravel(target).tolist(), (bases[which] + np.ravel(source)).tolist()))
+        targets, sources = np.array(list(filled), np.int64), np.array(list(filled.values()), np.int64)
+        places = offsets[targets]
+        start = int(offsets[0] % 8) if layout.count else 0
+        count = 0
+        if (
+            layout._doubles
+            and len(template) == at
+            and self.template.size == layout.count
+            and np.all(places % 8 == start)
+        ):
+            count = (len(template) - start) // 8
+        self._plan = (sizes, template, start, count, (places - start) // 8, sources)
+        return self._plan
 
     def __reduce__(self) -> tuple[type[FilledLayout], tuple[Any, ...]]:
         return FilledLayout, (self.layout, self.template, self.fills, self.derive)

@@ -27,6 +27,7 @@ class LinkArrays:
     def __init__(self, free_qpos: np.ndarray, posed_bodies: np.ndarray, bodies: np.ndarray, roots: np.ndarray) -> None:
         self.free_qpos, self.posed_bodies, self.bodies, self.roots = free_qpos, posed_bodies, bodies, roots
         self._last: tuple[object, tuple[np.ndarray, np.ndarray]] | None = None  # (row, its arrays): both topics' share
+        self._plan: tuple[tuple[int, ...], np.ndarray, np.ndarray] | None = None  # derive()'s indexes: _plan_for()
 
     def of(
         self,
@@ -60,21 +61,66 @@ class LinkArrays:
 
     def derive(self, row: Sequence[bytes]) -> tuple[np.ndarray, np.ndarray]:
         """of() the arrays whose bytes `row` holds (STATE_ARRAYS, float64, C order); the last row's arrays are kept, so
-        that the link and the model states of one tick derive them once."""
+        that the link and the model states of one tick derive them once.
+
+        A writer process derives every recorded tick: of()'s two dozen small numpy operations on the row's arrays are
+        done here as one gather from the row's bytes joined, of()'s arithmetic on the gathered numbers (the same
+        operations on the same numbers, element by element: the same bits) and one gather into place."""
         last = self._last
         if last is not None and last[0] is row:
             return last[1]
-        qpos, kin_xpos, kin_xquat, xpos, subtree_com, cvel = (np.frombuffer(data, "<f8") for data in row)
-        arrays = self.of(
-            qpos,
+        sizes = tuple(len(data) for data in row)
+        plan = self._plan if self._plan is not None and self._plan[0] == sizes else self._plan_for(sizes)
+        _, gather, order = plan
+        # the copied numbers (poses, angular velocities: 10 per link), then 3n each of the linear velocity at the
+        # centre of mass, offset[NEXT]'s two terms, offset[AFTER]'s two terms, angular[AFTER], angular[NEXT]
+        n = len(self.bodies)
+        numbers = np.frombuffer(b"".join(row), "<f8")[gather]
+        linear, x_next, com_next, x_after, com_after, w_after, w_next = numbers[10 * n :].reshape(7, 3 * n)
+        moved = linear - ((x_next - com_next) * w_after - (x_after - com_after) * w_next)
+        flat = np.concatenate((numbers[: 10 * n], moved))[order]
+        arrays = flat[: 7 * n].reshape(n, 7), flat[7 * n :].reshape(n, 6)
+        self._last = (row, arrays)
+        return arrays
+
+    def _plan_for(self, sizes: tuple[int, ...]) -> tuple[tuple[int, ...], np.ndarray, np.ndarray]:
+        """derive()'s indexes for rows of arrays of `sizes` bytes: where of() reads each number in the row's arrays
+        joined (`gather`), and where each of derive()'s results is in the copied and the computed numbers (`order`)."""
+        starts = np.cumsum((0, *sizes[:-1])) // 8
+        qpos, kin_xpos, kin_xquat, xpos, subtree_com, cvel = (
+            np.arange(start, start + size // 8) for start, size in zip(starts, sizes)
+        )
+        kin_xpos, kin_xquat, xpos, subtree_com, cvel = (
             kin_xpos.reshape(-1, 3),
             kin_xquat.reshape(-1, 4),
             xpos.reshape(-1, 3),
             subtree_com.reshape(-1, 3),
             cvel.reshape(-1, 6),
         )
-        self._last = (row, arrays)
-        return arrays
+        bodies, posed, n = self.bodies, self.posed_bodies, len(self.bodies)
+        poses = np.concatenate(
+            (qpos[self.free_qpos].reshape(-1, 7), np.hstack((kin_xpos[posed], kin_xquat[posed[:, None], _XYZW])))
+        )
+        angular, offset_at, com_at = cvel[bodies, :3], xpos[bodies], subtree_com[self.roots]
+        gather = np.concatenate(
+            (
+                poses.ravel(),
+                angular.ravel(),
+                cvel[bodies, 3:].ravel(),
+                offset_at[:, _NEXT].ravel(),
+                com_at[:, _NEXT].ravel(),
+                offset_at[:, _AFTER].ravel(),
+                com_at[:, _AFTER].ravel(),
+                angular[:, _AFTER].ravel(),
+                angular[:, _NEXT].ravel(),
+            )
+        )
+        # of()'s poses (n, 7) then twists (n, 6: linear, angular), from [poses, angular, linear] as gathered
+        copied_angular = 7 * n + np.arange(3 * n).reshape(n, 3)
+        computed_linear = 10 * n + np.arange(3 * n).reshape(n, 3)
+        order = np.concatenate((np.arange(7 * n), np.hstack((computed_linear, copied_angular)).ravel()))
+        self._plan = (sizes, gather, order)
+        return self._plan
 
     def __reduce__(self) -> tuple[type[LinkArrays], tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
         return LinkArrays, (self.free_qpos, self.posed_bodies, self.bodies, self.roots)

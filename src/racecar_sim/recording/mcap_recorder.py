@@ -358,13 +358,21 @@ class McapRecorder:
         """_append() of each message (publish time = log time), the usual one inline: a topic already recorded with
         that type, in the chunk in progress, less than CHUNK_DURATION_NS after its first message (the updates
         ChunkMessages.add makes, with the writer's state read once). The others (a new topic, a chunk to close by time)
-        go through _append. Returns the last log time."""
+        go through _append. Returns the last log time.
+
+        Inline, the records' bytes are gathered and written to the chunk together, and the counts and the latest log
+        time are added to the writer's state then (_settle): before a message goes through _append, before a full
+        chunk is closed, and at the end. The chunk's offsets are counted here meanwhile (the records' lengths)."""
         statistics, builder, chunk_size = fast.statistics, fast.builder, fast.chunk_size
         indices, channel_counts = builder.message_indices, statistics.channel_message_counts
         channels, counts, pack, fixed = self._channels, self._counts, MESSAGE_RECORD.pack, MESSAGE_FIXED
+        record = MESSAGE_RECORD.size
         buffer = builder.record_writer._buffer
+        offset = buffer.tell()  # where the next record goes in the chunk
+        parts: list[bytes] = []  # records not yet written to the chunk
+        added = 0  # messages inline not yet counted in the writer's state
         span = self._chunk_times
-        log_time = 0
+        log_time = latest = 0
         for topic, msgtype, data, log_time in messages:
             if type(log_time) is not int or not 0 <= log_time <= _UINT64_MAX:
                 log_time = _timestamp(log_time, "log_time_ns")
@@ -376,38 +384,61 @@ class McapRecorder:
                 or log_time < span[0]
                 or log_time - span[0] >= CHUNK_DURATION_NS
             ):
+                if added:
+                    span = self._settle(span, parts, added, latest)
+                    parts, added = [], 0
                 self._chunk_times = span
                 self._append(topic, msgtype, data, log_time, log_time)
                 span = self._chunk_times
                 buffer = builder.record_writer._buffer
+                offset = buffer.tell()
                 continue
             # the chunk holds a message already, none before log_time: no start time moves
             channel_id = channel[0]
             count = counts[topic] + 1
             counts[topic] = count
-            if log_time > statistics.message_end_time:
-                statistics.message_end_time = log_time
             channel_counts[channel_id] += 1
-            statistics.message_count += 1
-            if log_time > builder.message_end_time:
-                builder.message_end_time = log_time
+            if log_time > latest:
+                latest = log_time
             index = indices.get(channel_id)
             if index is None:
                 index = indices[channel_id] = ChunkIndex(channel_id=channel_id, records=[])
-            index.records.append((log_time, buffer.tell()))
-            builder.num_messages += 1
-            buffer.write(pack(MESSAGE_OPCODE, fixed + len(data), channel_id, count & 0xFFFFFFFF, log_time, log_time))
-            buffer.write(data)
-            if log_time > span[1]:
-                span = (span[0], log_time)
-            if buffer.tell() > chunk_size:  # full: closed as add_message closes it
+            index.records.append((log_time, offset))
+            size = len(data)
+            parts.append(pack(MESSAGE_OPCODE, fixed + size, channel_id, count & 0xFFFFFFFF, log_time, log_time))
+            parts.append(data)
+            offset += record + size
+            added += 1
+            if offset > chunk_size:  # full: closed as add_message closes it
+                span = self._settle(span, parts, added, latest)
+                parts, added = [], 0
                 self._chunk_times = span
                 fast.finalize()
                 self._chunk_written()
                 span = self._chunk_times
                 buffer = builder.record_writer._buffer
+                offset = buffer.tell()
+        if added:
+            span = self._settle(span, parts, added, latest)
         self._chunk_times = span
         return log_time
+
+    def _settle(
+        self, span: tuple[int, int] | None, parts: list[bytes], added: int, latest: int
+    ) -> tuple[int, int] | None:
+        """_append_many's records written to the chunk, and its `added` messages (the latest at `latest`) counted in
+        the writer's state as ChunkMessages.add counts them; the chunk's log-time span then."""
+        fast = self._chunk_messages
+        assert fast is not None and span is not None
+        statistics, builder = fast.statistics, fast.builder
+        builder.record_writer._buffer.writelines(parts)
+        statistics.message_count += added
+        builder.num_messages += added
+        if latest > statistics.message_end_time:
+            statistics.message_end_time = latest
+        if latest > builder.message_end_time:
+            builder.message_end_time = latest
+        return (span[0], latest) if latest > span[1] else span
 
     def _check_writable(self) -> None:
         """Raise what a write to a failed or closed recorder raises (the lock held)."""
