@@ -142,3 +142,34 @@ def test_a_writer_not_compressing_with_zstd_is_left_alone(tmp_path: Path) -> Non
     with open(tmp_path / "a.mcap", "wb") as stream:
         assert not compress_chunks(Writer(stream, compression=CompressionType.NONE))
         assert not compress_chunks(Writer(stream, use_chunking=False))
+
+
+def test_a_batch_going_back_in_time_after_a_full_chunk(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A chunk filled and closed inside one write_many by its latest message, then messages stamped before that one:
+    the new chunk's end time is its own messages' latest (as add_message keeps it), not the closed chunk's."""
+    monkeypatch.setattr(mcap_recorder, "_library", lambda: "racecar-sim test")
+    topic, msgtype, data = "/car1/command", "std_msgs/msg/Float64", serialize(Float64(1.0))
+    rising = [(topic, msgtype, data, 1_000_000 * step) for step in range(1, 300)]
+    with McapRecorder(tmp_path / "probe.mcap", compression="none", chunk_size=4096) as recorder:
+        recorder.write_many(rising)
+    with open(tmp_path / "probe.mcap", "rb") as stream:
+        summary = make_reader(stream).get_summary()
+    assert summary is not None
+    full = summary.chunk_indexes[0].message_end_time  # the message that fills the first chunk
+    back = [(topic, msgtype, data, full - 50_000_000 + step) for step in range(5)]  # after it, stamped before it
+    messages = [m for m in rising if m[3] <= full] + back
+    files = {}
+    for fast in (False, True):
+        path = tmp_path / f"{fast}.mcap"
+        with McapRecorder(path, compression="none", chunk_size=4096) as recorder:
+            if fast:
+                recorder.write_many(messages)
+            else:
+                recorder._chunk_messages = None
+                for topic_, msgtype_, data_, t in messages:
+                    recorder.write_serialized(topic_, msgtype_, data_, t)
+        files[fast] = path.read_bytes()
+    with open(tmp_path / "True.mcap", "rb") as stream:
+        summary = make_reader(stream).get_summary()
+    assert summary is not None and [c.message_end_time for c in summary.chunk_indexes] == [full, back[-1][3]]
+    assert files[True] == files[False]

@@ -386,7 +386,7 @@ class McapRecorder:
             ):
                 if added:
                     span = self._settle(span, parts, added, latest)
-                    parts, added = [], 0
+                    parts, added, latest = [], 0, 0
                 self._chunk_times = span
                 self._append(topic, msgtype, data, log_time, log_time)
                 span = self._chunk_times
@@ -411,7 +411,8 @@ class McapRecorder:
             added += 1
             if offset > chunk_size:  # full: closed as add_message closes it
                 span = self._settle(span, parts, added, latest)
-                parts, added = [], 0
+                # the latest is each settle's own: the next chunk's end time is its messages' latest, not this one's
+                parts, added, latest = [], 0, 0
                 self._chunk_times = span
                 fast.finalize()
                 self._chunk_written()
