@@ -36,9 +36,11 @@ def probe_definition(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterato
     (root / pkg / "msg").mkdir(parents=True)
     (root / pkg / "msg" / f"{name}.msg").write_text(PROBE_TEXT)
     monkeypatch.setattr(idl, "_definitions_root", lambda: root)
-    idl.get_spec.cache_clear()
+    idl.get_spec.cache_clear()  # what a process reads once: the new file is seen as by a new process
+    idl.listed_definitions.cache_clear()
     yield
     idl.get_spec.cache_clear()
+    idl.listed_definitions.cache_clear()
     msgs.__dict__.pop(name, None)
 
 
@@ -180,6 +182,27 @@ def test_sensor_data_is_read_off_the_definition() -> None:
     assert qos.profile_name("/x", "sensor_msgs/msg/JointState") == "default"
     assert categories.is_sensor_data("sensor_msgs/Range") and not categories.is_sensor_data("sensor_msgs/JointState")
     assert not categories.is_sensor_data("nav_msgs/msg/Odometry")
+
+
+def test_the_definitions_are_listed_once_a_process(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A package module's lookups (about thirty as a run starts: `from racecar_sim.msgs.gazebo_msgs import ...`) read
+    the list of shipped definitions made once, not the definitions' folders again each time."""
+    root = Path(idl.__file__).with_name("definitions")
+    for kind, listed_now in (("msg", idl.available_msgtypes()), ("srv", idl.available_srvtypes())):
+        assert list(listed_now) == sorted(
+            f"{p.parent.parent.name}/{kind}/{p.stem}" for p in root.glob(f"*/{kind}/*.{kind}")
+        )
+    listed: list[Path] = []
+
+    def counted_root() -> Path:
+        listed.append(root)
+        return root
+
+    monkeypatch.setattr(idl, "_definitions_root", counted_root)
+    for name in ("ModelStates", "LinkStates", "ModelState", "GetModelState", "SetModelStateRequest"):
+        assert getattr(sys.modules["racecar_sim.msgs.gazebo_msgs"], name).__name__ == name
+    assert "gazebo_msgs/msg/ModelStates" in generate.package_types("gazebo_msgs").values()
+    assert listed == []
 
 
 def test_generated_modules_load_lazily() -> None:
