@@ -287,6 +287,18 @@ def _quick_start() -> list[str]:
     return [line.split("  #", 1)[0].strip() for line in block.splitlines()]
 
 
+def _output_once_stopped(process: subprocess.Popen, grace: float = 20.0) -> str:
+    """What a node sent SIGTERM printed. rclpy's own shutdown can hang now and then (it did once in a CI run of this
+    suite, in the F1TENTH node below, after the sim had exited); a user then kills the node, and so does this, keeping
+    its output."""
+    try:
+        out, _ = process.communicate(timeout=grace)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        out, _ = process.communicate()
+    return out
+
+
 def test_f1tenth_lab_node_drives_walker_under_the_f1tenth_map_as_the_readme_says(jazzy, tmp_path) -> None:
     """The F1TENTH quick start (docs/ros2.md), as typed there: the sim, `eval "$(racecar-sim ros2-env)"`, the node.
     (Its first two lines, the install and `ros2-env --build`, are what the jazzy fixture has done.)"""
@@ -313,7 +325,7 @@ def test_f1tenth_lab_node_drives_walker_under_the_f1tenth_map_as_the_readme_says
         for process in (sim, *nodes):
             if process.poll() is None:
                 process.terminate()
-        node_out, _ = nodes[0].communicate(timeout=20)
+        node_out = _output_once_stopped(nodes[0])
     assert sim.returncode == 0, sim_out
     assert "WallFollow Initialized" in node_out and "incompatible QoS" not in node_out + reader_out, node_out
     (folder,) = (tmp_path / "runs").iterdir()  # runs/<date-time>/, as any run leaves
