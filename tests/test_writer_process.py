@@ -3,10 +3,14 @@ camera image crosses to it once; its errors, its death and a Ctrl-C to the whole
 
 from __future__ import annotations
 
+import ast
+import hashlib
 import os
+import pickle
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -23,6 +27,7 @@ from racecar_sim.core.errors import RecordingError
 from racecar_sim.msgs import Float64, Header, Image, JointControllerState
 from racecar_sim.msgs.cdr_layout import CdrLayout
 from racecar_sim.recording import writer_process
+from racecar_sim.recording.hand_overs import framed
 from racecar_sim.recording.images import decompress_image
 from racecar_sim.recording.run_recording import RunRecording
 from racecar_sim.recording.video import VideoWriter
@@ -532,3 +537,58 @@ def test_the_child_freezes_what_its_imports_made_and_turns_the_collector_back_on
     assert enabled == "True"
     assert int(frozen) > 20_000
     assert int(tracked) < 1_000  # nothing left for a collection to walk
+
+
+def test_the_child_reads_hand_overs_before_it_imports_the_writer_modules_and_drops_one_cut_off(tmp_path):
+    # the child's first step (begin_child, as the writer's command runs it) reads the pipe at once: the parent hands
+    # over three times the pipe's size while the child has imported nothing but the standard library and that module
+    # (no numpy, mcap or message classes, which take it ~0.13 s), and each hand-over arrives whole, its pickle and
+    # out-of-band buffers intact; a hand-over cut off half-way (the parent died) ends the reading with no partial one
+    code = (
+        "import sys, time; from racecar_sim.recording.hand_overs import begin_child; h = begin_child(); "
+        "deadline = time.monotonic() + 60\n"
+        "while h.qsize() < 7 and time.monotonic() < deadline: time.sleep(0.01)\n"
+        "heavy = sorted(m for m in ('numpy', 'mcap', 'racecar_sim.msgs', 'racecar_sim.recording.writer_process') "
+        "if m in sys.modules)\n"
+        "import pickle, hashlib\n"
+        "items = []\n"
+        "while (item := h.get()) is not None:\n"
+        "    ops = pickle.loads(item[0], buffers=item[1])\n"
+        "    items.append([op[0], op[1], hashlib.sha256(bytes(op[2])).hexdigest()] for op in ops)\n"
+        "print(repr((heavy, [list(i) for i in items])))"
+    )
+    read, write = os.pipe()
+    child = subprocess.Popen(
+        [sys.executable, "-c", code, str(read)],
+        pass_fds=(read,),
+        stdout=subprocess.PIPE,
+        text=True,
+        env=writer_process._child_environment(),
+    )
+    os.close(read)
+    rng = np.random.default_rng(0)
+    hand_overs = []
+    for k in range(7):  # 7 x ~450 KB: more than three 1 MB pipes' worth; two messages each, one out of band
+        big, small = rng.bytes(450_000 + k), rng.bytes(100 + k)
+        ops = [("msg", k, pickle.PickleBuffer(big)), ("msg", k, small)]
+        buffers: list[pickle.PickleBuffer] = []
+        body = pickle.dumps(ops, 5, buffer_callback=buffers.append)
+        hand_overs.append((framed(body, [b.raw() for b in buffers]), [big, small]))
+
+    def hand_over_all() -> None:
+        for pieces, _ in hand_overs:
+            for piece in pieces:
+                os.write(write, piece)
+        cut = hand_overs[0][0]
+        os.write(write, bytes(cut[0]) + bytes(cut[1]) + bytes(cut[2])[:1000])  # the last one cut off half-way
+        os.close(write)
+
+    parent = threading.Thread(target=hand_over_all, daemon=True)
+    parent.start()
+    out, _ = child.communicate(timeout=120)
+    parent.join(timeout=10)
+    heavy, items = ast.literal_eval(out)
+    assert heavy == []
+    assert items == [
+        [["msg", k, hashlib.sha256(data).hexdigest()] for data in sent] for k, (_, sent) in enumerate(hand_overs)
+    ]

@@ -18,11 +18,9 @@ import logging
 import mmap
 import os
 import pickle
-import queue
 import select
 import signal
 import socket
-import struct
 import subprocess
 import sys
 import threading
@@ -36,15 +34,13 @@ import numpy as np
 from racecar_sim.bus import RowPacker
 from racecar_sim.core.errors import RecordingError
 from racecar_sim.msgs import Image
+from racecar_sim.recording.hand_overs import SIZE, HandOver, HandOvers, framed
 from racecar_sim.recording.mcap_recorder import DeferredInterrupt
 from racecar_sim.recording.writer_thread import uninterrupted
 
 BATCH = 256
 """Operations per hand-over: one pipe write per message would cost more than most messages' writing. An operation
 with an image's pixels is handed over at once, so that a hand-over holds at most one frame."""
-DEPTH = 64
-"""Hand-overs the child may hold unwritten (with a frame each, two seconds of 30 Hz video); beyond that the parent's
-send waits, so the simulation never runs far ahead of its files and memory stays bounded."""
 PIPE_SIZE = 1 << 20  # bytes: a camera frame fits in the pipe at once (Linux's default limit for a user)
 RING_SLOTS = 32
 """Camera frames the shared memory holds (a second of 30 Hz video, 29 MB at 640x480): the parent writes frame n in
@@ -61,8 +57,6 @@ RING_MIN = 1 << 16  # bytes: smaller images cross in the pipe (they cost little 
 RING_WAIT = 0.0005  # s
 _RING_HEAD = 64  # bytes before the slots: the first 8, the number of the first frame the child still holds
 
-_HEAD = struct.Struct("<QI")  # pickle bytes, out-of-band buffers
-_SIZE = struct.Struct("<Q")
 _SIGNALS = (signal.SIGINT, signal.SIGTERM)
 _PR_SET_PDEATHSIG = 1  # linux/prctl.h
 
@@ -118,8 +112,8 @@ class WriterProcess:
             # the cyclic collector off while the modules load, until _import_encoders froze what they made; once
             # serve() reported its files finished, the child leaves without the interpreter's teardown (its
             # modules' and objects' clean-up: 50-80 ms of CPU that the parent's close() would wait for)
-            "import gc; gc.disable(); from racecar_sim.recording.writer_process import serve; serve(); import os; "
-            "os._exit(0)",
+            "import gc; gc.disable(); from racecar_sim.recording.hand_overs import begin_child; h = begin_child(); "
+            "from racecar_sim.recording.writer_process import serve; serve(h); import os; os._exit(0)",
             str(data_read),
             str(back_write),
             str(linked),
@@ -168,7 +162,7 @@ class WriterProcess:
         closes its own copies afterwards. A child already running gets them too: they cross the socket with the
         numbers they have here."""
         if fds:
-            socket.send_fds(self._fds, [_SIZE.pack(len(fds)) + b"".join(_SIZE.pack(fd) for fd in fds)], list(fds))
+            socket.send_fds(self._fds, [SIZE.pack(len(fds)) + b"".join(SIZE.pack(fd) for fd in fds)], list(fds))
 
     def message(self, topic: str, msgtype: str, data: bytes, log_time_ns: int) -> None:
         """Record a serialized message (CDR bytes of type `msgtype`, `pkg/msg/Name`) at `log_time_ns`."""
@@ -249,9 +243,7 @@ class WriterProcess:
                 ops, self._ops = self._ops, []
                 buffers: list[pickle.PickleBuffer] = []
                 body = pickle.dumps(ops, 5, buffer_callback=buffers.append)
-                raws = [b.raw() for b in buffers]
-                head = _HEAD.pack(len(body), len(raws)) + b"".join(_SIZE.pack(r.nbytes) for r in raws)
-                self._pending = [memoryview(head), memoryview(body), *raws]
+                self._pending = framed(body, [b.raw() for b in buffers])
             self._write_pending()
         finally:
             self._interrupt.release()
@@ -301,13 +293,13 @@ class WriterProcess:
 
     def _take_report(self) -> tuple[str | None, Any]:
         assert self._back is not None
-        size = _read_exactly(self._back, _SIZE.size)
+        size = _read_exactly(self._back, SIZE.size)
         if not size:  # the child exited
             os.close(self._back)
             self._back = None
             self._died()
             return None, None
-        kind, value = pickle.loads(_read_exactly(self._back, _SIZE.unpack(size)[0]))
+        kind, value = pickle.loads(_read_exactly(self._back, SIZE.unpack(size)[0]))
         if kind == "log":
             logging.getLogger(value[0]).log(value[1], "%s", value[2])
         elif kind == "error" and self._error is None:
@@ -506,14 +498,6 @@ class ProcessVideo:
 # ---- the child ----
 
 
-def _batch_scheduling() -> None:
-    """Schedule this process as batch work (Linux's SCHED_BATCH), before it starts any thread: a simulation thread that
-    wakes (the GL thread with a frame to draw, the main thread with its frame drawn) does not wait behind it."""
-    if hasattr(os, "sched_setscheduler") and hasattr(os, "SCHED_BATCH"):
-        with contextlib.suppress(OSError):
-            os.sched_setscheduler(0, os.SCHED_BATCH, os.sched_param(0))
-
-
 def _give_way() -> bool:
     """Lower the calling thread's priority by GIVE_WAY nice levels; whether it was lowered for this thread alone
     (Linux, where a nice value is a thread's), so that a thread started before keeps its priority."""
@@ -535,7 +519,7 @@ class _Workers:
     other work, and a nicer writer would starve: the simulation would wait on the frame ring), the urgent worker, at
     the simulation's priority, takes over until CAUGHT_UP."""
 
-    def __init__(self, hand_overs: queue.Queue[tuple[bytes, list[bytearray]] | None], files: _Files) -> None:
+    def __init__(self, hand_overs: HandOvers, files: _Files) -> None:
         self.hand_overs, self.files = hand_overs, files
         self.turn = threading.Condition()
         self.urgent_turn = False
@@ -567,7 +551,7 @@ class _Workers:
                 self.finished = True
                 self.turn.notify_all()
 
-    def _do(self, hand_over: tuple[bytes, list[bytearray]]) -> None:
+    def _do(self, hand_over: HandOver) -> None:
         if self.error is not None:
             return  # later operations are not done, but read on: the parent never waits on a pipe nobody reads
         try:
@@ -578,8 +562,9 @@ class _Workers:
             self.files.reports.send("error", exc)
 
 
-def serve() -> None:
-    """The child's main: do the operations read from the pipe (fd argv[1]) until its end; report on fd argv[2]."""
+def serve(hand_overs: HandOvers) -> None:
+    """The child's main: do the operations begin_child() reads from the pipe (fd argv[1]) into `hand_overs`, until
+    its end; report on fd argv[2]."""
     for signum in _SIGNALS:
         signal.signal(signum, signal.SIG_IGN)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, _SIGNALS)
@@ -590,15 +575,11 @@ def serve() -> None:
         ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
         if os.getppid() != parent:  # it died before that
             os._exit(1)
-    _batch_scheduling()
     back = _Reports(int(sys.argv[2]))
     ring = int(sys.argv[4]) if len(sys.argv) > 4 else -1
     fds = socket.socket(fileno=int(sys.argv[5])) if len(sys.argv) > 5 else None
     colour = len(sys.argv) > 6 and sys.argv[6] == "1"
     logging.getLogger("racecar_sim").addHandler(back)
-    hand_overs: queue.Queue[tuple[bytes, list[bytearray]] | None] = queue.Queue(DEPTH)
-    reader = threading.Thread(target=_read_hand_overs, args=(int(sys.argv[1]), hand_overs), daemon=True)
-    reader.start()  # reads on while the main thread encodes: the parent's hand-over waits on no encoder
     workers = _Workers(hand_overs, _Files(back, ring, fds, colour))
     urgent = threading.Thread(target=workers.work, args=(True,), name="urgent writer", daemon=True)
     urgent.start()  # before this thread gives way: it keeps the simulation's priority
@@ -659,33 +640,6 @@ def _import(colour: bool) -> None:
         load_kernel()
 
 
-def _read_hand_overs(fd: int, hand_overs: queue.Queue[tuple[bytes, list[bytearray]] | None]) -> None:
-    with open(fd, "rb", buffering=0) as pipe:
-        while True:
-            head = _read_into(pipe, bytearray(_HEAD.size))
-            if head is None:
-                break
-            body_size, count = _HEAD.unpack(head)
-            sizes = _read_into(pipe, bytearray(_SIZE.size * count))
-            body = _read_into(pipe, bytearray(body_size))
-            received = [_read_into(pipe, bytearray(size)) for (size,) in _SIZE.iter_unpack(sizes or b"")]
-            buffers = [b for b in received if b is not None]
-            if sizes is None or body is None or len(buffers) != len(received):
-                break  # cut off: the parent died half-way through a hand-over
-            hand_overs.put((bytes(body), buffers))
-    hand_overs.put(None)
-
-
-def _read_into(pipe: Any, buffer: bytearray) -> bytearray | None:
-    view, done = memoryview(buffer), 0
-    while done < len(buffer):
-        got = pipe.readinto(view[done:])
-        if not got:
-            return None
-        done += got
-    return buffer
-
-
 class _Reports(logging.Handler):
     """The child's reports to the parent: log records of racecar_sim's loggers, its error, its results."""
 
@@ -700,7 +654,7 @@ class _Reports(logging.Handler):
         except Exception:
             data = pickle.dumps((kind, RecordingError(f"{type(value).__name__}: {value}")))
         with self.lock_:
-            os.write(self.fd, _SIZE.pack(len(data)) + data)
+            os.write(self.fd, SIZE.pack(len(data)) + data)
 
     def emit(self, record: logging.LogRecord) -> None:
         self.send("log", (record.name, record.levelno, record.getMessage()))
@@ -755,8 +709,8 @@ class _Files:
         while fd not in self.passed:
             if self.fds is None:
                 return fd  # a parent of the same code always sends them; a child started without the socket inherits
-            data, fds, _, _ = socket.recv_fds(self.fds, _SIZE.size * 64, 64)
-            numbers = [number for (number,) in _SIZE.iter_unpack(data[_SIZE.size :])]
+            data, fds, _, _ = socket.recv_fds(self.fds, SIZE.size * 64, 64)
+            numbers = [number for (number,) in SIZE.iter_unpack(data[SIZE.size :])]
             self.passed.update(zip(numbers, fds))
         return self.passed.pop(fd)
 
