@@ -15,11 +15,13 @@ A stopped controller is not updated, so it publishes nothing; nothing is compute
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Callable, Sequence
 from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
 from typing import Literal, NamedTuple
 
+import mujoco
 import numpy as np
 
 from racecar_sim.bus import BusPort, ListenerAnswer
@@ -33,6 +35,10 @@ from racecar_sim.nodes import Timers
 from racecar_sim.physics.state import CarState
 
 STATE_RATE = 100.0  # Hz: every 10th update of ros_control's 1 kHz loop
+_PERIOD_NS = 10_000_000  # 1 / STATE_RATE
+
+# the publishers of each live MjData's cars, in the order they first ticked with it (a fleet's: see _tick_together)
+_FLEETS: weakref.WeakKeyDictionary[mujoco.MjData, list[ControllerStatePublisher]] = weakref.WeakKeyDictionary()
 
 
 class _Listening(NamedTuple):
@@ -84,10 +90,33 @@ class ControllerStatePublisher:
         # the model and the data it was made for, what packs the rows, views of the spans of MjData's arrays they
         # carry (_rows_packer) and the controllers' indices
         self._rows: tuple[object, object, ControllerRows, tuple[np.ndarray, ...], range] | None = None
+        # the same for the cars whose states it hands over with its own (_publish_rows), their topics in order
+        self._fleet_rows: (
+            tuple[
+                object,
+                object,
+                list[ControllerStatePublisher],
+                ControllerRows,
+                tuple[np.ndarray, ...],
+                tuple[str, ...],
+                range,
+            ]
+            | None
+        ) = None
         self._topics = tuple(c.topic for c in self.controllers)
         self._names = tuple(c.config.name for c in self.controllers)
         self._name_set = frozenset(self._names)
+        # a fleet's ticks together (_tick_together): only where every tick is a whole number of physics steps, so that
+        # two cars that tick at the same time once tick together at every time after
+        self._together = _PERIOD_NS % scheduler.step_ns == 0
+        self._joined: object = None  # the MjData whose fleet it joined
+        self._last_tick: int | None = None  # the last time its states were published (by itself or with the fleet)
+        self._published_at: int | None = None  # the last time a fleet's first car published them for it
         scheduler.every(STATE_RATE, self.publish, "controller_state", unheard=self._unheard)
+
+    def reset(self) -> None:
+        """Sim time went back to 0: the ticks it was published at are forgotten (the fleet's too: it ticks afresh)."""
+        self._last_tick = self._published_at = None
 
     def _ask_listening(self) -> _Listening:
         """Who listens to the state topics, asked of the bus."""
@@ -105,6 +134,75 @@ class ControllerStatePublisher:
         return not self._listening(self.bus).any_heard
 
     def publish(self, now_ns: int) -> None:
+        """The task at each tick: the states, published now, with the fleet's or on its own."""
+        if self._published_at == now_ns:
+            return  # published at this tick with the fleet's first car
+        if not self._tick_together(now_ns):
+            self._publish_own(now_ns)
+
+    def _tick_together(self, now_ns: int) -> bool:
+        """Where other cars of this MjData tick now as it does (they ticked together last time), publish all their
+        states now, in the cars' order, and return True; their own tasks at this time then do nothing.
+
+        The cars of a fleet built together tick at the same sim times. Where only a recorder takes every one of their
+        states, they go in one hand-over: MuJoCo's arrays once and a row per controller, not one hand-over per car
+        (_publish_rows); otherwise each car publishes its own in turn, as on its own. The messages are the same
+        either way; what changes, against every car publishing at its own tick, is only their order among other
+        topics within a tick: every car's states come at the first car's."""
+        if not self._together:
+            return False
+        data = self.state.data
+        fleet = _FLEETS.get(data)
+        if fleet is None:
+            fleet = _FLEETS[data] = []
+        if self._joined is not data:  # its first tick with this data (a recompiled model gives a new fleet)
+            self._joined = data
+            fleet.append(self)
+        previous, self._last_tick = self._last_tick, now_ns
+        if previous is None or len(fleet) < 2:
+            return False
+        # those that ticked with it last time (a deleted car's task is cancelled and its data is the old model's)
+        ticking = [car for car in fleet if car is self or (car._last_tick == previous and car.state.data is data)]
+        if len(ticking) < 2:
+            return False
+        for car in ticking:
+            car._last_tick = car._published_at = now_ns
+        rows: list[ControllerStatePublisher] = []
+        for car in ticking:
+            listening = car._listening(car.bus)
+            if not listening.any_heard:
+                continue
+            if not (listening.all_direct and car._layout and car._all_running()):
+                for each in ticking:  # someone takes messages: each car publishes its own, in turn
+                    each._publish_own(now_ns)
+                return True
+            rows.append(car)
+        if len(rows) == 1:
+            rows[0]._publish_own(now_ns)
+        elif rows:
+            self._publish_rows(rows, now_ns)
+        return True
+
+    def _publish_rows(self, cars: list[ControllerStatePublisher], now_ns: int) -> None:
+        """_publish_arrays() of several cars of one MjData in one hand-over: a row per controller, every row sharing
+        the tick (the span of qpos, qvel, ctrl and act that all their controllers read)."""
+        state = self.state
+        model, data = state.model, state.data
+        made = self._fleet_rows
+        if made is None or made[0] is not model or made[1] is not data or made[2] != cars:
+            layout = cars[0]._layout
+            assert layout and all(car._layout and car._layout.packs_as(layout) for car in cars)
+            packer, spans = _rows_packer(layout, [car._spec(c) for car in cars for c in car.controllers])
+            views = tuple(array[a:b] for array, (a, b) in zip((data.qpos, data.qvel, data.ctrl, data.act), spans))
+            topics = tuple(topic for car in cars for topic in car._topics)
+            made = self._fleet_rows = (model, data, list(cars), packer, views, topics, range(len(topics)))
+        _, _, _, packer, (qpos, qvel, ctrl, act), topics, indices = made
+        sec, nanosec = divmod(now_ns, NS_PER_S)
+        tick = (sec, nanosec, float(model.opt.timestep), qpos.tobytes(), qvel.tobytes(), ctrl.tobytes(), act.tobytes())
+        self.bus.publish_cdr_rows(JointControllerState, packer, topics, [(index, tick) for index in indices])
+
+    def _publish_own(self, now_ns: int) -> None:
+        """Its own states, now, as a car on its own publishes them."""
         bus = self.bus
         listening = self._listening(bus)
         if not listening.any_heard:  # a tick the physics stopped at for another task: nothing to do
@@ -165,29 +263,13 @@ class ControllerStatePublisher:
         model, data = state.model, state.data
         made = self._rows
         if made is None or made[0] is not model or made[1] is not data:
-            packer, spans = self._rows_packer(layout)
+            packer, spans = _rows_packer(layout, [self._spec(c) for c in self.controllers])
             views = tuple(array[a:b] for array, (a, b) in zip((data.qpos, data.qvel, data.ctrl, data.act), spans))
             made = self._rows = (model, data, packer, views, range(len(self.controllers)))
         _, _, packer, (qpos, qvel, ctrl, act), indices = made
         sec, nanosec = divmod(now_ns, NS_PER_S)
         tick = (sec, nanosec, float(model.opt.timestep), qpos.tobytes(), qvel.tobytes(), ctrl.tobytes(), act.tobytes())
         self.bus.publish_cdr_rows(JointControllerState, packer, self._topics, [(index, tick) for index in indices])
-
-    def _rows_packer(self, layout: CdrLayout) -> tuple[ControllerRows, tuple[tuple[int, int], ...]]:
-        """What packs the controllers' rows, and the spans of qpos, qvel, ctrl and act their addresses lie in (a row
-        carries only those: a fleet's car hands over its own part); the packer's addresses count from each span's
-        start."""
-        specs = [self._spec(c) for c in self.controllers]
-        spans: list[tuple[int, int]] = []
-        for column in range(4):
-            used = [int(spec[column]) for spec in specs if spec[column] >= 0]  # act: -1 where no integral is read
-            spans.append((min(used), max(used) + 1) if used else (0, 0))
-        (q0, _), (v0, _), (c0, _), (a0, _) = spans
-        relative: list[Spec] = [
-            (q - q0, v - v0, c - c0, a - a0 if a >= 0 else -1, velocity, p, i, d, clamp)
-            for q, v, c, a, velocity, p, i, d, clamp in specs
-        ]
-        return ControllerRows(layout, relative), tuple(spans)
 
     def _spec(self, c: _Controller) -> Spec:
         """What state_numbers() reads of a controller in the current model."""
@@ -236,3 +318,19 @@ class ControllerStatePublisher:
             data = state.data
             self._views = data, qpos_, qvel, ctrl_, act_ = data, data.qpos, data.qvel, data.ctrl, data.act
         return [(*head, *state_numbers(self._spec(c), qpos_, qvel, ctrl_, act_, time_step)) for c in controllers]
+
+
+def _rows_packer(layout: CdrLayout, specs: Sequence[Spec]) -> tuple[ControllerRows, tuple[tuple[int, int], ...]]:
+    """What packs the controllers' rows (`specs`: theirs, in order), and the spans of qpos, qvel, ctrl and act their
+    addresses lie in (a row carries only those: a fleet's car hands over its own part); the packer's addresses count
+    from each span's start."""
+    spans: list[tuple[int, int]] = []
+    for column in range(4):
+        used = [int(spec[column]) for spec in specs if spec[column] >= 0]  # act: -1 where no integral is read
+        spans.append((min(used), max(used) + 1) if used else (0, 0))
+    (q0, _), (v0, _), (c0, _), (a0, _) = spans
+    relative: list[Spec] = [
+        (q - q0, v - v0, c - c0, a - a0 if a >= 0 else -1, velocity, p, i, d, clamp)
+        for q, v, c, a, velocity, p, i, d, clamp in specs
+    ]
+    return ControllerRows(layout, relative), tuple(spans)

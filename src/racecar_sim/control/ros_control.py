@@ -46,3 +46,4 @@ class RosControl(NodeBase):
     def reset(self, seed: int) -> None:
         """Every controller of the YAML loaded and running again, as the spawner leaves them."""
         self.manager.reset()
+        self.manager.state_publisher.reset()

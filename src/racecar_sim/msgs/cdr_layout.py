@@ -136,6 +136,10 @@ class CdrLayout:
         """Pickled as what makes it (its packing functions are made again): a writer process packs with it."""
         return CdrLayout, self._recipe
 
+    def packs_as(self, other: CdrLayout) -> bool:
+        """Whether `other` packs every message's numbers into the same bytes (it was made from the same shape)."""
+        return self._recipe == other._recipe
+
     def pack_doubles(self, numbers: np.ndarray) -> bytes:
         """pack() of a float64 array, its runs copied as they are: for a layout whose numbers are all float64
         (poses, twists); pack() for any other."""

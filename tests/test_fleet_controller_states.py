@@ -1,0 +1,125 @@
+"""A fleet's controller states at one tick are published together, with the first car's tick: where only a recorder
+takes them, in one hand-over of MuJoCo's arrays and a row per controller, not one per car. Every car's states are
+still there at every tick, once, with the numbers each car alone publishes, through a car deleted, a car spawned
+(ticking from its own start) and a reset; the file is the one message objects give."""
+
+from __future__ import annotations
+
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+import pytest
+from mcap.reader import make_reader
+
+from racecar_sim import Car, Simulator, Spawn
+from racecar_sim.bus import Bus, RowPacker
+from racecar_sim.drivers import ConstantCommand
+from racecar_sim.drivers.constant import NAVIGATION
+from racecar_sim.msgs import JointControllerState, deserialize, serialize
+from racecar_sim.recording.run_recording import RunRecording
+
+STATE = "racecar/left_rear_wheel_velocity_controller/state"
+PERIOD_NS = 10_000_000  # 100 Hz, ros_controllers' state rate
+
+
+def _fleet_run(path: Path, batches: list[int] | None = None) -> bytes:
+    """Three constant-command cars in `empty` recorded by RunRecording (a thread) to `path`: car2 deleted at 0.3 s, a
+    car4 spawned at 0.405 s (its ticks count from there), a reset at 0.6 s, then 0.3 s more; `batches`: the number of
+    controller states of each JointControllerState hand-over."""
+    publish_cdr_rows = Bus.publish_cdr_rows
+
+    def seen(self: Bus, msgtype: type, packer: RowPacker, topics: tuple[str, ...], rows: list[Any]) -> None:
+        if msgtype is JointControllerState and batches is not None:
+            batches.append(len(topics))
+        publish_cdr_rows(self, msgtype, packer, topics, rows)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(Bus, "publish_cdr_rows", seen)  # before the cars' views of the bus take it
+        cars = [
+            Car(f"car{k}", spawn=Spawn(-1.5 * (k - 1), 0.0, 0.05, 0.0), camera=False, lidar=False) for k in (1, 2, 3)
+        ]
+        sim = Simulator(world="empty", cars=cars)
+        for k, car in enumerate(sim.cars):
+            ConstantCommand(sim.bus, sim.scheduler, 1.0 + 0.5 * k, 0.2 - 0.2 * k, topic=car.topic(NAVIGATION))
+        with RunRecording(sim.bus, lambda: sim.time_ns, path, process=False):
+            sim.run_until(0.3)
+            sim.delete_car(sim.cars[1])
+            sim.run_until(0.405)
+            spawned = Car("car4", spawn=Spawn(-6.0, 0.0, 0.05, 0.0), camera=False, lidar=False)
+            spawned.load()
+            sim.spawn_car(spawned)
+            sim.run_until(0.6)
+            sim.reset()
+            sim.run_until(0.3)
+        sim.close()
+    return path.read_bytes()
+
+
+def _states(path: Path) -> dict[str, list[tuple[int, int, float]]]:
+    """Each car's left rear wheel controller state: (log time, stamp, command) of each message, in file order."""
+    found: dict[str, list[tuple[int, int, float]]] = {}
+    with open(path, "rb") as stream:
+        for _, channel, message in make_reader(stream).iter_messages(log_time_order=False):
+            if channel.topic.endswith(STATE):
+                msg = deserialize(message.data, "control_msgs/msg/JointControllerState")
+                stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+                found.setdefault(channel.topic.split("/")[1], []).append((message.log_time, stamp, msg.command))
+    return found
+
+
+def test_a_fleets_states_go_in_one_hand_over_a_tick_through_deletes_spawns_and_resets(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    batches: list[int] = []
+    from_rows = _fleet_run(tmp_path / "rows.mcap", batches)
+    with monkeypatch.context() as patch:
+        patch.setattr(Bus, "cdr_only", lambda self, topic: False)  # every message an object, each car its own
+        from_objects = _fleet_run(tmp_path / "objects.mcap")
+    assert len(from_rows) > 50_000 and from_rows == from_objects
+    # three cars' 18 states in one hand-over (two after car2 is deleted, three with car4 where its ticks meet the
+    # others'), six where a car ticks alone: the first tick of a fleet and after the reset, and car4 before it meets
+    sizes = Counter(batches)
+    assert sizes[18] >= 25 and sizes[12] >= 8 and sum(sizes.values()) < 140, sizes
+    states = _states(tmp_path / "rows.mcap")
+    assert sorted(states) == ["car1", "car2", "car3", "car4"]
+    spawned = 405_000_000  # car4's start: its ticks count from there until the reset
+    for car, ticks in states.items():
+        times = [log for log, _, _ in ticks]
+        assert [stamp for _, stamp, _ in ticks] == times
+        cut = _reset_index(times)
+        before, after = times[:cut], times[cut:]
+        # one state a tick, 10 ms apart from the car's start, as a car alone publishes it
+        start = spawned if car == "car4" else 0
+        assert before == [start + PERIOD_NS * k for k in range(1, len(before) + 1)], car
+        last = {"car2": 300_000_000, "car4": 595_000_000}.get(car, 600_000_000)  # car2 deleted at 0.3 s
+        assert before[-1] == last, car
+        assert after == ([] if car == "car2" else [PERIOD_NS * k for k in range(1, 31)]), car
+    assert len({command for ticks in states.values() for _, _, command in ticks}) > 50  # real numbers compared
+
+
+def _reset_index(times: list[int]) -> int:
+    """Where the log time goes back (the reset), or the end."""
+    return next((k for k in range(1, len(times)) if times[k] < times[k - 1]), len(times))
+
+
+def test_a_car_alone_publishes_what_the_fleet_publishes_for_it(tmp_path: Path) -> None:
+    # the numbers in a fleet's hand-over are each car's own: car1's states in a 2-car fleet are the messages a
+    # ControllerStatePublisher makes for car1 at that tick
+    cars = [Car(f"car{k}", spawn=Spawn(-1.5 * (k - 1), 0.0, 0.05, 0.0), camera=False, lidar=False) for k in (1, 2)]
+    sim = Simulator(world="empty", cars=cars)
+    for k, car in enumerate(sim.cars):
+        ConstantCommand(sim.bus, sim.scheduler, 1.0 + k, 0.3, topic=car.topic(NAVIGATION))
+    got: list[tuple[Any, ...]] = []
+    sim.bus.tap(lambda topic, msg: None, cdr=lambda topic, cls, data: None, cdr_rows=lambda *rows: got.append(rows))
+    for step in range(1, 6):
+        sim.run_until(0.1 * step)
+        got.clear()
+        sim.run_until(0.1 * step + 0.01)  # one tick
+        batch = [rows for rows in got if rows[0] is JointControllerState]
+        ((_, packer, topics, rows),) = batch
+        publishers = [car.controller_manager.state_publisher for car in sim.cars]
+        assert topics == tuple(c.topic for p in publishers for c in p.controllers)
+        expected = [serialize(p.message(c, sim.time_ns)) for p in publishers for c in p.controllers]
+        assert packer.pack_many(rows) == expected
+    sim.close()
