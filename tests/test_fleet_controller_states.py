@@ -123,3 +123,21 @@ def test_a_car_alone_publishes_what_the_fleet_publishes_for_it(tmp_path: Path) -
         expected = [serialize(p.message(c, sim.time_ns)) for p in publishers for c in p.controllers]
         assert packer.pack_many(rows) == expected
     sim.close()
+
+
+def test_a_closed_fleet_leaves_nothing_behind() -> None:
+    # the registries that let a fleet's cars find each other (their controller states here, their lidars' one-call
+    # scans) hold nothing that keeps a closed simulation alive: its MjData is freed
+    import gc
+    import weakref
+
+    freed = []
+    for _ in range(2):
+        cars = [Car(f"car{k}", spawn=Spawn(-1.5 * (k - 1), 0.0, 0.05, 0.0), camera=False) for k in (1, 2)]
+        sim = Simulator(world="empty", cars=cars)
+        sim.run_until(0.05)  # the fleet's controller states and scans went together
+        freed.append(weakref.ref(sim.data))
+        sim.close()
+        del sim, cars
+    gc.collect()
+    assert [ref() for ref in freed] == [None, None]

@@ -37,8 +37,11 @@ from racecar_sim.physics.state import CarState
 STATE_RATE = 100.0  # Hz: every 10th update of ros_control's 1 kHz loop
 _PERIOD_NS = 10_000_000  # 1 / STATE_RATE
 
-# the publishers of each live MjData's cars, in the order they first ticked with it (a fleet's: see _tick_together)
-_FLEETS: weakref.WeakKeyDictionary[mujoco.MjData, list[ControllerStatePublisher]] = weakref.WeakKeyDictionary()
+# the publishers of each live MjData's cars, in the order they first ticked with it (a fleet's: see _tick_together);
+# held weakly, so that a publisher (whose car state holds the MjData) never keeps its own entry alive
+_FLEETS: weakref.WeakKeyDictionary[mujoco.MjData, list[weakref.ref[ControllerStatePublisher]]] = (
+    weakref.WeakKeyDictionary()
+)
 
 
 class _Listening(NamedTuple):
@@ -157,12 +160,16 @@ class ControllerStatePublisher:
             fleet = _FLEETS[data] = []
         if self._joined is not data:  # its first tick with this data (a recompiled model gives a new fleet)
             self._joined = data
-            fleet.append(self)
+            fleet.append(weakref.ref(self))
         previous, self._last_tick = self._last_tick, now_ns
         if previous is None or len(fleet) < 2:
             return False
         # those that ticked with it last time (a deleted car's task is cancelled and its data is the old model's)
-        ticking = [car for car in fleet if car is self or (car._last_tick == previous and car.state.data is data)]
+        ticking = [
+            car
+            for car in (member() for member in fleet)
+            if car is self or (car is not None and car._last_tick == previous and car.state.data is data)
+        ]
         if len(ticking) < 2:
             return False
         for car in ticking:

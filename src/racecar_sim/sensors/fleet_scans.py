@@ -118,10 +118,13 @@ class FleetScans:
         self.forget()
 
     def leave(self, lidar: LidarPublisher) -> None:
-        """No more scans for `lidar` (it was closed, or rebound to a recompiled model)."""
+        """No more scans for `lidar` (it was closed, or rebound to a recompiled model); the last to leave takes the
+        fleet out of the registry (it holds the MjData: kept there, a closed simulation's would never be freed)."""
         if lidar in self.lidars:
             self.lidars.remove(lidar)
         self.forget()
+        if not self.lidars and FleetScans._shared.get(self.shared) is self:
+            del FleetScans._shared[self.shared]
 
     def forget(self) -> None:
         """Drop every scan cast and every batch (a lidar came or went)."""
