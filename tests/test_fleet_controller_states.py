@@ -77,8 +77,9 @@ def test_a_fleets_states_go_in_one_hand_over_a_tick_through_deletes_spawns_and_r
         patch.setattr(Bus, "cdr_only", lambda self, topic: False)  # every message an object, each car its own
         from_objects = _fleet_run(tmp_path / "objects.mcap")
     assert len(from_rows) > 50_000 and from_rows == from_objects
-    # three cars' 18 states in one hand-over (two after car2 is deleted, three with car4 where its ticks meet the
-    # others'), six where a car ticks alone: the first tick of a fleet and after the reset, and car4 before it meets
+    # three cars' 18 states in one hand-over (two after car2 is deleted; three again after the reset, car4 with
+    # them), six where a car ticks alone: a fleet's first tick after each rebuild and the reset, and car4 before the
+    # reset (its ticks 5 ms off the others')
     sizes = Counter(batches)
     assert sizes[18] >= 25 and sizes[12] >= 8 and sum(sizes.values()) < 140, sizes
     states = _states(tmp_path / "rows.mcap")

@@ -112,7 +112,8 @@ class ControllerStatePublisher:
         # a fleet's ticks together (_tick_together): only where every tick is a whole number of physics steps, so that
         # two cars that tick at the same time once tick together at every time after
         self._together = _PERIOD_NS % scheduler.step_ns == 0
-        self._joined: object = None  # the MjData whose fleet it joined
+        self._joined: object = None  # the MjData whose fleet it joined, and that fleet
+        self._fleet: list[weakref.ref[ControllerStatePublisher]] = []
         self._last_tick: int | None = None  # the last time its states were published (by itself or with the fleet)
         self._published_at: int | None = None  # the last time a fleet's first car published them for it
         scheduler.every(STATE_RATE, self.publish, "controller_state", unheard=self._unheard)
@@ -155,10 +156,9 @@ class ControllerStatePublisher:
         if not self._together:
             return False
         data = self.state.data
-        fleet = _FLEETS.get(data)
-        if fleet is None:
-            fleet = _FLEETS[data] = []
+        fleet = self._fleet
         if self._joined is not data:  # its first tick with this data (a recompiled model gives a new fleet)
+            fleet = self._fleet = _FLEETS.setdefault(data, [])
             self._joined = data
             fleet.append(weakref.ref(self))
         previous, self._last_tick = self._last_tick, now_ns

@@ -36,14 +36,14 @@ def framed(body: bytes, raws: list[memoryview]) -> list[memoryview]:
 def begin_child() -> HandOvers:
     """The child's first step, before its imports: schedule the process as batch work and start reading the
     hand-overs from the data pipe (its fd is argv[1]) into the queue it returns, which serve() then takes."""
-    batch_scheduling()  # before any thread starts: a thread keeps the policy of the thread that started it
+    _batch_scheduling()  # before any thread starts: a thread keeps the policy of the thread that started it
     hand_overs: HandOvers = queue.Queue(DEPTH)
     reader = threading.Thread(target=read_hand_overs, args=(int(sys.argv[1]), hand_overs), daemon=True)
     reader.start()  # reads on while the child imports, and later while it encodes: the parent waits on neither
     return hand_overs
 
 
-def batch_scheduling() -> None:
+def _batch_scheduling() -> None:
     """Schedule this process as batch work (Linux's SCHED_BATCH), before it starts any thread: a simulation thread that
     wakes (the GL thread with a frame to draw, the main thread with its frame drawn) does not wait behind it."""
     if hasattr(os, "sched_setscheduler") and hasattr(os, "SCHED_BATCH"):
