@@ -35,7 +35,7 @@ from racecar_sim.nodes import Timers
 from racecar_sim.physics.state import CarState
 
 STATE_RATE = 100.0  # Hz: every 10th update of ros_control's 1 kHz loop
-_PERIOD_NS = 10_000_000  # 1 / STATE_RATE
+_PERIOD_NS = round(NS_PER_S / STATE_RATE)  # a tick
 
 # the publishers of each live MjData's cars, in the order they first ticked with it (a fleet's: see _tick_together);
 # held weakly, so that a publisher (whose car state holds the MjData) never keeps its own entry alive
