@@ -592,3 +592,44 @@ def test_the_child_reads_hand_overs_before_it_imports_the_writer_modules_and_dro
     assert items == [
         [["msg", k, hashlib.sha256(data).hexdigest()] for data in sent] for k, (_, sent) in enumerate(hand_overs)
     ]
+
+
+def publish_frames_then_reuse_their_memory(bus: Bus, clock: list[int], frames: int) -> None:
+    """A command and a camera image every 10 ms; after each publish the image's pixel array is drawn over (as a
+    camera reusing its buffer would), where `frames` is negative: the recording must hold the frames as published."""
+    for i in range(abs(frames)):
+        clock[0] = i * 10_000_000
+        bus.publish("/command", Float64(i * 0.5))
+        msg = image(i % 20)
+        bus.publish(IMAGE, msg)
+        if frames < 0:
+            msg.data[:] = 255
+
+
+def test_the_run_goes_on_while_its_writer_cannot_read_and_the_file_is_the_same(tmp_path):
+    # the child stopped (SIGSTOP: a child still importing, or behind), the run hands over twice the pipe's size and is
+    # not held up: what the pipe cannot take waits in the parent (its images copied: their arrays are drawn over after
+    # each publish here); once the child goes on, the file is byte for byte the one a writer thread makes of the same
+    # frames left alone. A run held up on the pipe would never return here: the watchdog lets the child go on after
+    # 60 s and the test fails.
+    frames = 220  # x ~9.2 KB of pixels and the commands: ~2 MB, the pipe holds 1 MB
+    bus, clock = Bus(), [0]
+    with RunRecording(bus, lambda: clock[0], tmp_path / "thread.mcap", image_topics=[IMAGE], process=False):
+        publish_frames_then_reuse_their_memory(bus, clock, frames)
+    bus, clock = Bus(), [0]
+    rec = RunRecording(bus, lambda: clock[0], tmp_path / "process.mcap", image_topics=[IMAGE], process=True)
+    assert rec.process is not None
+    child = rec.process._process
+    child.send_signal(signal.SIGSTOP)
+    watchdog = threading.Timer(60, child.send_signal, (signal.SIGCONT,))
+    watchdog.start()
+    try:
+        publish_frames_then_reuse_their_memory(bus, clock, -frames)
+        kept = rec.process._backlog.size
+        assert watchdog.is_alive()  # the run was not held up
+    finally:
+        watchdog.cancel()
+        child.send_signal(signal.SIGCONT)
+    rec.close()
+    assert kept > 500_000  # about what the pipe could not take
+    assert (tmp_path / "process.mcap").read_bytes() == (tmp_path / "thread.mcap").read_bytes()

@@ -11,18 +11,27 @@ recorded run of ~1 s, 30-55 ms now (the reader still waits for the GIL that the 
 from __future__ import annotations
 
 import contextlib
+import itertools
 import os
 import queue
+import select
 import struct
 import sys
 import threading
+from collections import deque
+from collections.abc import Iterable
 from typing import Any
 
 HEAD = struct.Struct("<QI")  # pickle bytes, out-of-band buffers
 SIZE = struct.Struct("<Q")
 DEPTH = 64
-"""Hand-overs the child may hold unwritten (with a frame each, two seconds of 30 Hz video); beyond that the parent's
-send waits, so the simulation never runs far ahead of its files and memory stays bounded."""
+"""Hand-overs the child may hold unwritten (with a frame each, two seconds of 30 Hz video); beyond that (and the pipe's
+MB, and the parent's BACKLOG) the parent's send waits, so the simulation never runs far ahead of its files and memory
+stays bounded."""
+BACKLOG = 64 << 20
+"""Bytes of hand-overs the parent may hold unwritten while the pipe is full (the child still importing, or behind):
+the simulation runs on meanwhile. Beyond that, a hand-over waits for the pipe, as every one did before."""
+IOV_MAX = 1024  # pieces os.writev takes at once (Linux's UIO_MAXIOV)
 HandOver = tuple[memoryview, list[memoryview]]  # the pickle, its out-of-band buffers
 HandOvers = queue.Queue[HandOver | None]  # None: the pipe's end
 
@@ -31,6 +40,60 @@ def framed(body: bytes, raws: list[memoryview]) -> list[memoryview]:
     """A hand-over's pieces as the parent writes them: the head and sizes, the pickle `body`, its buffers `raws`."""
     head = HEAD.pack(len(body), len(raws)) + b"".join(SIZE.pack(r.nbytes) for r in raws)
     return [memoryview(head), memoryview(body), *raws]
+
+
+class PipeBacklog:
+    """The parent's end of the data pipe (made non-blocking): hand-overs written as far as the pipe takes them, the rest
+    kept in order and written by later hand-overs.
+
+    A run whose loop starts before its child reads (a lone car in `empty` starts its loop ~40 ms after it starts the
+    child, which reads slowly while its imports hold the GIL: ~0.15 s) used to wait on the full pipe: 30-55 ms of a
+    1 s recorded run. Now it waits only beyond BACKLOG bytes, or where it must (write(wait=True): a reply awaited, a
+    camera frame's slot awaited, the end). A piece left unwritten that is a view of memory the caller may change (an
+    image's pixels) is copied first, so that what crosses later is what was handed over."""
+
+    def __init__(self, fd: int) -> None:
+        os.set_blocking(fd, False)
+        self.fd = fd
+        self.pieces: deque[memoryview] = deque()
+        self.size = 0  # bytes in pieces
+
+    def add(self, pieces: Iterable[memoryview]) -> None:
+        """Queue a hand-over's pieces (framed()) after those already kept."""
+        for piece in pieces:
+            self.pieces.append(piece)
+            self.size += piece.nbytes
+
+    def write(self, wait: bool = False) -> None:
+        """Write what the pipe takes now; with `wait` (or more than BACKLOG bytes kept), all of it, waiting for room.
+        Raises BrokenPipeError where the child is gone."""
+        pieces = self.pieces
+        while pieces:
+            try:
+                written = os.writev(self.fd, list(itertools.islice(pieces, IOV_MAX)))
+            except BlockingIOError:
+                if not wait and self.size <= BACKLOG:
+                    self._keep()
+                    return
+                select.select([], [self.fd], [])
+                continue
+            self.size -= written
+            while written:
+                if written >= pieces[0].nbytes:
+                    written -= pieces.popleft().nbytes
+                else:
+                    pieces[0] = pieces[0][written:]
+                    written = 0
+
+    def clear(self) -> None:
+        """Forget what is kept (the child is gone)."""
+        self.pieces.clear()
+        self.size = 0
+
+    def _keep(self) -> None:
+        for k, piece in enumerate(self.pieces):
+            if not isinstance(piece.obj, bytes):  # an ndarray's memory: a camera may draw into it again
+                self.pieces[k] = memoryview(piece.tobytes())
 
 
 def begin_child() -> HandOvers:

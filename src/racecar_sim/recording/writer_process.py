@@ -34,7 +34,7 @@ import numpy as np
 from racecar_sim.bus import RowPacker
 from racecar_sim.core.errors import RecordingError
 from racecar_sim.msgs import Image
-from racecar_sim.recording.hand_overs import SIZE, HandOver, HandOvers, framed
+from racecar_sim.recording.hand_overs import SIZE, HandOver, HandOvers, PipeBacklog, framed
 from racecar_sim.recording.mcap_recorder import DeferredInterrupt
 from racecar_sim.recording.writer_thread import uninterrupted
 
@@ -141,7 +141,7 @@ class WriterProcess:
             os.close(back_write)
             fds_child.close()
         self._back: int | None = back_read
-        self._pending: list[memoryview] = []  # the rest of a hand-over a signal cut short
+        self._backlog = PipeBacklog(data_write)  # hand-overs the pipe has not taken yet
         self._interrupt = DeferredInterrupt(_SIGNALS)
         self.pass_fds(pass_fds)
 
@@ -214,6 +214,7 @@ class WriterProcess:
         if data.nbytes > ring.slot_size:
             return None
         while not ring.free():  # the child is a second of frames behind: wait for it, as the pipe would
+            self._hand_over(wait=True)  # what it needs to get there
             self._poll()
             if self._error is not None or self._back is None:
                 return None  # the child does no more work: the next hand-over raises why
@@ -227,48 +228,42 @@ class WriterProcess:
             self._pixels_queued = False
             self.flush()
 
-    def flush(self) -> None:
-        """Hand over the queued operations; raises an error the child met before (not yet raised)."""
+    def flush(self, wait: bool = False) -> None:
+        """Hand over the queued operations (those the pipe has no room for yet are kept, in order: PipeBacklog; `wait`:
+        until the pipe took them all); raises an error the child met before (not yet raised)."""
         if self._closed:
             raise ValueError(f"hand-over after close() of the {self.name} writer process")
         self._poll()
         self._raise()
-        self._hand_over()
+        self._hand_over(wait)
         self._raise()
 
-    def _hand_over(self) -> None:
+    def _hand_over(self, wait: bool = False) -> None:
         self._interrupt.hold()  # a hand-over cut half-way would garble every one after it
         try:
-            if self._ops and not self._pending:
+            if self._ops:
                 ops, self._ops = self._ops, []
                 buffers: list[pickle.PickleBuffer] = []
                 body = pickle.dumps(ops, 5, buffer_callback=buffers.append)
-                self._pending = framed(body, [b.raw() for b in buffers])
-            self._write_pending()
+                self._backlog.add(framed(body, [b.raw() for b in buffers]))
+            self._write_pending(wait)
         finally:
             self._interrupt.release()
 
-    def _write_pending(self) -> None:
-        data = self._data
-        assert data is not None, "a hand-over after the data pipe was closed"
-        while self._pending:
-            try:
-                written = os.writev(data, self._pending)
-            except BrokenPipeError:
-                self._pending, self._ops = [], []
-                self._read_back(until="closed")  # its error, if it reported one before it died
-                self._died()
-                return
-            while written:
-                if written >= self._pending[0].nbytes:
-                    written -= self._pending.pop(0).nbytes
-                else:
-                    self._pending[0] = self._pending[0][written:]
-                    written = 0
+    def _write_pending(self, wait: bool) -> None:
+        assert self._data is not None, "a hand-over after the data pipe was closed"
+        try:
+            self._backlog.write(wait)
+        except BrokenPipeError:
+            self._backlog.clear()
+            self._ops = []
+            self._read_back(until="closed")  # its error, if it reported one before it died
+            self._died()
 
     def request(self, op: tuple[Any, ...]) -> Any:
         """Hand over `op` and what is queued, and wait for the child's reply to it (after all the work before)."""
-        self.send(op, flush=True)
+        self._ops.append(op)
+        self.flush(wait=True)  # all of it in the pipe: the child replies after the work before
         reply = self._read_back(until="reply") if self._error is None else None
         self._raise()  # a child that met an error does no later operation, and so never replies
         return reply
@@ -338,7 +333,7 @@ class WriterProcess:
         if self._data is not None:
             self._poll()
             if self._error is None:
-                self._hand_over()
+                self._hand_over(wait=True)
             os.close(self._data)  # EOF: the child finishes its files and exits
             self._data = None
         while self._back is not None and not self.results:
