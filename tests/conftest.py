@@ -115,6 +115,21 @@ def drive():
     return run
 
 
+def recorded_messages(path: Path) -> tuple[list[tuple[int, str, bytes]], dict[str, list[bytes]]]:
+    """Every message of an MCAP file (log time, topic, bytes), sorted; and each topic's messages in file order. Two
+    recordings with equal answers hold the same messages, each topic's in the same order: only the order of different
+    topics' messages at one time may differ (a fleet's joint states, then their /tf, against each car's in turn)."""
+    from mcap.reader import make_reader
+
+    every: list[tuple[int, str, bytes]] = []
+    by_topic: dict[str, list[bytes]] = {}
+    with open(path, "rb") as stream:
+        for _, channel, message in make_reader(stream).iter_messages(log_time_order=False):
+            every.append((message.log_time, channel.topic, message.data))
+            by_topic.setdefault(channel.topic, []).append(message.data)
+    return sorted(every), by_topic
+
+
 def run_cli_error(world: Path) -> str:
     """stderr of `racecar-sim run --world WORLD`, which must fail with exit code 2 and one line."""
     result = subprocess.run(

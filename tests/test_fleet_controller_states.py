@@ -1,7 +1,9 @@
 """A fleet's controller states at one tick are published together, with the first car's tick: where only a recorder
-takes them, in one hand-over of MuJoCo's arrays and a row per controller, not one per car. Every car's states are
-still there at every tick, once, with the numbers each car alone publishes, through a car deleted, a car spawned
-(ticking from its own start) and a reset; the file is the one message objects give."""
+takes them, in one hand-over of MuJoCo's arrays and a row per controller, not one per car; its joint states too (one
+hand-over of every car's joint state, one of every car's /tf made of them). Every car's states are still there at
+every tick, once, with the numbers each car alone publishes, through a car deleted, a car spawned (ticking from its
+own start) and a reset; the file holds the messages message objects give, in each topic's order (only the order of
+different topics within a tick may differ: /tf after every car's joint state, not after each)."""
 
 from __future__ import annotations
 
@@ -12,6 +14,7 @@ from typing import Any
 import pytest
 from mcap.reader import make_reader
 
+from conftest import recorded_messages
 from racecar_sim import Car, Simulator, Spawn
 from racecar_sim.bus import Bus, RowPacker
 from racecar_sim.drivers import ConstantCommand
@@ -23,19 +26,26 @@ STATE = "racecar/left_rear_wheel_velocity_controller/state"
 PERIOD_NS = 10_000_000  # 100 Hz, ros_controllers' state rate
 
 
-def _fleet_run(path: Path, batches: list[int] | None = None) -> bytes:
+def _fleet_run(path: Path, batches: Counter[tuple[str, int]] | None = None) -> bytes:
     """Three constant-command cars in `empty` recorded by RunRecording (a thread) to `path`: car2 deleted at 0.3 s, a
-    car4 spawned at 0.405 s (its ticks count from there), a reset at 0.6 s, then 0.3 s more; `batches`: the number of
-    controller states of each JointControllerState hand-over."""
+    car4 spawned at 0.405 s (its ticks count from there), a reset at 0.6 s, then 0.3 s more; `batches`: how many
+    hand-overs of each (message class, number of messages) there were."""
     publish_cdr_rows = Bus.publish_cdr_rows
+    publish_fed_rows = Bus.publish_fed_rows
 
     def seen(self: Bus, msgtype: type, packer: RowPacker, topics: tuple[str, ...], rows: list[Any]) -> None:
-        if msgtype is JointControllerState and batches is not None:
-            batches.append(len(topics))
+        if batches is not None:
+            batches[msgtype.__name__, len(topics)] += 1
         publish_cdr_rows(self, msgtype, packer, topics, rows)
+
+    def fed(self: Bus, msgtype: type, packer: RowPacker, topics: tuple[str, ...], rows: list[Any], more: Any) -> None:
+        if batches is not None:
+            batches[msgtype.__name__, len(topics)] += 1
+        publish_fed_rows(self, msgtype, packer, topics, rows, more)
 
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(Bus, "publish_cdr_rows", seen)  # before the cars' views of the bus take it
+        patch.setattr(Bus, "publish_fed_rows", fed)
         cars = [
             Car(f"car{k}", spawn=Spawn(-1.5 * (k - 1), 0.0, 0.05, 0.0), camera=False, lidar=False) for k in (1, 2, 3)
         ]
@@ -71,17 +81,25 @@ def _states(path: Path) -> dict[str, list[tuple[int, int, float]]]:
 def test_a_fleets_states_go_in_one_hand_over_a_tick_through_deletes_spawns_and_resets(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    batches: list[int] = []
+    batches: Counter[tuple[str, int]] = Counter()
     from_rows = _fleet_run(tmp_path / "rows.mcap", batches)
     with monkeypatch.context() as patch:
         patch.setattr(Bus, "cdr_only", lambda self, topic: False)  # every message an object, each car its own
         from_objects = _fleet_run(tmp_path / "objects.mcap")
-    assert len(from_rows) > 50_000 and from_rows == from_objects
+    assert len(from_rows) > 50_000 and len(from_objects) > 50_000
+    from_rows_messages = recorded_messages(tmp_path / "rows.mcap")
+    assert from_rows_messages == recorded_messages(tmp_path / "objects.mcap")
+    assert sum(topic.endswith("joint_states") for _, topic, _ in from_rows_messages[0]) > 60
     # three cars' 18 states in one hand-over (two after car2 is deleted; three again after the reset, car4 with
     # them), six where a car ticks alone: a fleet's first tick after each rebuild and the reset, and car4 before the
     # reset (its ticks 5 ms off the others')
-    sizes = Counter(batches)
-    assert sizes[18] >= 25 and sizes[12] >= 8 and sum(sizes.values()) < 140, sizes
+    states = {size // 6: count for (name, size), count in batches.items() if name == "JointControllerState"}
+    assert states[3] >= 25 and states[2] >= 8 and sum(states.values()) < 140, batches
+    # the joint states at 50 Hz the same way: three cars' in one hand-over and their /tf in another
+    joint_states = {size: count for (name, size), count in batches.items() if name == "JointState"}
+    tf = {size: count for (name, size), count in batches.items() if name == "TFMessage"}
+    assert joint_states[3] >= 12 and joint_states[2] >= 4 and sum(joint_states.values()) < 70, batches
+    assert tf[3] == joint_states[3] and tf[2] == joint_states[2], batches
     states = _states(tmp_path / "rows.mcap")
     assert sorted(states) == ["car1", "car2", "car3", "car4"]
     spawned = 405_000_000  # car4's start: its ticks count from there until the reset

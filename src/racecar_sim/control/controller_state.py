@@ -15,18 +15,17 @@ A stopped controller is not updated, so it publishes nothing; nothing is compute
 
 from __future__ import annotations
 
-import weakref
 from collections.abc import Callable, Sequence
 from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
 from typing import Literal, NamedTuple
 
-import mujoco
 import numpy as np
 
 from racecar_sim.bus import BusPort, ListenerAnswer
 from racecar_sim.control.controller_rows import ControllerRows, Spec, state_numbers
 from racecar_sim.control.controllers import VELOCITY, ControllerConfig, JointController
+from racecar_sim.control.fleet_ticks import FleetTick, FleetTicks
 from racecar_sim.core.names import CarNames
 from racecar_sim.core.time import NS_PER_S
 from racecar_sim.msgs import Header, JointControllerState
@@ -37,11 +36,7 @@ from racecar_sim.physics.state import CarState
 STATE_RATE = 100.0  # Hz: every 10th update of ros_control's 1 kHz loop
 _PERIOD_NS = round(NS_PER_S / STATE_RATE)  # a tick
 
-# the publishers of each live MjData's cars, in the order they first ticked with it (a fleet's: see _tick_together);
-# held weakly, so that a publisher (whose car state holds the MjData) never keeps its own entry alive
-_FLEETS: weakref.WeakKeyDictionary[mujoco.MjData, list[weakref.ref[ControllerStatePublisher]]] = (
-    weakref.WeakKeyDictionary()
-)
+_FLEETS = FleetTicks()  # the controller-state publishers of each live MjData (a fleet's: see _tick_together)
 
 
 class _Listening(NamedTuple):
@@ -111,16 +106,12 @@ class ControllerStatePublisher:
         self._name_set = frozenset(self._names)
         # a fleet's ticks together (_tick_together): only where every tick is a whole number of physics steps, so that
         # two cars that tick at the same time once tick together at every time after
-        self._together = _PERIOD_NS % scheduler.step_ns == 0
-        self._joined: object = None  # the MjData whose fleet it joined, and that fleet
-        self._fleet: list[weakref.ref[ControllerStatePublisher]] = []
-        self._last_tick: int | None = None  # the last time its states were published (by itself or with the fleet)
-        self._published_at: int | None = None  # the last time a fleet's first car published them for it
+        self._ticks = FleetTick(_FLEETS, self, _PERIOD_NS % scheduler.step_ns == 0)
         scheduler.every(STATE_RATE, self.publish, "controller_state", unheard=self._unheard)
 
     def reset(self) -> None:
         """Sim time went back to 0: the ticks it was published at are forgotten (the fleet's too: it ticks afresh)."""
-        self._last_tick = self._published_at = None
+        self._ticks.reset()
 
     def _ask_listening(self) -> _Listening:
         """Who listens to the state topics, asked of the bus."""
@@ -139,41 +130,19 @@ class ControllerStatePublisher:
 
     def publish(self, now_ns: int) -> None:
         """The task at each tick: the states, published now, with the fleet's or on its own."""
-        if self._published_at == now_ns:
+        if self._ticks.published(now_ns):
             return  # published at this tick with the fleet's first car
         if not self._tick_together(now_ns):
             self._publish_own(now_ns)
 
     def _tick_together(self, now_ns: int) -> bool:
-        """Where other cars of this MjData tick now as it does (they ticked together last time), publish all their
-        states now, in the cars' order, and return True; their own tasks at this time then do nothing.
-
-        The cars of a fleet built together tick at the same sim times. Where only a recorder takes every one of their
-        states, they go in one hand-over: MuJoCo's arrays once and a row per controller, not one hand-over per car
-        (_publish_rows); otherwise each car publishes its own in turn, as on its own. The messages are the same
-        either way; what changes, against every car publishing at its own tick, is only their order among other
-        topics within a tick: every car's states come at the first car's."""
-        if not self._together:
+        """Where other cars of this MjData tick now as it does (control/fleet_ticks.py), publish all their states now,
+        in the cars' order, and return True; their own tasks at this time then do nothing. Where only a recorder takes
+        every one of their states, they go in one hand-over: MuJoCo's arrays once and a row per controller, not one
+        hand-over per car (_publish_rows); otherwise each car publishes its own in turn, as on its own."""
+        ticking: list[ControllerStatePublisher] = self._ticks.ticking(now_ns)
+        if not ticking:
             return False
-        data = self.state.data
-        fleet = self._fleet
-        if self._joined is not data:  # its first tick with this data (a recompiled model gives a new fleet)
-            fleet = self._fleet = _FLEETS.setdefault(data, [])
-            self._joined = data
-            fleet.append(weakref.ref(self))
-        previous, self._last_tick = self._last_tick, now_ns
-        if previous is None or len(fleet) < 2:
-            return False
-        # those that ticked with it last time (a deleted car's task is cancelled and its data is the old model's)
-        ticking = [
-            car
-            for car in (member() for member in fleet)
-            if car is self or (car is not None and car._last_tick == previous and car.state.data is data)
-        ]
-        if len(ticking) < 2:
-            return False
-        for car in ticking:
-            car._last_tick = car._published_at = now_ns
         rows: list[ControllerStatePublisher] = []
         for car in ticking:
             listening = car._listening(car.bus)

@@ -47,3 +47,4 @@ class RosControl(NodeBase):
         """Every controller of the YAML loaded and running again, as the spawner leaves them."""
         self.manager.reset()
         self.manager.state_publisher.reset()
+        self.joint_states.reset()
