@@ -263,6 +263,7 @@ class WriterProcess:
     def request(self, op: tuple[Any, ...]) -> Any:
         """Hand over `op` and what is queued, and wait for the child's reply to it (after all the work before)."""
         self._ops.append(op)
+        self._pixels_queued = False
         self.flush(wait=True)  # all of it in the pipe: the child replies after the work before
         reply = self._read_back(until="reply") if self._error is None else None
         self._raise()  # a child that met an error does no later operation, and so never replies
