@@ -1,11 +1,13 @@
-"""The writer process's data pipe: how a hand-over crosses it, and the child's reading of them from its first moment.
+"""The writer process's data pipe: how a hand-over crosses it, the parent's writing (PipeBacklog) and the child's
+reading of them from its first moment.
 
 A hand-over is a head (the pickle's length, the number of out-of-band buffers), each buffer's length, the pickle, then
 the buffers. This module imports nothing but the standard library, and the child (recording/writer_process.py) starts
 reading with it before it imports the writer's modules (numpy, mcap, the message classes: ~0.13 s of CPU, more on a
 busy core). A run whose loop starts sooner than that (one car in `empty` without the camera starts its loop ~40 ms
 after it starts the child) filled the pipe and waited on it in its first hand-overs: 70-120 ms of a 1-car, 60 s
-recorded run of ~1 s, 30-55 ms now (the reader still waits for the GIL that the imports hold).
+recorded run of ~1 s; 30-55 ms with the child reading first (its reader waits for the GIL that the imports hold); none
+now that what the pipe cannot take waits in the parent.
 """
 
 from __future__ import annotations
