@@ -144,19 +144,23 @@ def test_a_car_alone_publishes_what_the_fleet_publishes_for_it(tmp_path: Path) -
     sim.close()
 
 
-def test_a_closed_fleet_leaves_nothing_behind() -> None:
-    # the registries that let a fleet's cars find each other (their controller states here, their lidars' one-call
-    # scans) hold nothing that keeps a closed simulation alive: its MjData is freed
+@pytest.mark.parametrize("closed", [True, False])
+def test_a_fleet_leaves_nothing_behind(closed: bool) -> None:
+    # the registries that let a fleet's cars find each other (their controller states and joint states here, their
+    # lidars' one-call scans in the tunnel's walls) hold nothing that keeps a simulation alive, closed or dropped
+    # without close(): its MjData is freed
     import gc
     import weakref
 
     freed = []
     for _ in range(2):
         cars = [Car(f"car{k}", spawn=Spawn(-1.5 * (k - 1), 0.0, 0.05, 0.0), camera=False) for k in (1, 2)]
-        sim = Simulator(world="empty", cars=cars)
-        sim.run_until(0.05)  # the fleet's controller states and scans went together
+        sim = Simulator(world="tunnel", cars=cars)
+        sim.run_until(0.05)  # the fleet's controller states, joint states and scans went together
+        assert sim.cars[0].lidar is not None and sim.cars[0].lidar._fleet.batches_cast > 0
         freed.append(weakref.ref(sim.data))
-        sim.close()
+        if closed:
+            sim.close()
         del sim, cars
     gc.collect()
     assert [ref() for ref in freed] == [None, None]

@@ -87,9 +87,8 @@ class _Batch:
 
 
 class FleetScans:
-    """The lidars of one simulation (one live MjData) and the scans cast for them at the present tick."""
-
-    _shared: weakref.WeakKeyDictionary[SharedPose, FleetScans] = weakref.WeakKeyDictionary()
+    """The lidars of one simulation (one live MjData) and the scans cast for them at the present tick; its lidars hold
+    it, and its SharedPose only weakly (found by of()), so a simulation dropped without close() is freed."""
 
     def __init__(self, shared: SharedPose, data: mujoco.MjData) -> None:
         self.shared, self.data = shared, data
@@ -106,9 +105,10 @@ class FleetScans:
     @classmethod
     def of(cls, shared: SharedPose, data: mujoco.MjData) -> FleetScans:
         """The scans of every lidar reading the live `data` (posed by `shared`: one per simulation and model)."""
-        found = cls._shared.get(shared)
+        found: FleetScans | None = None if shared.fleet_scans is None else shared.fleet_scans()
         if found is None:
-            found = cls._shared[shared] = cls(shared, data)
+            found = cls(shared, data)
+            shared.fleet_scans = weakref.ref(found)
         return found
 
     def join(self, lidar: LidarPublisher) -> None:
@@ -118,13 +118,10 @@ class FleetScans:
         self.forget()
 
     def leave(self, lidar: LidarPublisher) -> None:
-        """No more scans for `lidar` (it was closed, or rebound to a recompiled model); the last to leave takes the
-        fleet out of the registry (it holds the MjData: kept there, a closed simulation's would never be freed)."""
+        """No more scans for `lidar` (it was closed, or rebound to a recompiled model)."""
         if lidar in self.lidars:
             self.lidars.remove(lidar)
         self.forget()
-        if not self.lidars and FleetScans._shared.get(self.shared) is self:
-            del FleetScans._shared[self.shared]
 
     def forget(self) -> None:
         """Drop every scan cast and every batch (a lidar came or went)."""

@@ -15,6 +15,7 @@ one per car, and one MjData in memory, not one per car).
 from __future__ import annotations
 
 import weakref
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -34,6 +35,9 @@ class SharedPose:
         self._forward_key: tuple[float, bytes] | None = None
         self._state = mujoco.mjtState.mjSTATE_INTEGRATION
         self._buffer = np.empty(mujoco.mj_stateSize(model, self._state))
+        # the lidars' one-call scans of this simulation (sensors/fleet_scans.py), held weakly: its lidars hold it, and
+        # through this class's registry it would keep a simulation dropped without close() alive
+        self.fleet_scans: weakref.ref[Any] | None = None
 
     @classmethod
     def of(cls, model: mujoco.MjModel, data: mujoco.MjData) -> SharedPose:
