@@ -633,3 +633,22 @@ def test_the_run_goes_on_while_its_writer_cannot_read_and_the_file_is_the_same(t
     rec.close()
     assert kept > 500_000  # about what the pipe could not take
     assert (tmp_path / "process.mcap").read_bytes() == (tmp_path / "thread.mcap").read_bytes()
+
+
+def test_a_writer_that_dies_mid_run_is_an_error_and_never_a_hang(tmp_path):
+    # the child killed (SIGKILL: out of memory, say) while the pipe holds hand-overs and the parent keeps more: the
+    # next hand-over the pipe refuses raises one RecordingError naming the writer process, and closing returns
+    bus, clock = Bus(), [0]
+    rec = RunRecording(bus, lambda: clock[0], tmp_path / "run.mcap", image_topics=[IMAGE], process=True)
+    assert rec.process is not None
+    child = rec.process._process
+    child.send_signal(signal.SIGSTOP)
+    publish_frames_then_reuse_their_memory(bus, clock, 150)  # the pipe full, the rest kept in the parent
+    assert rec.process._backlog.size > 0
+    child.kill()
+    child.wait()
+    with pytest.raises(RecordingError, match=r"writer process exited \(code -9\) before the files were finished"):
+        for _ in range(100):  # the next hand-over meets the closed pipe
+            publish_frames_then_reuse_their_memory(bus, clock, 10)
+    rec.close()  # raised once already: closing returns
+    assert rec.process.closed and rec.process._backlog.size == 0

@@ -337,6 +337,7 @@ class WriterProcess:
                 self._hand_over(wait=True)
             os.close(self._data)  # EOF: the child finishes its files and exits
             self._data = None
+            self._backlog.clear()  # what a child that met an error (or died) will never read
         while self._back is not None and not self.results:
             self._read_back(until="closed")
         self._process.wait()
