@@ -164,3 +164,62 @@ def test_a_fleet_leaves_nothing_behind(closed: bool) -> None:
         del sim, cars
     gc.collect()
     assert [ref() for ref in freed] == [None, None]
+
+
+def _two_cars_recorded(path: Path) -> Simulator:
+    """Two cars in `empty` recorded (a writer thread) for 0.2 s; the simulation, closed."""
+    cars = [Car(f"car{k}", spawn=Spawn(-1.5 * (k - 1), 0.0, 0.05, 0.0), camera=False, lidar=False) for k in (1, 2)]
+    sim = Simulator(world="empty", cars=cars)
+    for k, car in enumerate(sim.cars):
+        ConstantCommand(sim.bus, sim.scheduler, 1.0 + k, 0.3, topic=car.topic(NAVIGATION))
+    with RunRecording(sim.bus, lambda: sim.time_ns, path, process=False):
+        sim.run_until(0.2)
+    sim.close()
+    return sim
+
+
+def test_a_fleets_tf_packer_unpickles_in_a_writer_without_the_simulation(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # what packs a fleet's /tf (one TfRows per car) crosses to the writer process pickled: a fresh interpreter
+    # unpickles it without loading MuJoCo or the control layer (a writer's first fleet tick costs no import of the
+    # simulation), and packs each car's last joint state into the /tf message robot_state_publisher made of it (a
+    # run of message objects, recorded)
+    import pickle
+    import subprocess
+    import sys
+
+    made = _two_cars_recorded(tmp_path / "rows.mcap").cars[0].joint_states._together
+    assert made is not None and len(made.tf_packer.packers) == 2
+    with monkeypatch.context() as patch:
+        patch.setattr(Bus, "cdr_only", lambda self, topic: False)  # every message an object
+        _two_cars_recorded(tmp_path / "objects.mcap")
+    last: dict[str, tuple[int, Any]] = {}  # each car's last joint state
+    tf: dict[tuple[int, str], bytes] = {}  # each /tf message by log time and the car its frames are of
+    with open(tmp_path / "objects.mcap", "rb") as stream:
+        for _, channel, message in make_reader(stream).iter_messages(log_time_order=False):
+            if channel.topic.endswith("joint_states"):
+                last[channel.topic.split("/")[1]] = (
+                    message.log_time,
+                    deserialize(message.data, "sensor_msgs/msg/JointState"),
+                )
+            elif channel.topic == "/tf":
+                msg = deserialize(message.data, "tf2_msgs/msg/TFMessage")
+                tf[message.log_time, msg.transforms[0].header.frame_id.split("/")[0]] = message.data
+    rows, expected = [], []
+    for k, car in enumerate(("car1", "car2")):
+        log_time, js = last[car]
+        stamp = (js.header.stamp.sec, js.header.stamp.nanosec)
+        rows.append((k, (*stamp, *js.position.tolist(), *js.velocity.tolist(), *js.effort.tolist())))
+        expected.append(tf[log_time, car])
+    code = (
+        "import pickle, sys; packer, rows = pickle.loads(sys.stdin.buffer.read()); packed = packer.pack_many(rows); "
+        "heavy = sorted(m for m in ('mujoco', 'racecar_sim.control', 'racecar_sim.physics') if m in sys.modules); "
+        "sys.stdout.buffer.write(pickle.dumps((heavy, packed)))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], input=pickle.dumps((made.tf_packer, rows)), capture_output=True, check=True
+    )
+    heavy, packed = pickle.loads(out.stdout)
+    assert heavy == []
+    assert packed == expected and packed[0] != packed[1]

@@ -7,7 +7,7 @@ every car's /tf in another, not two per car.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from typing import Any, Literal, NamedTuple, Protocol
 
 import numpy as np
@@ -16,7 +16,7 @@ from racecar_sim.bus import BusPort, ListenerAnswer, RowPacker
 from racecar_sim.control.fleet_ticks import FleetTick, FleetTicks
 from racecar_sim.core.time import NS_PER_S
 from racecar_sim.msgs import Header, JointState
-from racecar_sim.msgs.cdr_layout import CdrLayout
+from racecar_sim.msgs.cdr_layout import CdrLayout, PackersByRow
 from racecar_sim.nodes import Timers
 from racecar_sim.physics.state import CarState
 
@@ -37,22 +37,6 @@ class Outlet(Protocol):
 _FedRows = tuple[Callable[..., None], CdrLayout, type, RowPacker, tuple[str, ...]]
 """A bus's publish_fed_rows, the joint state's layout, and the class, packer and topics of what its feeder makes."""
 _FLEETS = FleetTicks()  # the joint-state publishers of each live MjData
-
-
-class PackersByRow:
-    """Packs rows ``(k, row)`` each with the k-th of `packers`: a fleet's /tf messages, a packer per car, in one
-    hand-over. Pickles as its packers."""
-
-    def __init__(self, packers: tuple[RowPacker, ...]) -> None:
-        self.packers = packers
-
-    def pack_many(self, rows: Sequence[Sequence[Any]]) -> list[bytes]:
-        """The CDR bytes of each row's message, packed by its packer."""
-        packers = self.packers
-        return [packers[k].pack_many((row,))[0] for k, row in rows]
-
-    def __reduce__(self) -> tuple[type[PackersByRow], tuple[tuple[RowPacker, ...]]]:
-        return PackersByRow, (self.packers,)
 
 
 class _FleetRows(NamedTuple):

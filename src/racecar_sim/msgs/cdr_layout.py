@@ -258,3 +258,20 @@ class FilledLayout:
 
     def __reduce__(self) -> tuple[type[FilledLayout], tuple[Any, ...]]:
         return FilledLayout, (self.layout, self.template, self.fills, self.derive)
+
+
+class PackersByRow:
+    """Packs rows ``(k, row)`` each with the k-th of `packers` (each has pack_many, as a CdrLayout): a fleet's /tf
+    messages, a packer per car, in one hand-over (control/joint_state_controller.py). Pickles as its packers; light to
+    import, as a writer process unpickles it."""
+
+    def __init__(self, packers: tuple[Any, ...]) -> None:
+        self.packers = packers
+
+    def pack_many(self, rows: Sequence[Sequence[Any]]) -> list[bytes]:
+        """The CDR bytes of each row's message, packed by its packer."""
+        packers = self.packers
+        return [packers[k].pack_many((row,))[0] for k, row in rows]
+
+    def __reduce__(self) -> tuple[type[PackersByRow], tuple[tuple[Any, ...]]]:
+        return PackersByRow, (self.packers,)
