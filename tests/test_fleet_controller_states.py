@@ -223,3 +223,21 @@ def test_a_fleets_tf_packer_unpickles_in_a_writer_without_the_simulation(
     heavy, packed = pickle.loads(out.stdout)
     assert heavy == []
     assert packed == expected and packed[0] != packed[1]
+
+
+@pytest.mark.parametrize(
+    ("rate_hz", "step_ns", "together"),
+    [
+        (100.0, 2_500_000, True),  # 10 ms: 4 steps of 2.5 ms
+        (50.0, 2_500_000, True),  # 20 ms: 8 steps
+        (30.0, 2_500_000, False),  # 33.3 ms: not a whole number of ns, let alone of steps
+        (100.0, 3_000_000, False),  # 10 ms: 3.33 steps of 3 ms, so the ticks fall on rounded-up steps
+        (40.0, 3_000_000, False),  # 25 ms: 8.33 steps
+    ],
+)
+def test_cars_tick_together_only_where_a_tick_is_a_whole_number_of_physics_steps(
+    rate_hz: float, step_ns: int, together: bool
+) -> None:
+    from racecar_sim.control.fleet_ticks import FleetTick, FleetTicks
+
+    assert FleetTick(FleetTicks(), object(), rate_hz, step_ns).together is together  # type: ignore[arg-type]

@@ -34,7 +34,6 @@ from racecar_sim.nodes import Timers
 from racecar_sim.physics.state import CarState
 
 STATE_RATE = 100.0  # Hz: every 10th update of ros_control's 1 kHz loop
-_PERIOD_NS = round(NS_PER_S / STATE_RATE)  # a tick
 
 _FLEETS = FleetTicks()  # the controller-state publishers of each live MjData (a fleet's: see _tick_together)
 
@@ -104,9 +103,7 @@ class ControllerStatePublisher:
         self._topics = tuple(c.topic for c in self.controllers)
         self._names = tuple(c.config.name for c in self.controllers)
         self._name_set = frozenset(self._names)
-        # a fleet's ticks together (_tick_together): only where every tick is a whole number of physics steps, so that
-        # two cars that tick at the same time once tick together at every time after
-        self._ticks = FleetTick(_FLEETS, self, _PERIOD_NS % scheduler.step_ns == 0)
+        self._ticks = FleetTick(_FLEETS, self, STATE_RATE, scheduler.step_ns)
         scheduler.every(STATE_RATE, self.publish, "controller_state", unheard=self._unheard)
 
     def reset(self) -> None:

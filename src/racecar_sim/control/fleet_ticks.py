@@ -15,6 +15,8 @@ from typing import Any, Protocol
 
 import mujoco
 
+from racecar_sim.core.time import NS_PER_S
+
 
 class _Publisher(Protocol):
     """What a member needs of its publisher: the car state whose live MjData it reads."""
@@ -38,11 +40,14 @@ class FleetTicks:
 
 
 class FleetTick:
-    """One publisher's place in its fleet's ticks. `together`: its ticks may be shared (every tick a whole number of
-    physics steps, so that two cars that tick at the same time once tick together at every time after)."""
+    """One publisher's place in its fleet's ticks, at `rate_hz` on physics steps of `step_ns`. Its ticks are shared
+    only where each is a whole number of physics steps, so that two cars that tick at the same time once tick together
+    at every time after (`together`)."""
 
-    def __init__(self, fleets: FleetTicks, publisher: _Publisher, together: bool) -> None:
-        self.publisher, self.together = publisher, together
+    def __init__(self, fleets: FleetTicks, publisher: _Publisher, rate_hz: float, step_ns: int) -> None:
+        period = NS_PER_S / rate_hz
+        self.publisher = publisher
+        self.together = period.is_integer() and int(period) % step_ns == 0
         self._fleets = fleets
         self._joined: object = None  # the MjData whose fleet it joined, and that fleet
         self._fleet: list[weakref.ref[FleetTick]] = []

@@ -108,8 +108,7 @@ class JointStatePublisher:
         self._heard = ListenerAnswer(lambda: self.bus.has_listeners(self.topic))
         self._layout: CdrLayout | None | Literal[False] = False  # read off the first message (None: none holds it)
         self._rows = ListenerAnswer(self._fed_rows)
-        period = NS_PER_S / rate  # a fleet's ticks shared only where each is a whole number of physics steps
-        self._ticks = FleetTick(_FLEETS, self, period.is_integer() and int(period) % scheduler.step_ns == 0)
+        self._ticks = FleetTick(_FLEETS, self, rate, scheduler.step_ns)
         self._together: _FleetRows | None = None  # the fleet it last published with, as rows
         scheduler.every(rate, self.publish, "joint_state_controller", unheard=self._skipped)
 
