@@ -257,7 +257,7 @@ def test_camera_info_from_bytes_makes_the_same_run_mcap(tmp_path: Path, monkeypa
     """The camera's CameraInfo, whose only taker is the recorder, goes as bytes packed from its stamp: the file (JPEG
     frames and infos) is the one the message objects give."""
     run = ["run", "--world", "walker", "--driver", "wall-follow", "--no-video", "--no-summary", "--duration", "0.3"]
-    from_objects, none = _run(tmp_path / "objects", monkeypatch, objects=True, command=run)
+    _, none = _run(tmp_path / "objects", monkeypatch, objects=True, command=run)
     from_bytes, direct = _run(tmp_path / "bytes", monkeypatch, objects=False, command=run)
     assert not none
     assert "/camera/zed/rgb/camera_info" in direct
