@@ -105,7 +105,7 @@ class FleetScans:
     @classmethod
     def of(cls, shared: SharedPose, data: mujoco.MjData) -> FleetScans:
         """The scans of every lidar reading the live `data` (posed by `shared`: one per simulation and model)."""
-        found: FleetScans | None = None if shared.fleet_scans is None else shared.fleet_scans()
+        found = None if shared.fleet_scans is None else shared.fleet_scans()
         if found is None:
             found = cls(shared, data)
             shared.fleet_scans = weakref.ref(found)

@@ -15,10 +15,13 @@ one per car, and one MjData in memory, not one per car).
 from __future__ import annotations
 
 import weakref
-from typing import Any
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
+
+if TYPE_CHECKING:
+    from racecar_sim.sensors.fleet_scans import FleetScans
 
 
 class SharedPose:
@@ -37,7 +40,7 @@ class SharedPose:
         self._buffer = np.empty(mujoco.mj_stateSize(model, self._state))
         # the lidars' one-call scans of this simulation (sensors/fleet_scans.py), held weakly: its lidars hold it, and
         # through this class's registry it would keep a simulation dropped without close() alive
-        self.fleet_scans: weakref.ref[Any] | None = None
+        self.fleet_scans: weakref.ref[FleetScans] | None = None
 
     @classmethod
     def of(cls, model: mujoco.MjModel, data: mujoco.MjData) -> SharedPose:
