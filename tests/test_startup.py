@@ -220,6 +220,26 @@ def test_an_empty_world_loads_no_mesh_library(tmp_path):
     assert set(runs["0.1"]) <= {"mujoco", "scipy"}
 
 
+def test_a_recorded_run_leaves_the_mcap_writer_to_its_writer_process(tmp_path):
+    """The simulation process opens the file and hands what it publishes to its writer process: it loads neither
+    mcap nor lz4 (~12 ms of its start), and the file its child writes holds /clock at gazebo_ros's 100 Hz."""
+    from mcap.reader import make_reader
+
+    out = _json(f"""
+        import contextlib, io, json, sys
+        from racecar_sim.cli.main import main
+        with contextlib.redirect_stdout(io.StringIO()):
+            code = main(["run", "--no-camera", "--world", "empty", "--duration", "0.5", "--out", {str(tmp_path)!r},
+                         "--no-summary", "--no-video"])
+        print(json.dumps({{"code": code, "loaded": [m for m in ("mcap", "lz4", "racecar_sim.recording.mcap_recorder")
+                                                   if m in sys.modules]}}))
+    """)
+    assert out == {"code": 0, "loaded": []}
+    with open(tmp_path / "run.mcap", "rb") as stream:
+        stamps = [message.log_time for _, _, message in make_reader(stream).iter_messages(topics=["/clock"])]
+    assert stamps == [10_000_000 * k for k in range(1, 51)]
+
+
 @pytest.mark.parametrize("argv", [["run", "--help"], ["worlds"]], ids=["run --help", "worlds"])
 def test_run_help_and_worlds_load_neither_numba_nor_matplotlib(argv):
     """Commands that only print stay clear of the compiler and the plotting library (each ~0.3 s to import)."""

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 _LAZY = {
     "McapRecorder": "racecar_sim.recording.mcap_recorder",
-    "RecordingFileError": "racecar_sim.recording.mcap_recorder",
+    "RecordingFileError": "racecar_sim.recording.recording_file",
     "Recovery": "racecar_sim.recording.recover",
     "default_output": "racecar_sim.recording.recover",
     "recover_mcap": "racecar_sim.recording.recover",
@@ -23,7 +23,8 @@ _LAZY = {
 __all__ = ["McapRecorder", "RecordingFileError", "Recovery", "RunRecording", "default_output", "recover_mcap"]
 
 if TYPE_CHECKING:
-    from racecar_sim.recording.mcap_recorder import McapRecorder, RecordingFileError
+    from racecar_sim.recording.mcap_recorder import McapRecorder
+    from racecar_sim.recording.recording_file import RecordingFileError
     from racecar_sim.recording.recover import Recovery, default_output, recover_mcap
     from racecar_sim.recording.run_recording import RunRecording
 

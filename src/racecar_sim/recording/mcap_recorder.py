@@ -3,16 +3,11 @@
 from __future__ import annotations
 
 import contextlib
-import errno
-import fcntl
-import functools
 import os
-import signal
-import stat
 import threading
 from collections.abc import Iterable
 from importlib.metadata import PackageNotFoundError, version
-from types import FrameType, TracebackType
+from types import TracebackType
 from typing import Any, BinaryIO
 
 from mcap.writer import CompressionType, Writer
@@ -28,6 +23,8 @@ from racecar_sim.recording.chunk_messages import (
     ChunkIndex,
     ChunkMessages,
 )
+from racecar_sim.recording.deferred_interrupt import DeferredInterrupt
+from racecar_sim.recording.recording_file import open_recording_file
 
 _COMPRESSION = {
     "zstd": CompressionType.ZSTD,
@@ -39,19 +36,6 @@ CHUNK_DURATION_NS = 1_000_000_000
 """A chunk is closed before it would span this much log time (sim time): what a crash can lose."""
 
 
-class RecordingFileError(RecordingError, OSError):
-    """The recording's file cannot be created: one line naming the path.
-
-    It is a :class:`RecordingError` (so the CLI prints it as one line and exits 2) and
-    also an instance of the ``OSError`` subclass ``open()`` raised
-    (``FileNotFoundError``, ``PermissionError``, ``IsADirectoryError``...), with its
-    ``errno``, ``strerror`` and ``filename``.
-    """
-
-    def __str__(self) -> str:
-        return f"{self.filename}: cannot create the MCAP file ({self.strerror})"
-
-
 class RecordingWriteError(RecordingError, OSError):
     """The recording's file stopped taking bytes (disk full, a file size limit, an I/O error): one line naming the
     file, the sim time it failed at and what it keeps (every chunk written before, without the index:
@@ -61,54 +45,6 @@ class RecordingWriteError(RecordingError, OSError):
 
     def __str__(self) -> str:
         return self.message or super().__str__()
-
-
-@functools.cache
-def _file_error_type(os_error: type[OSError]) -> type[RecordingFileError]:
-    if os_error is OSError or not issubclass(os_error, OSError):
-        return RecordingFileError
-    return type(f"Recording{os_error.__name__}", (RecordingFileError, os_error), {})
-
-
-class RecordingInUseError(RecordingError):
-    """The recording's file exists and may not be replaced, or another recording is writing it: one line naming it."""
-
-
-def open_recording_file(path: str | os.PathLike[str], overwrite: bool = True) -> BinaryIO:
-    """``path`` open for binary writing, held exclusively: created, or (``overwrite``) an existing file truncated.
-
-    The file is locked (``flock``) for as long as it stays open, in this process or in a writer process it is handed
-    to, so that two recordings never write one file: the second is refused. Without ``overwrite`` an existing file
-    is refused too (``O_EXCL``: of two runs creating it at once, one gets it). :class:`RecordingInUseError` for
-    those; :class:`RecordingFileError` naming the path when it cannot be opened.
-    """
-    name = os.fspath(path)
-    flags = os.O_WRONLY | os.O_CREAT | getattr(os, "O_CLOEXEC", 0) | (0 if overwrite else os.O_EXCL)
-    try:
-        fd = os.open(name, flags, 0o666)
-    except FileExistsError:
-        raise RecordingInUseError(
-            f"{name}: the file exists and a recording is never replaced unless asked: give "
-            "--overwrite to replace it, or another file name"
-        ) from None
-    except OSError as exc:
-        reason = exc.strerror or str(exc)
-        # mypy sees no type[X] as Hashable, as functools.cache asks (python/mypy#11470)
-        raise _file_error_type(type(exc))(exc.errno, reason, name) from None  # type: ignore[arg-type]
-    try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError as exc:  # another errno: a file system without locks (some network ones), written unguarded
-            if exc.errno in (errno.EWOULDBLOCK, errno.EAGAIN):
-                raise RecordingInUseError(
-                    f"{name}: another recording is writing this file (two would mix into one): give another file name"
-                ) from None
-        if stat.S_ISREG(os.fstat(fd).st_mode):
-            os.ftruncate(fd, 0)
-        return os.fdopen(fd, "wb")  # the recorder closes it
-    except BaseException:
-        os.close(fd)
-        raise
 
 
 def _qos_profiles_v8(durability: int, depth: int) -> str:
@@ -138,62 +74,6 @@ LATCHED_QOS = _qos_profiles_v8(durability=1, depth=1)
 """Reliable, transient-local (latched), keep-last 1: what a static tf broadcaster offers."""
 VOLATILE_QOS = _qos_profiles_v8(durability=2, depth=10)
 """Reliable, volatile, keep-last 10: rclcpp's default publisher QoS."""
-
-
-class DeferredInterrupt:
-    """Holds SIGINT (and any other `signums`) back while a writer's state is half-updated.
-
-    A KeyboardInterrupt raised inside ``mcap.writer.Writer`` (for example right after a
-    chunk was compressed but before it was written) would leave indexes pointing at lost
-    data; one raised in the middle of a frame sent to a writer process would cut the
-    frame. Between ``hold()`` and the matching ``release()`` on the main thread (they
-    nest) the Python-level handlers only note the signal; the outermost ``release()``
-    then delivers it to the previously installed handler. Installed only from the main
-    thread and only over a callable handler; elsewhere every method is a no-op.
-    """
-
-    def __init__(self, signums: Iterable[int] = (signal.SIGINT,)) -> None:
-        self._main = threading.main_thread().ident
-        self._depth = 0
-        self._pending: tuple[int, FrameType | None] | None = None
-        self._previous: dict[int, Any] = {}
-        if threading.get_ident() == self._main:
-            for signum in signums:
-                previous = signal.getsignal(signum)
-                if callable(previous):
-                    self._previous[signum] = previous
-                    signal.signal(signum, self._handle)
-
-    def _active(self) -> bool:
-        # KeyboardInterrupt is only ever raised on the main thread.
-        return bool(self._previous) and threading.get_ident() == self._main
-
-    def _handle(self, signum: int, frame: FrameType | None) -> None:
-        if self._depth:
-            self._pending = (signum, frame)
-        else:
-            self._previous[signum](signum, frame)
-
-    def hold(self) -> None:
-        """Start (or nest) deferring the signals."""
-        if self._active():
-            self._depth += 1
-
-    def release(self) -> None:
-        """End one ``hold()``; the outermost delivers a signal that arrived meanwhile."""
-        if not self._active():
-            return
-        self._depth -= 1
-        if self._depth == 0 and self._pending is not None:
-            pending, self._pending = self._pending, None
-            self._previous[pending[0]](*pending)
-
-    def uninstall(self) -> None:
-        """Restore the previous handlers where ours are still the installed ones."""
-        if self._active():
-            for signum, previous in self._previous.items():
-                if signal.getsignal(signum) == self._handle:
-                    signal.signal(signum, previous)
 
 
 class McapRecorder:

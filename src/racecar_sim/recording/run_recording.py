@@ -7,14 +7,17 @@ import logging
 import os
 from collections.abc import Callable, Iterable
 from types import TracebackType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from racecar_sim.bus import Bus, RowPacker
 from racecar_sim.msgs import Image, msgtype_of, serialize
 from racecar_sim.recording.images import JPEG_QUALITY, compress_image, compressed_topic
-from racecar_sim.recording.mcap_recorder import McapRecorder, open_recording_file
+from racecar_sim.recording.recording_file import open_recording_file
 from racecar_sim.recording.writer_process import JPEG, OPEN_MCAP, WriterProcess
 from racecar_sim.recording.writer_thread import WriterThread
+
+if TYPE_CHECKING:
+    from racecar_sim.recording.mcap_recorder import McapRecorder
 
 log = logging.getLogger("racecar_sim")
 
@@ -40,7 +43,7 @@ class RunRecording:
     encoded by the writer; `raw_images` keeps them as the raw `sensor_msgs/Image` on the topic itself. Latched
     topics' last messages are written first. A path that cannot be written raises RecordingFileError here; one that
     another recording is writing, or (without `overwrite`) one that exists, RecordingInUseError
-    (mcap_recorder.open_recording_file: the file is held exclusively until it is finished).
+    (recording_file.open_recording_file: the file is held exclusively until it is finished).
 
     close() (or leaving the `with` block, whatever the reason) writes everything published before it and
     finishes the file; an error met while writing is raised by a later publish or by close(), after the file
@@ -81,6 +84,8 @@ class RunRecording:
                 stream.close()
                 self.process.send((OPEN_MCAP, fd, self._path, compression))
         if self.process is None:
+            from racecar_sim.recording.mcap_recorder import McapRecorder  # the writer in this process: loaded only now
+
             self.recorder = McapRecorder(self._path, compression=compression, stream=stream)
             self.writer = WriterThread(f"record {self._path}")
         self._msgtypes = _MsgTypes()  # message class -> pkg/msg/Name, looked up once per class

@@ -34,8 +34,8 @@ import numpy as np
 from racecar_sim.bus import RowPacker
 from racecar_sim.core.errors import RecordingError
 from racecar_sim.msgs import Image
+from racecar_sim.recording.deferred_interrupt import DeferredInterrupt
 from racecar_sim.recording.hand_overs import SIZE, HandOver, HandOvers, PipeBacklog, framed
-from racecar_sim.recording.mcap_recorder import DeferredInterrupt
 from racecar_sim.recording.writer_thread import uninterrupted
 
 BATCH = 256
