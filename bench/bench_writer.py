@@ -42,7 +42,7 @@ def replay(source: Path, out: Path) -> None:
 
     from racecar_sim.msgs import deserialize
     from racecar_sim.recording.images import JPEG_QUALITY, compressed_topic
-    from racecar_sim.recording.mcap_recorder import open_recording_file
+    from racecar_sim.recording.recording_file import open_recording_file
     from racecar_sim.recording.run_recording import COMPRESSED_MSGTYPE
     from racecar_sim.recording.writer_process import JPEG, OPEN_MCAP, ProcessVideo, WriterProcess
 
