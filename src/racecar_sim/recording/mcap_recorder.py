@@ -23,8 +23,12 @@ from racecar_sim.recording.chunk_messages import (
     ChunkIndex,
     ChunkMessages,
 )
-from racecar_sim.recording.deferred_interrupt import DeferredInterrupt
-from racecar_sim.recording.recording_file import open_recording_file
+
+# these lived here before they had modules of their own: still importable from here
+from racecar_sim.recording.deferred_interrupt import DeferredInterrupt as DeferredInterrupt
+from racecar_sim.recording.recording_file import RecordingFileError as RecordingFileError
+from racecar_sim.recording.recording_file import RecordingInUseError as RecordingInUseError
+from racecar_sim.recording.recording_file import open_recording_file as open_recording_file
 
 _COMPRESSION = {
     "zstd": CompressionType.ZSTD,
